@@ -1,0 +1,38 @@
+"""The `screwcal` console script: a thin face that only dispatches to each command's module."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from screwcal import __version__, demo, predict
+from screwcal.errors import ScrewcalError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="screwcal",
+        description="Screw-theory calibration of 6-axis industrial robots (mm and degrees).")
+    parser.add_argument("--version", action="version", version=f"screwcal {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for module in (demo, predict):
+        module.add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except ScrewcalError as err:
+        print(f"screwcal {args.command}: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"screwcal {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

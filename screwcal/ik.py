@@ -1,0 +1,234 @@
+"""Inverse kinematics: closed form for ABB-type 6R arms, numerical for any (calibrated) model.
+
+Closed form (`closed_form_ik`): joint 1 about z; joints 2, 3 about y with their axes in the plane
+y = 0 (shoulder offset allowed); a spherical wrist x-y-x whose centre lies on axis 4 at home. This
+is the nominal IRB 1600 and IRB 120. Eight branches: shoulder front/back x elbow up/down x wrist
+no-flip/flip, each flagged reachable and within limits.
+
+Numerical (`numerical_ik`): damped Gauss-Newton on any model, every branch seeded by the closed
+form of the model's nearest ideal geometry, so a calibrated model keeps the branch structure.
+
+In the arm plane a vector (x, z) is the complex number x + i z; Ry(t) turns it by -t.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.spatial.transform import Rotation
+
+from screwcal.errors import ModelError, UnreachableError
+from screwcal.kinematics import forward_kinematics, point_jacobian, spatial_jacobian
+from screwcal.model import SerialModel
+from screwcal.se3 import Array, invert_transform
+
+BRANCHES = tuple((s, e, w) for s in ("front", "back") for e in ("up", "down")
+                 for w in ("noflip", "flip"))
+_IDEAL_AXES = np.array([[0, 0, 1], [0, 1, 0], [0, 1, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0]], float)
+
+
+@dataclass(frozen=True)
+class WristPartitionedGeometry:
+    """Lengths of an ABB-type arm read off a screw model (mm), plus its home flange rotation."""
+
+    shoulder_x: float  # joint-2 axis, x at home
+    shoulder_z: float  # joint-2 axis, z at home
+    upper_arm: complex  # joint 2 -> joint 3 in the arm plane, x + i z
+    forearm: complex  # joint 3 -> wrist centre in the arm plane, x + i z
+    wrist_home: Array  # wrist centre at home (3,)
+    home_flange: Array  # (4, 4)
+
+    @classmethod
+    def from_model(cls, model: SerialModel, tol: float | None = 1e-9) -> WristPartitionedGeometry:
+        """Read the geometry; with `tol` None, project a near-ideal (calibrated) model onto the
+        ideal structure instead of refusing it."""
+        if model.n_joints != 6 or not model.is_revolute.all():
+            raise ModelError(f"model '{model.name}': the closed-form IK needs 6 revolute joints")
+        p = model.axis_points_mm
+        wrist = np.array([p[4, 0], 0.0, p[3, 2]])
+        if tol is not None:
+            wrong = [i + 1 for i in range(6) if not np.allclose(model.axis_dirs[i], _IDEAL_AXES[i],
+                                                                 atol=tol)]
+            off_plane = [i + 1 for i in (1, 2, 3, 4, 5) if abs(p[i, 1]) > tol]
+            if wrong or off_plane or abs(p[5, 2] - p[3, 2]) > tol:
+                raise ModelError(
+                    f"model '{model.name}' is not an ideal ABB-type arm (axes z,y,y,x,y,x in the "
+                    f"plane y = 0, wrist axes meeting); joints {sorted(set(wrong + off_plane))} "
+                    "differ: use numerical_ik")
+        return cls(shoulder_x=float(p[1, 0]), shoulder_z=float(p[1, 2]),
+                   upper_arm=complex(p[2, 0] - p[1, 0], p[2, 2] - p[1, 2]),
+                   forearm=complex(wrist[0] - p[2, 0], wrist[2] - p[2, 2]),
+                   wrist_home=wrist, home_flange=model.home_flange.copy())
+
+
+@dataclass(frozen=True)
+class IKSolutions:
+    """All IK branches for N targets.
+
+    q : (N, 8, 6) joint values in rad (controller readings, joint zero removed), NaN where a
+        branch does not exist; reachable, within_limits : (N, 8) masks; branches : labels of the
+        second axis; residual_mm : (N, 8) position error of each branch's FK vs the target.
+    """
+
+    q: Array
+    reachable: Array
+    within_limits: Array
+    residual_mm: Array
+    branches: tuple[tuple[str, str, str], ...] = BRANCHES
+
+    @property
+    def valid(self) -> Array:
+        return self.reachable & self.within_limits
+
+    def nearest(self, q_ref: ArrayLike) -> Array:
+        """For each target, the valid branch closest to q_ref (N, 6) or (6,) rad: (N, 6).
+
+        Raises UnreachableError naming the first target that has no valid branch.
+        """
+        q_ref = np.broadcast_to(np.asarray(q_ref, float), (self.q.shape[0], self.q.shape[2]))
+        dist = np.where(self.valid, np.linalg.norm(self.q - q_ref[:, None, :], axis=-1), np.inf)
+        none = ~np.isfinite(dist).any(axis=1)
+        if none.any():
+            k = int(np.flatnonzero(none)[0])
+            why = "outside the joint limits on every branch" if self.reachable[k].any() \
+                else "out of reach"
+            raise UnreachableError(f"target {k} is {why} ({int(none.sum())} of "
+                                   f"{len(none)} targets have no valid solution)")
+        return self.q[np.arange(len(dist)), np.argmin(dist, axis=1)]
+
+
+def _wrap_into_limits(q: Array, limits: Array) -> Array:
+    """Wrap angles to (-pi, pi], then shift by 2 pi where that brings them inside the limits."""
+    q = (q + np.pi) % (2 * np.pi) - np.pi
+    for shift in (2 * np.pi, -2 * np.pi):
+        moved = q + shift
+        inside = (moved >= limits[:, 0]) & (moved <= limits[:, 1])
+        outside = (q < limits[:, 0]) | (q > limits[:, 1])
+        q = np.where(outside & inside, moved, q)
+    return q
+
+
+def _flange_targets(model: SerialModel, T_world_tool: ArrayLike) -> Array:
+    T = np.asarray(T_world_tool, dtype=float)
+    if T.ndim != 3 or T.shape[1:] != (4, 4):
+        raise ValueError(f"IK targets must have shape (N, 4, 4); got {T.shape}")
+    return invert_transform(model.base) @ T @ invert_transform(model.tool)
+
+
+def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array) -> tuple[Array, Array]:
+    """Joint angles (N, 8, 6) of the ideal geometry and the reachable mask (N, 8)."""
+    N = T_flange.shape[0]
+    R = T_flange[:, :3, :3]
+    R_M = geo.home_flange[:3, :3]
+    # Wrist centre: the flange carries the home offset (flange - wrist centre) rigidly.
+    wc = T_flange[:, :3, 3] - R @ (R_M.T @ (geo.home_flange[:3, 3] - geo.wrist_home))
+    theta = np.full((N, 8, 6), np.nan)
+    reach = np.zeros((N, 8), bool)
+    u, f = geo.upper_arm, geo.forearm
+    t1_front = np.arctan2(wc[:, 1], wc[:, 0])
+    for b, (shoulder, elbow, wrist) in enumerate(BRANCHES):
+        t1 = t1_front if shoulder == "front" else t1_front + np.pi
+        r = wc[:, 0] * np.cos(t1) + wc[:, 1] * np.sin(t1)
+        d = (r - geo.shoulder_x) + 1j * (wc[:, 2] - geo.shoulder_z)
+        k = (np.abs(d) ** 2 - abs(u) ** 2 - abs(f) ** 2) / (2 * abs(u) * abs(f))
+        ok = np.abs(k) <= 1.0 + 1e-12
+        sign = 1.0 if elbow == "up" else -1.0
+        t3 = sign * np.arccos(np.clip(k, -1, 1)) - np.angle(u) + np.angle(f)
+        t2 = np.angle(u + f * np.exp(-1j * t3)) - np.angle(d)
+        # Wrist: W = (Rz(t1) Ry(t2 + t3))^T R R_M^T = Rx(t4) Ry(t5) Rx(t6).
+        R123 = Rotation.from_euler("ZY", np.column_stack([t1, t2 + t3])).as_matrix()
+        W = np.swapaxes(R123, 1, 2) @ R @ R_M.T
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="Gimbal lock detected")
+            t456 = Rotation.from_matrix(W).as_euler("XYX")
+        if wrist == "flip":
+            t456 = t456 * np.array([1.0, -1.0, 1.0]) + np.array([np.pi, 0.0, np.pi])
+        theta[:, b] = np.column_stack([t1, t2, t3, t456])
+        reach[:, b] = ok
+    theta[~reach] = np.nan
+    return theta, reach
+
+
+def _solutions(model: SerialModel, theta: Array, reach: Array, T_flange: Array) -> IKSolutions:
+    q = _wrap_into_limits(theta - model.joint_zero, model.limits)
+    q[~reach] = np.nan
+    N = q.shape[0]
+    flat = np.nan_to_num(q.reshape(-1, 6))
+    T = forward_kinematics(model.with_frames(np.eye(4), np.eye(4)), flat).reshape(N, 8, 4, 4)
+    residual = np.linalg.norm(T[..., :3, 3] - T_flange[:, None, :3, 3], axis=-1)
+    residual[~reach] = np.nan
+    within = model.within_limits(np.nan_to_num(q, nan=np.inf)) & reach
+    return IKSolutions(q=q, reachable=reach, within_limits=within, residual_mm=residual)
+
+
+def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike) -> IKSolutions:
+    """All eight closed-form solutions for targets (N, 4, 4) of an ideal ABB-type model.
+
+    Raises UnreachableError when a target is out of reach on every branch.
+    """
+    geo = WristPartitionedGeometry.from_model(model)
+    T_flange = _flange_targets(model, T_world_tool)
+    theta, reach = _closed_form_theta(geo, T_flange)
+    _raise_unreachable(reach)
+    return _solutions(model, theta, reach, T_flange)
+
+
+def _raise_unreachable(reach: Array) -> None:
+    none = ~reach.any(axis=1)
+    if none.any():
+        k = int(np.flatnonzero(none)[0])
+        raise UnreachableError(f"target {k} is out of the arm's reach on every branch "
+                               f"({int(none.sum())} of {len(none)} targets unreachable)")
+
+
+def _pose_error(T_target: Array, T: Array) -> Array:
+    """(dp, dphi) taking T to T_target: position difference and world-frame rotation vector."""
+    dR = T_target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], 1, 2)
+    dphi = Rotation.from_matrix(dR).as_rotvec()
+    return np.concatenate([T_target[:, :3, 3] - T[:, :3, 3], dphi], axis=1)
+
+
+def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float = 1e-9,
+                 tol_rad: float = 1e-11, max_iter: int = 30, damping: float = 1e-9
+                 ) -> IKSolutions:
+    """IK of any 6R model, every branch refined by damped Gauss-Newton from the closed form of
+    the model's nearest ideal geometry. A branch counts as reachable when it converged."""
+    T_target = np.asarray(T_world_tool, dtype=float)
+    T_flange = _flange_targets(model, T_target)
+    geo = WristPartitionedGeometry.from_model(model, tol=None)
+    theta0, reach0 = _closed_form_theta(geo, T_flange)
+    _raise_unreachable(reach0)
+    N = T_target.shape[0]
+    q = np.nan_to_num(theta0 - model.joint_zero).reshape(-1, 6)
+    targets = np.repeat(T_target, 8, axis=0)
+    active = reach0.reshape(-1).copy()
+    converged = np.zeros_like(active)
+    eye = np.eye(6)
+    for _ in range(max_iter):
+        idx = np.flatnonzero(active & ~converged)
+        if idx.size == 0:
+            break
+        T = forward_kinematics(model, q[idx])
+        err = _pose_error(targets[idx], T)
+        done = (np.linalg.norm(err[:, :3], axis=1) < tol_mm) & \
+               (np.linalg.norm(err[:, 3:], axis=1) < tol_rad)
+        converged[idx[done]] = True
+        idx, err, T = idx[~done], err[~done], T[~done]
+        if idx.size == 0:
+            break
+        J = point_jacobian(spatial_jacobian(model, q[idx]), T)
+        JT = np.swapaxes(J, 1, 2)
+        step = np.linalg.solve(JT @ J + damping * eye, (JT @ err[:, :, None]))[:, :, 0]
+        q[idx] += step
+    # A last check for the branches that converged on the final step.
+    idx = np.flatnonzero(active & ~converged)
+    if idx.size:
+        err = _pose_error(targets[idx], forward_kinematics(model, q[idx]))
+        converged[idx] = (np.linalg.norm(err[:, :3], axis=1) < tol_mm * 10) & \
+                         (np.linalg.norm(err[:, 3:], axis=1) < tol_rad * 10)
+    reach = converged.reshape(N, 8)
+    _raise_unreachable(reach)
+    return _solutions(model, q.reshape(N, 8, 6) + model.joint_zero, reach, T_flange)

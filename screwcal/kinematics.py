@@ -1,0 +1,215 @@
+"""Forward kinematics by successive screws and its analytic Jacobians, over a batch of poses.
+
+Every function takes joint values `q` with shape (N, n) (rad for revolute joints, mm for
+prismatic ones; the joint zero of the model is added inside) and loops over joints, never over
+poses.
+
+Jacobians are *spatial*: column k is the twist (omega, v) in the world frame such that
+dT/dx_k T^-1 = hat(column k). `point_jacobian` turns them into the rates of the tool point's
+position and of the rotation vector, the order of a pose residual (dx, dy, dz, dphi_x, ...).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from screwcal.model import SerialModel
+from screwcal.se3 import Array, adjoint, exp_twist, skew
+
+
+def _joint_generators(model: SerialModel) -> tuple[Array, Array]:
+    """G1, G2 (n, 4, 4) with exp(hat(xi) t) = I + sin(t) G1 + (1 - cos(t)) G2 for revolute
+    joints (G1 = hat(xi), G2 = hat(xi)^2, Tsai / Rodrigues, Annex B) and I + t G1 for prismatic."""
+    n = model.n_joints
+    G1 = np.zeros((n, 4, 4))
+    K = skew(model.axis_dirs)
+    rev = model.is_revolute
+    G1[rev, :3, :3] = K[rev]
+    G1[rev, :3, 3] = -np.einsum("nij,nj->ni", K[rev], model.axis_points_mm[rev])
+    G1[~rev, :3, 3] = model.axis_dirs[~rev]
+    G2 = np.where(rev[:, None, None], G1 @ G1, 0.0)
+    return G1, G2
+
+
+def _check_q(model: SerialModel, q: ArrayLike) -> Array:
+    q = np.asarray(q, dtype=float)
+    if q.ndim != 2 or q.shape[1] != model.n_joints:
+        raise ValueError(f"joint values for model '{model.name}' must have shape "
+                         f"(N, {model.n_joints}); got {q.shape}")
+    return q
+
+
+def _chain(model: SerialModel, q: Array, keep: bool) -> tuple[Array, list[Array]]:
+    """Successive screws from the base: returns A_n (N, 3, 4) = base . prod exp(...) [:3] and,
+    if `keep`, the partial products A_0..A_n (each (N, 3, 4)), A_0 = base."""
+    N = q.shape[0]
+    G1, G2 = _joint_generators(model)
+    theta = q + model.joint_zero
+    A = np.broadcast_to(model.base[:3], (N, 3, 4)).copy()
+    partial = [A] if keep else []
+    for i in range(model.n_joints):
+        flat = A.reshape(-1, 4)
+        AG1 = (flat @ G1[i]).reshape(N, 3, 4)
+        if model.joint_types[i] == "R":
+            AG2 = (flat @ G2[i]).reshape(N, 3, 4)
+            t = theta[:, i, None, None]
+            A = A + np.sin(t) * AG1 + (1.0 - np.cos(t)) * AG2
+        else:
+            A = A + theta[:, i, None, None] * AG1
+        if keep:
+            partial.append(A)
+    return A, partial
+
+
+def _to_homogeneous(A: Array) -> Array:
+    T = np.empty((*A.shape[:-2], 4, 4))
+    T[..., :3, :] = A
+    T[..., 3, :] = (0.0, 0.0, 0.0, 1.0)
+    return T
+
+
+def forward_kinematics(model: SerialModel, q: ArrayLike) -> Array:
+    """Pose of the tool in the world frame, shape (N, n) -> (N, 4, 4). Eq. of Annex B chained."""
+    q = _check_q(model, q)
+    A, _ = _chain(model, q, keep=False)
+    A = (A.reshape(-1, 4) @ (model.home_flange @ model.tool)).reshape(-1, 3, 4)
+    return _to_homogeneous(A)
+
+
+def flange_kinematics(model: SerialModel, q: ArrayLike) -> Array:
+    """Pose of the flange (tool0) in the robot base frame, ignoring base and tool: (N, 4, 4)."""
+    return forward_kinematics(replace(model, base=np.eye(4), tool=np.eye(4)), q)
+
+
+def spatial_jacobian(model: SerialModel, q: ArrayLike) -> Array:
+    """Spatial Jacobian w.r.t. the joints, shape (N, 6, n): column i = Ad_{A_{i-1}} xi_i."""
+    q = _check_q(model, q)
+    _, partial = _chain(model, q, keep=True)
+    return np.stack([_joint_twist(model, i, partial[i]) for i in range(model.n_joints)], axis=-1)
+
+
+def _joint_twist(model: SerialModel, i: int, A: Array) -> Array:
+    """Twist of joint i carried to the world by the partial product A (N, 3, 4): (N, 6)."""
+    R = A[:, :, :3]
+    w = R @ model.axis_dirs[i]
+    if model.joint_types[i] == "P":
+        return np.concatenate([np.zeros_like(w), w], axis=1)
+    p = R @ model.axis_points_mm[i] + A[:, :, 3]
+    return np.concatenate([w, np.cross(p, w)], axis=1)
+
+
+def point_jacobian(J_spatial: ArrayLike, T: ArrayLike) -> Array:
+    """Rates of the tool point position and rotation vector from a spatial Jacobian.
+
+    J_spatial (N, 6, P) with rows (omega, v); T (N, 4, 4) the tool poses. Returns (N, 6, P) with
+    rows (dx, dy, dz [mm], dphi_x, dphi_y, dphi_z [rad]): dp = v + omega x p, dphi = omega.
+    """
+    J = np.asarray(J_spatial, dtype=float)
+    p = np.asarray(T, dtype=float)[:, :3, 3]
+    w = J[:, :3, :]
+    v = J[:, 3:, :]
+    dp = v + np.cross(w, p[:, :, None], axis=1)
+    return np.concatenate([dp, w], axis=1)
+
+
+# ----------------------------------------------------------------------------------------------
+# Model parameters and their Jacobian
+
+@dataclass(frozen=True)
+class ParameterLayout:
+    """Names and units of the raw geometric parameters of a model, in Jacobian column order.
+
+    Per joint i: direction (3, unitless; the component along the axis has no effect), point on the
+    axis (3, mm; the component along the axis has no effect), zero (1, rad or mm). Then the home
+    flange, base and tool perturbations (rotation vector 3 in rad, translation 3 in mm each):
+    home_flange <- exp(d) home_flange (robot base frame), base <- exp(d) base (world frame),
+    tool <- tool exp(d) (tool frame).
+    """
+
+    n_joints: int
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        out: list[str] = []
+        for i in range(1, self.n_joints + 1):
+            out += [f"J{i}.dir.{c}" for c in "xyz"]
+            out += [f"J{i}.point.{c}" for c in "xyz"]
+            out.append(f"J{i}.zero")
+        for frame in ("home", "base", "tool"):
+            out += [f"{frame}.rot.{c}" for c in "xyz"] + [f"{frame}.pos.{c}" for c in "xyz"]
+        return tuple(out)
+
+    @property
+    def size(self) -> int:
+        return 7 * self.n_joints + 18
+
+    def joint_slice(self, i: int) -> slice:
+        """Columns of joint i (0-based): dir 0:3, point 3:6, zero 6."""
+        return slice(7 * i, 7 * i + 7)
+
+    def frame_slice(self, frame: str) -> slice:
+        k = ("home", "base", "tool").index(frame)
+        start = 7 * self.n_joints + 6 * k
+        return slice(start, start + 6)
+
+
+def parameter_jacobian(model: SerialModel, q: ArrayLike) -> Array:
+    """Derivative of the tool pose w.r.t. every raw model parameter, shape (N, 6, 7n + 18).
+
+    Spatial twists (omega, v) in the world frame, columns as `ParameterLayout`. A change of
+    joint i's axis is a small rigid displacement delta of the axis (conjugation
+    D exp(S t) D^-1), whose effect is Ad_{A_{i-1}} (I - Ad_{E_i}) delta = (Ad_{A_{i-1}} -
+    Ad_{A_i}) delta; a direction change dw moves the axis by delta = (w x dw, p x (w x dw)),
+    a point change dp by delta = (0, dp).
+    """
+    q = _check_q(model, q)
+    N, n = q.shape
+    layout = ParameterLayout(n)
+    A_end, partial = _chain(model, q, keep=True)
+    J = np.zeros((N, 6, layout.size))
+    ad = [adjoint(A) for A in partial]
+    for i in range(n):
+        cols = layout.joint_slice(i)
+        D = ad[i] - ad[i + 1]  # (N, 6, 6): effect of a displacement of axis i
+        w = model.axis_dirs[i]
+        p = model.axis_points_mm[i]
+        Kw = skew(w)
+        dir_map = np.vstack([Kw, skew(p) @ Kw])  # (6, 3): dw -> delta
+        J[:, :, cols.start:cols.start + 3] = D @ dir_map
+        if model.joint_types[i] == "R":
+            J[:, :, cols.start + 3:cols.start + 6] = D[:, :, 3:]
+        J[:, :, cols.start + 6] = _joint_twist(model, i, partial[i])
+    J[:, :, layout.frame_slice("home")] = ad[n]
+    J[:, :, layout.frame_slice("base")] = np.eye(6)
+    T_tool = _to_homogeneous((A_end.reshape(-1, 4) @ (model.home_flange @ model.tool))
+                             .reshape(-1, 3, 4))
+    J[:, :, layout.frame_slice("tool")] = adjoint(T_tool)
+    return J
+
+
+def perturb_model(model: SerialModel, dx: ArrayLike) -> SerialModel:
+    """Apply a raw parameter step dx (length 7n + 18, `ParameterLayout` order) to a model.
+
+    To first order, forward_kinematics(perturb_model(m, dx)) moves by parameter_jacobian(m) @ dx.
+    """
+    n = model.n_joints
+    layout = ParameterLayout(n)
+    dx = np.asarray(dx, dtype=float)
+    if dx.shape != (layout.size,):
+        raise ValueError(f"parameter step must have shape ({layout.size},), got {dx.shape}")
+    steps = dx[: 7 * n].reshape(n, 7)
+    dirs = model.axis_dirs + steps[:, 0:3]
+    dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+    points = model.axis_points_mm + steps[:, 3:6]
+    zero = model.joint_zero + steps[:, 6]
+
+    def frame_step(frame: str) -> Array:
+        return exp_twist(dx[layout.frame_slice(frame)])
+
+    return replace(model, axis_dirs=dirs, axis_points_mm=points, joint_zero=zero,
+                   home_flange=frame_step("home") @ model.home_flange,
+                   base=frame_step("base") @ model.base,
+                   tool=model.tool @ frame_step("tool"))

@@ -1,0 +1,150 @@
+"""The serial model: joint screws at home, the home flange, base and tool transforms, limits.
+
+A model maps joint values q to the pose of the measured point (the "tool") in the world frame
+(the measuring system's frame) by successive screws (thesis 2.2.1.2, Tsai; product of
+exponentials):
+
+    T_world_tool(q) = base . exp([S_1](q_1 + z_1)) ... exp([S_n](q_n + z_n)) . home_flange . tool
+
+with S_i the joint-i screw at home expressed in the robot base frame: a unit direction and a point
+on the axis (revolute), or a unit direction (prismatic). `z_i` is the joint zero: the controller's
+reading q_i differs from the joint's angle by z_i. Values are stored in radians / mm; the interface
+units (degrees) live in the names of the accessors that return them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from screwcal.errors import JointLimitError, ModelError
+from screwcal.se3 import Array
+
+REVOLUTE = "R"
+PRISMATIC = "P"
+_UNIT_TOL = 1e-9
+
+
+def _frozen(a: ArrayLike, shape: tuple[int, ...], what: str) -> Array:
+    arr = np.array(a, dtype=float)
+    if arr.shape != shape:
+        raise ModelError(f"{what}: expected shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{what}: every value must be a finite number")
+    arr.setflags(write=False)
+    return arr
+
+
+def _check_rigid(T: Array, what: str) -> None:
+    R = T[:3, :3]
+    if not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
+        raise ModelError(f"{what}: the rotation part is not a proper rotation matrix")
+    if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0]):
+        raise ModelError(f"{what}: the last row must be (0, 0, 0, 1), got {T[3].tolist()}")
+
+
+@dataclass(frozen=True, eq=False)
+class SerialModel:
+    """A serial robot by successive screws. Arrays are read-only; use `dataclasses.replace`.
+
+    Attributes
+    ----------
+    name : str
+    joint_types : tuple of "R" / "P", length n
+    axis_dirs : array, shape (n, 3) — unit joint directions at home, robot base frame
+    axis_points_mm : array, shape (n, 3) — a point on each joint axis at home (unused for "P")
+    home_flange : array, shape (4, 4) — flange (tool0) pose in the robot base frame at q = 0
+    limits : array, shape (n, 2) — joint limits, rad (revolute) or mm (prismatic), min < max
+    joint_zero : array, shape (n,) — added to the controller's joint values, rad or mm
+    base : array, shape (4, 4) — world (measuring system) from robot base; identity by default
+    tool : array, shape (4, 4) — flange to measured point; identity by default
+    """
+
+    name: str
+    joint_types: tuple[str, ...]
+    axis_dirs: Array
+    axis_points_mm: Array
+    home_flange: Array
+    limits: Array
+    joint_zero: Array = field(default=None)  # type: ignore[assignment]
+    base: Array = field(default_factory=lambda: np.eye(4))
+    tool: Array = field(default_factory=lambda: np.eye(4))
+
+    def __post_init__(self) -> None:
+        n = len(self.joint_types)
+        if n == 0:
+            raise ModelError(f"model '{self.name}': a serial model needs at least one joint")
+        bad = [t for t in self.joint_types if t not in (REVOLUTE, PRISMATIC)]
+        if bad:
+            raise ModelError(f"model '{self.name}': joint types are 'R' or 'P', got {bad}")
+        object.__setattr__(self, "joint_types", tuple(self.joint_types))
+        zero = np.zeros(n) if self.joint_zero is None else self.joint_zero
+        for name, value, shape in (
+            ("axis_dirs", self.axis_dirs, (n, 3)),
+            ("axis_points_mm", self.axis_points_mm, (n, 3)),
+            ("home_flange", self.home_flange, (4, 4)),
+            ("limits", self.limits, (n, 2)),
+            ("joint_zero", zero, (n,)),
+            ("base", self.base, (4, 4)),
+            ("tool", self.tool, (4, 4)),
+        ):
+            object.__setattr__(self, name, _frozen(value, shape, f"model '{self.name}', {name}"))
+        norms = np.linalg.norm(self.axis_dirs, axis=1)
+        for i in np.flatnonzero(np.abs(norms - 1.0) > _UNIT_TOL):
+            raise ModelError(f"model '{self.name}', joint {i + 1}: axis direction must be a unit "
+                             f"vector, its norm is {norms[i]:.12g}")
+        for i in np.flatnonzero(self.limits[:, 0] >= self.limits[:, 1]):
+            raise ModelError(f"model '{self.name}', joint {i + 1}: limits must satisfy min < max, "
+                             f"got {self.limits[i].tolist()}")
+        for what in ("home_flange", "base", "tool"):
+            _check_rigid(getattr(self, what), f"model '{self.name}', {what}")
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joint_types)
+
+    @property
+    def is_revolute(self) -> Array:
+        """Boolean mask, shape (n,)."""
+        return np.array([t == REVOLUTE for t in self.joint_types])
+
+    @property
+    def limits_deg(self) -> Array:
+        """Joint limits in the interface units: degrees (revolute) or mm (prismatic)."""
+        return np.where(self.is_revolute[:, None], np.degrees(self.limits), self.limits)
+
+    def joints_from_deg(self, q_deg: ArrayLike) -> Array:
+        """Controller joint values (deg for revolute, mm for prismatic) -> numeric units."""
+        q = np.asarray(q_deg, dtype=float)
+        return np.where(self.is_revolute, np.radians(q), q)
+
+    def joints_to_deg(self, q: ArrayLike) -> Array:
+        """Numeric joint values -> controller units (deg for revolute, mm for prismatic)."""
+        q = np.asarray(q, dtype=float)
+        return np.where(self.is_revolute, np.degrees(q), q)
+
+    def within_limits(self, q: ArrayLike, margin: float = 0.0) -> Array:
+        """Mask of configurations (..., n) inside the limits shrunk by `margin` (rad/mm)."""
+        q = np.asarray(q, dtype=float)
+        inside = (q >= self.limits[:, 0] + margin) & (q <= self.limits[:, 1] - margin)
+        return np.all(inside, axis=-1)
+
+    def check_limits(self, q: ArrayLike, what: str = "configuration") -> None:
+        """Raise JointLimitError naming the first configuration and joint outside the limits."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        outside = (q < self.limits[:, 0]) | (q > self.limits[:, 1])
+        if outside.any():
+            k, j = np.argwhere(outside)[0]
+            lo, hi = self.limits_deg[j]
+            value = self.joints_to_deg(q[k])[j]
+            raise JointLimitError(f"{what} {k}: joint {j + 1} = {value:.4f} is outside the limits "
+                                  f"[{lo:g}, {hi:g}] of model '{self.name}'")
+
+    def with_frames(self, base: ArrayLike | None = None, tool: ArrayLike | None = None
+                    ) -> SerialModel:
+        """Copy with another base and/or tool transform."""
+        return replace(self,
+                       base=self.base if base is None else np.asarray(base, float),
+                       tool=self.tool if tool is None else np.asarray(tool, float))

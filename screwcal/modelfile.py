@@ -1,0 +1,217 @@
+"""The model file: JSON, validated by pydantic, in the interface units (mm, degrees).
+
+One schema, three representations of the same serial model (chosen with `representation`):
+
+- "screws": per joint a unit direction and a point on the axis at home, plus the home flange pose;
+- "dh" / "mdh": a standard or modified Denavit-Hartenberg table, with `dh_base` (robot base <-
+  DH frame 0) and `dh_flange` (DH frame n <- flange).
+
+Every representation also carries per-joint `zero_deg` and `limits_deg`, and the `base` (world
+<- robot base) and `tool` (flange <- measured point) poses. Poses are {x, y, z} in mm and
+{rx, ry, rz} in degrees with R = Rz(rz) Ry(ry) Rx(rx). For prismatic joints, `zero_deg`,
+`limits_deg` and `theta_deg`/`d_mm` values along the joint are in mm.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from screwcal.dh import DHRow, DHTable, dh_from_model, model_from_dh
+from screwcal.errors import ModelError
+from screwcal.model import SerialModel
+from screwcal.pose import pose_from_transform, transform_from_pose
+
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
+FORMAT = "screwcal-model"
+
+
+class PoseIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    x: FiniteFloat = 0.0
+    y: FiniteFloat = 0.0
+    z: FiniteFloat = 0.0
+    rx: FiniteFloat = 0.0
+    ry: FiniteFloat = 0.0
+    rz: FiniteFloat = 0.0
+
+    def transform(self) -> np.ndarray:
+        return transform_from_pose([self.x, self.y, self.z, self.rx, self.ry, self.rz])
+
+    @classmethod
+    def of(cls, T: np.ndarray) -> PoseIn:
+        x, y, z, rx, ry, rz = (float(v) for v in pose_from_transform(T))
+        return cls(x=x, y=y, z=z, rx=rx, ry=ry, rz=rz)
+
+
+class JointCommon(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    type: Literal["R", "P"] = "R"
+    zero_deg: FiniteFloat = 0.0
+    limits_deg: tuple[FiniteFloat, FiniteFloat]
+
+    @field_validator("limits_deg")
+    @classmethod
+    def _ordered(cls, v: tuple[float, float]) -> tuple[float, float]:
+        if not v[0] < v[1]:
+            raise ValueError(f"limits must be [min, max] with min < max, got {list(v)}")
+        return v
+
+
+class ScrewJoint(JointCommon):
+    direction: Vec3
+    point_mm: Vec3 = (0.0, 0.0, 0.0)
+
+    @field_validator("direction")
+    @classmethod
+    def _unit(cls, v: Vec3) -> Vec3:
+        norm = math.sqrt(sum(c * c for c in v))
+        if abs(norm - 1.0) > 1e-6:
+            raise ValueError(f"direction must be a unit vector, its norm is {norm:.9g}")
+        return v
+
+
+class DHJoint(JointCommon):
+    a_mm: FiniteFloat
+    alpha_deg: FiniteFloat
+    d_mm: FiniteFloat
+    theta_deg: FiniteFloat
+
+
+class ModelFile(BaseModel):
+    """The JSON document."""
+
+    model_config = ConfigDict(extra="forbid")
+    format: Literal["screwcal-model"] = FORMAT
+    version: Literal[1] = 1
+    name: str = Field(min_length=1)
+    representation: Literal["screws", "dh", "mdh"]
+    joints: list[ScrewJoint] | list[DHJoint] = Field(min_length=1)
+    home_flange: PoseIn | None = None
+    dh_base: PoseIn | None = None
+    dh_flange: PoseIn | None = None
+    base: PoseIn = PoseIn()
+    tool: PoseIn = PoseIn()
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ModelFile:
+        screws = self.representation == "screws"
+        want = ScrewJoint if screws else DHJoint
+        bad = [i + 1 for i, j in enumerate(self.joints) if not isinstance(j, want)]
+        if bad:
+            fields = "direction/point_mm" if screws else "a_mm/alpha_deg/d_mm/theta_deg"
+            raise ValueError(f"representation '{self.representation}' needs {fields} for every "
+                             f"joint; joints {bad} do not have them")
+        if screws and self.home_flange is None:
+            raise ValueError("representation 'screws' needs 'home_flange'")
+        if not screws and (self.dh_base is None or self.dh_flange is None):
+            raise ValueError(f"representation '{self.representation}' needs 'dh_base' and "
+                             "'dh_flange'")
+        return self
+
+    def to_model(self) -> SerialModel:
+        types = tuple(j.type for j in self.joints)
+        rev = np.array([t == "R" for t in types])
+
+        def numeric(values: list[float] | np.ndarray) -> np.ndarray:
+            v = np.asarray(values, dtype=float)
+            return np.where(rev.reshape((-1,) + (1,) * (v.ndim - 1)), np.radians(v), v)
+
+        limits = numeric([list(j.limits_deg) for j in self.joints])
+        zero = numeric([j.zero_deg for j in self.joints])
+        if self.representation == "screws":
+            return SerialModel(
+                name=self.name, joint_types=types,
+                axis_dirs=[j.direction for j in self.joints],  # type: ignore[union-attr]
+                axis_points_mm=[j.point_mm for j in self.joints],  # type: ignore[union-attr]
+                home_flange=self.home_flange.transform(),  # type: ignore[union-attr]
+                limits=limits, joint_zero=zero,
+                base=self.base.transform(), tool=self.tool.transform())
+        rows = tuple(DHRow(a_mm=j.a_mm, alpha=math.radians(j.alpha_deg), d_mm=j.d_mm,  # type: ignore[union-attr]
+                           theta=math.radians(j.theta_deg), joint_type=j.type)  # type: ignore[union-attr]
+                     for j in self.joints)
+        table = DHTable(convention=self.representation, rows=rows,  # type: ignore[arg-type]
+                        dh_base=self.dh_base.transform(),  # type: ignore[union-attr]
+                        dh_flange=self.dh_flange.transform())  # type: ignore[union-attr]
+        return model_from_dh(table, self.name, limits, zero, self.base.transform(),
+                             self.tool.transform())
+
+
+def model_file_from_model(model: SerialModel,
+                          representation: Literal["screws", "dh", "mdh"] = "screws") -> ModelFile:
+    """The file document of a model, in the chosen representation."""
+    limits = model.limits_deg
+    zero = model.joints_to_deg(model.joint_zero)
+    common = [dict(type=t, zero_deg=float(zero[i]), limits_deg=(float(limits[i, 0]),
+                                                                 float(limits[i, 1])))
+              for i, t in enumerate(model.joint_types)]
+    frames = dict(base=PoseIn.of(model.base), tool=PoseIn.of(model.tool))
+    if representation == "screws":
+        joints = [ScrewJoint(direction=tuple(float(c) for c in model.axis_dirs[i]),
+                             point_mm=tuple(float(c) for c in model.axis_points_mm[i]), **c)
+                  for i, c in enumerate(common)]
+        return ModelFile(name=model.name, representation="screws", joints=joints,
+                         home_flange=PoseIn.of(model.home_flange), **frames)
+    table = dh_from_model(model, representation)
+    dh_joints = [DHJoint(a_mm=r.a_mm, alpha_deg=math.degrees(r.alpha), d_mm=r.d_mm,
+                         theta_deg=math.degrees(r.theta), **c)
+                 for r, c in zip(table.rows, common, strict=True)]
+    return ModelFile(name=model.name, representation=representation, joints=dh_joints,
+                     dh_base=PoseIn.of(table.dh_base), dh_flange=PoseIn.of(table.dh_flange),
+                     **frames)
+
+
+def _describe(err: ValidationError) -> str:
+    parts = []
+    for e in err.errors():
+        where = ".".join(str(x) for x in e["loc"]) or "document"
+        parts.append(f"{where}: {e['msg']}")
+    return "; ".join(parts)
+
+
+def parse_model(data: dict, source: str = "model") -> SerialModel:
+    """A serial model from a decoded JSON object. A calibration result (with a `model` member)
+    is accepted as well."""
+    if isinstance(data, dict) and "model" in data and "representation" not in data:
+        data = data["model"]
+    try:
+        return ModelFile.model_validate(data).to_model()
+    except ValidationError as err:
+        raise ModelError(f"{source}: invalid model file: {_describe(err)}") from None
+
+
+def load_model(path: str | Path) -> SerialModel:
+    """Read a model file (any representation)."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ModelError(f"{path}: model file not found") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ModelError(f"{path}: not a JSON model file ({err})") from None
+    return parse_model(data, str(path))
+
+
+def save_model(model: SerialModel, path: str | Path,
+               representation: Literal["screws", "dh", "mdh"] = "screws") -> None:
+    """Write a model file in the chosen representation."""
+    doc = model_file_from_model(model, representation)
+    Path(path).write_text(doc.model_dump_json(indent=2) + "\n", encoding="utf-8")
+
+
+def resolve_model(name_or_path: str) -> SerialModel:
+    """A built-in model name (`irb1600`, `irb120`) or the path of a model / result file."""
+    from screwcal.robots import BUILTIN_MODELS, builtin_model
+
+    if name_or_path in BUILTIN_MODELS:
+        return builtin_model(name_or_path)
+    if not Path(name_or_path).exists():
+        raise ModelError(f"'{name_or_path}' is neither a built-in robot "
+                         f"({', '.join(sorted(BUILTIN_MODELS))}) nor an existing model file")
+    return load_model(name_or_path)

@@ -1,0 +1,54 @@
+"""`screwcal predict`: the pose of the measured point that a model gives for joint readings.
+
+    screwcal predict --model irb1600 --joints joints.csv --out predicted.csv
+
+A built-in name predicts the nominal flange (tool0) pose in the robot base frame; a model or
+calibration-result file predicts the measured point in the measuring system's frame.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from screwcal.kinematics import forward_kinematics
+from screwcal.model import SerialModel
+from screwcal.modelfile import resolve_model
+from screwcal.pose import pose_from_transform
+from screwcal.se3 import Array
+from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
+
+OUTPUT_COLUMNS = ("id", "x", "y", "z", "rx", "ry", "rz")
+
+
+def predict_poses(model: SerialModel, q_deg: Array) -> Array:
+    """Poses (N, 6) = (x, y, z [mm], rx, ry, rz [deg]) for controller joint readings (N, n) deg."""
+    return pose_from_transform(forward_kinematics(model, model.joints_from_deg(q_deg)))
+
+
+def run(args: argparse.Namespace) -> int:
+    model = resolve_model(args.model)
+    table = read_numeric_csv(args.joints, joint_columns(model.n_joints))
+    q_deg = table.values
+    outside = ~model.within_limits(model.joints_from_deg(q_deg))
+    for k in np.flatnonzero(outside)[:5]:
+        print(f"warning: {table.path}, line {table.lines[k]}: joints outside the limits of model "
+              f"'{model.name}' (predicted anyway)", file=sys.stderr)
+    poses = predict_poses(model, q_deg)
+    write_csv_atomic(args.out, OUTPUT_COLUMNS,
+                     ([pid] + [f"{v:.6f}" for v in pose] for pid, pose in zip(table.ids, poses,
+                                                                              strict=True)))
+    print(f"predicted {len(poses)} poses with model '{model.name}' -> {args.out}")
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("predict", help="predict measured-point poses from joint readings",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--model", required=True,
+                   help="built-in robot (irb1600, irb120), a model file or a calibration result")
+    p.add_argument("--joints", required=True, help="CSV with q1..q6 in degrees, optional id")
+    p.add_argument("--out", required=True, help="CSV to write: id, x, y, z (mm), rx, ry, rz (deg)")
+    p.set_defaults(func=run)

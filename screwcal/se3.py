@@ -1,0 +1,102 @@
+"""Rigid-body maths over batches: skew matrices, twists, adjoints, exponentials.
+
+Twists are 6-vectors ordered (omega, v) (angular first, as in Modern Robotics). A *spatial*
+twist `xi` of a moving frame T satisfies dT T^-1 = hat(xi). Every function takes a leading batch
+axis (`...`) and returns float64 arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+Array = NDArray[np.float64]
+
+
+def skew(w: ArrayLike) -> Array:
+    """Skew-symmetric matrix [w]x of vectors w, shape (..., 3) -> (..., 3, 3)."""
+    w = np.asarray(w, dtype=float)
+    out = np.zeros((*w.shape[:-1], 3, 3))
+    out[..., 0, 1] = -w[..., 2]
+    out[..., 0, 2] = w[..., 1]
+    out[..., 1, 0] = w[..., 2]
+    out[..., 1, 2] = -w[..., 0]
+    out[..., 2, 0] = -w[..., 1]
+    out[..., 2, 1] = w[..., 0]
+    return out
+
+
+def twist_hat(xi: ArrayLike) -> Array:
+    """4x4 matrix form of twists (omega, v), shape (..., 6) -> (..., 4, 4)."""
+    xi = np.asarray(xi, dtype=float)
+    out = np.zeros((*xi.shape[:-1], 4, 4))
+    out[..., :3, :3] = skew(xi[..., :3])
+    out[..., :3, 3] = xi[..., 3:]
+    return out
+
+
+def transform_from_rotation_translation(R: ArrayLike, t: ArrayLike) -> Array:
+    """Homogeneous transforms from rotations (..., 3, 3) and translations (..., 3)."""
+    R = np.asarray(R, dtype=float)
+    t = np.asarray(t, dtype=float)
+    shape = np.broadcast_shapes(R.shape[:-2], t.shape[:-1])
+    T = np.zeros((*shape, 4, 4))
+    T[..., :3, :3] = R
+    T[..., :3, 3] = t
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def invert_transform(T: ArrayLike) -> Array:
+    """Inverse of homogeneous transforms, shape (..., 4, 4)."""
+    T = np.asarray(T, dtype=float)
+    Rt = np.swapaxes(T[..., :3, :3], -1, -2)
+    t = -np.einsum("...ij,...j->...i", Rt, T[..., :3, 3])
+    return transform_from_rotation_translation(Rt, t)
+
+
+def adjoint(T: ArrayLike) -> Array:
+    """Adjoint matrices Ad_T, shape (..., 4, 4) -> (..., 6, 6), for twists ordered (omega, v).
+
+    Ad_T = [[R, 0], [[p]x R, R]], so that hat(Ad_T xi) = T hat(xi) T^-1.
+    """
+    T = np.asarray(T, dtype=float)
+    R = T[..., :3, :3]
+    out = np.zeros((*T.shape[:-2], 6, 6))
+    out[..., :3, :3] = R
+    out[..., 3:, 3:] = R
+    out[..., 3:, :3] = skew(T[..., :3, 3]) @ R
+    return out
+
+
+def exp_twist(xi: ArrayLike) -> Array:
+    """Matrix exponential of twists (omega, v) of any magnitude, shape (..., 6) -> (..., 4, 4)."""
+    xi = np.asarray(xi, dtype=float)
+    w = xi[..., :3]
+    v = xi[..., 3:]
+    theta = np.linalg.norm(w, axis=-1)
+    small = theta < 1e-9
+    th = np.where(small, 1.0, theta)
+    # Series-safe coefficients: A = sin/th, B = (1-cos)/th^2, C = (th - sin)/th^3.
+    A = np.where(small, 1.0 - theta**2 / 6.0, np.sin(th) / th)
+    B = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(th)) / th**2)
+    C = np.where(small, 1.0 / 6.0 - theta**2 / 120.0, (th - np.sin(th)) / th**3)
+    K = skew(w)
+    K2 = K @ K
+    eye = np.eye(3)
+    R = eye + A[..., None, None] * K + B[..., None, None] * K2
+    V = eye + B[..., None, None] * K + C[..., None, None] * K2
+    return transform_from_rotation_translation(R, np.einsum("...ij,...j->...i", V, v))
+
+
+def twist_from_transform_difference(T_plus: ArrayLike, T_minus: ArrayLike, T: ArrayLike,
+                                    step: float) -> Array:
+    """Central-difference spatial twist: ((T+ - T-) / 2 step) T^-1, read as (omega, v).
+
+    Used to check analytic Jacobians against finite differences.
+    """
+    dT = (np.asarray(T_plus) - np.asarray(T_minus)) / (2.0 * step)
+    M = dT @ invert_transform(T)
+    Wsk = 0.5 * (M[..., :3, :3] - np.swapaxes(M[..., :3, :3], -1, -2))
+    w = np.stack([Wsk[..., 2, 1], Wsk[..., 0, 2], Wsk[..., 1, 0]], axis=-1)
+    return np.concatenate([w, M[..., :3, 3]], axis=-1)

@@ -1,0 +1,129 @@
+"""Reading and writing the CSV files of the offline contract (../shared/spec/data-formats.md).
+
+Readers check everything at the edge and raise DataFileError naming the file, the line and the
+column; writers write to a temporary file and rename it, so a refused input writes nothing.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import tempfile
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from screwcal.errors import DataFileError
+from screwcal.se3 import Array
+
+
+@dataclass(frozen=True)
+class NumericTable:
+    """Numeric columns of a CSV file: values (N, k) in `columns` order, ids, file line numbers."""
+
+    path: str
+    columns: tuple[str, ...]
+    values: Array
+    ids: tuple[str, ...]
+    lines: tuple[int, ...]
+
+    def column(self, name: str) -> Array:
+        return self.values[:, self.columns.index(name)]
+
+    def take(self, names: Sequence[str]) -> Array:
+        return self.values[:, [self.columns.index(c) for c in names]]
+
+
+def read_numeric_csv(path: str | Path, required: Sequence[str],
+                     optional_groups: Sequence[Sequence[str]] = (), min_rows: int = 1
+                     ) -> NumericTable:
+    """Read a CSV with a header row; columns in any order, extra columns ignored.
+
+    `required` numeric columns must all be present; each group of `optional_groups` is either
+    wholly present or wholly absent (and, when present, filled on every row). An `id` column is
+    optional; without it ids are the 1-based data row numbers.
+    """
+    path = Path(path)
+    label = str(path)
+    try:
+        handle = path.open(newline="", encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise DataFileError(label, "file not found") from None
+    except IsADirectoryError:
+        raise DataFileError(label, "is a directory, not a CSV file") from None
+    with handle:
+        try:
+            rows = list(csv.reader(handle))
+        except (UnicodeDecodeError, csv.Error) as err:
+            raise DataFileError(label, f"not a readable UTF-8 CSV file ({err})") from None
+    if not rows or not any(cell.strip() for cell in rows[0]):
+        raise DataFileError(label, "the file is empty: expected a header row", line=1)
+    header = [h.strip() for h in rows[0]]
+    dupes = sorted({h for h in header if h and header.count(h) > 1})
+    if dupes:
+        raise DataFileError(label, f"duplicate column(s) {', '.join(dupes)} in the header", line=1)
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise DataFileError(label, f"missing column(s) {', '.join(missing)}; the header has "
+                            f"{', '.join(h for h in header if h) or 'nothing'}", line=1,
+                            column=missing[0])
+    columns = list(required)
+    for group in optional_groups:
+        present = [c for c in group if c in header]
+        if present and len(present) != len(group):
+            absent = [c for c in group if c not in header]
+            raise DataFileError(label, f"columns {', '.join(group)} go together; "
+                                f"{', '.join(absent)} missing", line=1, column=absent[0])
+        columns += present
+    index = {c: header.index(c) for c in columns}
+    id_index = header.index("id") if "id" in header else None
+    values, ids, lines = [], [], []
+    for lineno, row in enumerate(rows[1:], start=2):
+        if not any(cell.strip() for cell in row):
+            continue  # blank line
+        if len(row) < len(header):
+            raise DataFileError(label, f"{len(row)} fields where the header has {len(header)}",
+                                line=lineno)
+        rec = []
+        for c in columns:
+            cell = row[index[c]].strip()
+            try:
+                v = float(cell)
+            except ValueError:
+                what = "is empty" if not cell else f"'{cell}' is not a number"
+                raise DataFileError(label, what, line=lineno, column=c) from None
+            if not math.isfinite(v):
+                raise DataFileError(label, f"'{cell}' is not a finite number", line=lineno,
+                                    column=c)
+            rec.append(v)
+        values.append(rec)
+        ids.append(row[id_index].strip() if id_index is not None else str(len(ids) + 1))
+        lines.append(lineno)
+    if len(values) < min_rows:
+        raise DataFileError(label, f"{len(values)} data row(s); at least {min_rows} needed")
+    return NumericTable(path=label, columns=tuple(columns), values=np.array(values, float),
+                        ids=tuple(ids), lines=tuple(lines))
+
+
+def write_csv_atomic(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[object]]
+                     ) -> None:
+    """Write a CSV through a temporary file in the same folder, renamed into place at the end."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "w", newline="", encoding="utf-8") as handle:
+            writer = csv.writer(handle, lineterminator="\n")
+            writer.writerow(header)
+            writer.writerows(rows)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def joint_columns(n: int) -> list[str]:
+    return [f"q{i}" for i in range(1, n + 1)]
