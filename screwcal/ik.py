@@ -78,6 +78,7 @@ class IKSolutions:
     within_limits: Array
     residual_mm: Array
     branches: tuple[tuple[str, str, str], ...] = BRANCHES
+    limits: Array | None = None  # (6, 2) rad, for choosing among 2 pi-equivalent turns
 
     @property
     def valid(self) -> Array:
@@ -89,7 +90,9 @@ class IKSolutions:
         Raises UnreachableError naming the first target that has no valid branch.
         """
         q_ref = np.broadcast_to(np.asarray(q_ref, float), (self.q.shape[0], self.q.shape[2]))
-        dist = np.where(self.valid, np.linalg.norm(self.q - q_ref[:, None, :], axis=-1), np.inf)
+        q = self.q if self.limits is None else _turns_toward(self.q, q_ref[:, None, :],
+                                                              self.limits)
+        dist = np.where(self.valid, np.linalg.norm(q - q_ref[:, None, :], axis=-1), np.inf)
         none = ~np.isfinite(dist).any(axis=1)
         if none.any():
             k = int(np.flatnonzero(none)[0])
@@ -97,7 +100,19 @@ class IKSolutions:
                 else "out of reach"
             raise UnreachableError(f"target {k} is {why} ({int(none.sum())} of "
                                    f"{len(none)} targets have no valid solution)")
-        return self.q[np.arange(len(dist)), np.argmin(dist, axis=1)]
+        return q[np.arange(len(dist)), np.argmin(dist, axis=1)]
+
+
+def _turns_toward(q: Array, q_ref: Array, limits: Array) -> Array:
+    """Each joint moved by whole turns (within the limits) to be closest to q_ref: joints whose
+    range passes 360 deg (J6 of the IRB 1600: +-400) have several valid readings of one pose."""
+    best = q.copy()
+    for turns in (-2, -1, 1, 2):
+        moved = q + 2 * np.pi * turns
+        inside = (moved >= limits[:, 0]) & (moved <= limits[:, 1])
+        better = inside & (np.abs(moved - q_ref) < np.abs(best - q_ref))
+        best = np.where(better, moved, best)
+    return best
 
 
 def _wrap_into_limits(q: Array, limits: Array) -> Array:
@@ -118,8 +133,14 @@ def _flange_targets(model: SerialModel, T_world_tool: ArrayLike) -> Array:
     return invert_transform(model.base) @ T @ invert_transform(model.tool)
 
 
-def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array) -> tuple[Array, Array]:
-    """Joint angles (N, 8, 6) of the ideal geometry and the reachable mask (N, 8)."""
+def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = 1e-12,
+                       elbow_floor: float = 0.0) -> tuple[Array, Array]:
+    """Joint angles (N, 8, 6) of the ideal geometry and the reachable mask (N, 8).
+
+    For seeding a calibrated model: `slack` accepts targets slightly beyond full extension, and
+    `elbow_floor` (rad) keeps the elbow-up and elbow-down seeds apart near it, so that each
+    converges to its own branch.
+    """
     N = T_flange.shape[0]
     R = T_flange[:, :3, :3]
     R_M = geo.home_flange[:3, :3]
@@ -129,25 +150,31 @@ def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array) -> tuple[
     reach = np.zeros((N, 8), bool)
     u, f = geo.upper_arm, geo.forearm
     t1_front = np.arctan2(wc[:, 1], wc[:, 0])
-    for b, (shoulder, elbow, wrist) in enumerate(BRANCHES):
+    for b in range(0, len(BRANCHES), 2):  # (shoulder, elbow); the wrist flip shares the arm
+        shoulder, elbow, _ = BRANCHES[b]
         t1 = t1_front if shoulder == "front" else t1_front + np.pi
-        r = wc[:, 0] * np.cos(t1) + wc[:, 1] * np.sin(t1)
+        c1, s1 = np.cos(t1), np.sin(t1)
+        r = wc[:, 0] * c1 + wc[:, 1] * s1
         d = (r - geo.shoulder_x) + 1j * (wc[:, 2] - geo.shoulder_z)
         k = (np.abs(d) ** 2 - abs(u) ** 2 - abs(f) ** 2) / (2 * abs(u) * abs(f))
-        ok = np.abs(k) <= 1.0 + 1e-12
-        sign = 1.0 if elbow == "up" else -1.0
-        t3 = sign * np.arccos(np.clip(k, -1, 1)) - np.angle(u) + np.angle(f)
+        ok = np.abs(k) <= 1.0 + slack
+        bend = np.maximum(np.arccos(np.clip(k, -1, 1)), elbow_floor)
+        t3 = (1.0 if elbow == "up" else -1.0) * bend - np.angle(u) + np.angle(f)
         t2 = np.angle(u + f * np.exp(-1j * t3)) - np.angle(d)
         # Wrist: W = (Rz(t1) Ry(t2 + t3))^T R R_M^T = Rx(t4) Ry(t5) Rx(t6).
-        R123 = Rotation.from_euler("ZY", np.column_stack([t1, t2 + t3])).as_matrix()
+        c23, s23 = np.cos(t2 + t3), np.sin(t2 + t3)
+        R123 = np.empty((N, 3, 3))
+        R123[:, 0] = np.column_stack([c1 * c23, -s1, c1 * s23])
+        R123[:, 1] = np.column_stack([s1 * c23, c1, s1 * s23])
+        R123[:, 2] = np.column_stack([-s23, np.zeros(N), c23])
         W = np.swapaxes(R123, 1, 2) @ R @ R_M.T
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message="Gimbal lock detected")
             t456 = Rotation.from_matrix(W).as_euler("XYX")
-        if wrist == "flip":
-            t456 = t456 * np.array([1.0, -1.0, 1.0]) + np.array([np.pi, 0.0, np.pi])
+        flipped = t456 * np.array([1.0, -1.0, 1.0]) + np.array([np.pi, 0.0, np.pi])
         theta[:, b] = np.column_stack([t1, t2, t3, t456])
-        reach[:, b] = ok
+        theta[:, b + 1] = np.column_stack([t1, t2, t3, flipped])
+        reach[:, b] = reach[:, b + 1] = ok
     theta[~reach] = np.nan
     return theta, reach
 
@@ -161,7 +188,8 @@ def _solutions(model: SerialModel, theta: Array, reach: Array, T_flange: Array) 
     residual = np.linalg.norm(T[..., :3, 3] - T_flange[:, None, :3, 3], axis=-1)
     residual[~reach] = np.nan
     within = model.within_limits(np.nan_to_num(q, nan=np.inf)) & reach
-    return IKSolutions(q=q, reachable=reach, within_limits=within, residual_mm=residual)
+    return IKSolutions(q=q, reachable=reach, within_limits=within, residual_mm=residual,
+                       limits=model.limits)
 
 
 def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike) -> IKSolutions:
@@ -199,7 +227,8 @@ def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float =
     T_target = np.asarray(T_world_tool, dtype=float)
     T_flange = _flange_targets(model, T_target)
     geo = WristPartitionedGeometry.from_model(model, tol=None)
-    theta0, reach0 = _closed_form_theta(geo, T_flange)
+    # A calibrated arm may reach a little beyond its ideal twin: seed from the stretched pose.
+    theta0, reach0 = _closed_form_theta(geo, T_flange, slack=0.05, elbow_floor=0.02)
     _raise_unreachable(reach0)
     N = T_target.shape[0]
     q = np.nan_to_num(theta0 - model.joint_zero).reshape(-1, 6)

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator
 
 from screwcal.dh import DHRow, DHTable, dh_from_model, model_from_dh
 from screwcal.errors import ModelError
@@ -84,67 +84,65 @@ class DHJoint(JointCommon):
     theta_deg: FiniteFloat
 
 
-class ModelFile(BaseModel):
-    """The JSON document."""
-
+class _FileCommon(BaseModel):
     model_config = ConfigDict(extra="forbid")
     format: Literal["screwcal-model"] = FORMAT
     version: Literal[1] = 1
     name: str = Field(min_length=1)
-    representation: Literal["screws", "dh", "mdh"]
-    joints: list[ScrewJoint] | list[DHJoint] = Field(min_length=1)
-    home_flange: PoseIn | None = None
-    dh_base: PoseIn | None = None
-    dh_flange: PoseIn | None = None
     base: PoseIn = PoseIn()
     tool: PoseIn = PoseIn()
 
-    @model_validator(mode="after")
-    def _consistent(self) -> ModelFile:
-        screws = self.representation == "screws"
-        want = ScrewJoint if screws else DHJoint
-        bad = [i + 1 for i, j in enumerate(self.joints) if not isinstance(j, want)]
-        if bad:
-            fields = "direction/point_mm" if screws else "a_mm/alpha_deg/d_mm/theta_deg"
-            raise ValueError(f"representation '{self.representation}' needs {fields} for every "
-                             f"joint; joints {bad} do not have them")
-        if screws and self.home_flange is None:
-            raise ValueError("representation 'screws' needs 'home_flange'")
-        if not screws and (self.dh_base is None or self.dh_flange is None):
-            raise ValueError(f"representation '{self.representation}' needs 'dh_base' and "
-                             "'dh_flange'")
-        return self
+    def _numeric(self, joints: list[ScrewJoint] | list[DHJoint]) -> tuple[np.ndarray, np.ndarray]:
+        """Limits (n, 2) and zeros (n,) in numeric units (rad for R, mm for P)."""
+        rev = np.array([j.type == "R" for j in joints])
+        limits = np.array([list(j.limits_deg) for j in joints], dtype=float)
+        zero = np.array([j.zero_deg for j in joints], dtype=float)
+        return (np.where(rev[:, None], np.radians(limits), limits),
+                np.where(rev, np.radians(zero), zero))
+
+
+class ScrewsFile(_FileCommon):
+    """representation "screws": joint screws at home and the home flange pose."""
+
+    representation: Literal["screws"]
+    joints: list[ScrewJoint] = Field(min_length=1)
+    home_flange: PoseIn
 
     def to_model(self) -> SerialModel:
-        types = tuple(j.type for j in self.joints)
-        rev = np.array([t == "R" for t in types])
+        limits, zero = self._numeric(self.joints)
+        return SerialModel(name=self.name, joint_types=tuple(j.type for j in self.joints),
+                           axis_dirs=[j.direction for j in self.joints],
+                           axis_points_mm=[j.point_mm for j in self.joints],
+                           home_flange=self.home_flange.transform(), limits=limits,
+                           joint_zero=zero, base=self.base.transform(), tool=self.tool.transform())
 
-        def numeric(values: list[float] | np.ndarray) -> np.ndarray:
-            v = np.asarray(values, dtype=float)
-            return np.where(rev.reshape((-1,) + (1,) * (v.ndim - 1)), np.radians(v), v)
 
-        limits = numeric([list(j.limits_deg) for j in self.joints])
-        zero = numeric([j.zero_deg for j in self.joints])
-        if self.representation == "screws":
-            return SerialModel(
-                name=self.name, joint_types=types,
-                axis_dirs=[j.direction for j in self.joints],  # type: ignore[union-attr]
-                axis_points_mm=[j.point_mm for j in self.joints],  # type: ignore[union-attr]
-                home_flange=self.home_flange.transform(),  # type: ignore[union-attr]
-                limits=limits, joint_zero=zero,
-                base=self.base.transform(), tool=self.tool.transform())
-        rows = tuple(DHRow(a_mm=j.a_mm, alpha=math.radians(j.alpha_deg), d_mm=j.d_mm,  # type: ignore[union-attr]
-                           theta=math.radians(j.theta_deg), joint_type=j.type)  # type: ignore[union-attr]
+class DHFile(_FileCommon):
+    """representation "dh" / "mdh": a DH table with the frames that close it."""
+
+    representation: Literal["dh", "mdh"]
+    joints: list[DHJoint] = Field(min_length=1)
+    dh_base: PoseIn
+    dh_flange: PoseIn
+
+    def to_model(self) -> SerialModel:
+        limits, zero = self._numeric(self.joints)
+        rows = tuple(DHRow(a_mm=j.a_mm, alpha=math.radians(j.alpha_deg), d_mm=j.d_mm,
+                           theta=math.radians(j.theta_deg), joint_type=j.type)
                      for j in self.joints)
-        table = DHTable(convention=self.representation, rows=rows,  # type: ignore[arg-type]
-                        dh_base=self.dh_base.transform(),  # type: ignore[union-attr]
-                        dh_flange=self.dh_flange.transform())  # type: ignore[union-attr]
+        table = DHTable(convention=self.representation, rows=rows,
+                        dh_base=self.dh_base.transform(), dh_flange=self.dh_flange.transform())
         return model_from_dh(table, self.name, limits, zero, self.base.transform(),
                              self.tool.transform())
 
 
+ModelFile = Annotated[ScrewsFile | DHFile, Field(discriminator="representation")]
+_ADAPTER: TypeAdapter[ScrewsFile | DHFile] = TypeAdapter(ModelFile)
+
+
 def model_file_from_model(model: SerialModel,
-                          representation: Literal["screws", "dh", "mdh"] = "screws") -> ModelFile:
+                          representation: Literal["screws", "dh", "mdh"] = "screws"
+                          ) -> ScrewsFile | DHFile:
     """The file document of a model, in the chosen representation."""
     limits = model.limits_deg
     zero = model.joints_to_deg(model.joint_zero)
@@ -156,13 +154,13 @@ def model_file_from_model(model: SerialModel,
         joints = [ScrewJoint(direction=tuple(float(c) for c in model.axis_dirs[i]),
                              point_mm=tuple(float(c) for c in model.axis_points_mm[i]), **c)
                   for i, c in enumerate(common)]
-        return ModelFile(name=model.name, representation="screws", joints=joints,
+        return ScrewsFile(name=model.name, representation="screws", joints=joints,
                          home_flange=PoseIn.of(model.home_flange), **frames)
     table = dh_from_model(model, representation)
     dh_joints = [DHJoint(a_mm=r.a_mm, alpha_deg=math.degrees(r.alpha), d_mm=r.d_mm,
                          theta_deg=math.degrees(r.theta), **c)
                  for r, c in zip(table.rows, common, strict=True)]
-    return ModelFile(name=model.name, representation=representation, joints=dh_joints,
+    return DHFile(name=model.name, representation=representation, joints=dh_joints,
                      dh_base=PoseIn.of(table.dh_base), dh_flange=PoseIn.of(table.dh_flange),
                      **frames)
 
@@ -170,7 +168,8 @@ def model_file_from_model(model: SerialModel,
 def _describe(err: ValidationError) -> str:
     parts = []
     for e in err.errors():
-        where = ".".join(str(x) for x in e["loc"]) or "document"
+        loc = e["loc"][1:] if e["loc"] and e["loc"][0] in ("screws", "dh", "mdh") else e["loc"]
+        where = ".".join(str(x) for x in loc) or "document"
         parts.append(f"{where}: {e['msg']}")
     return "; ".join(parts)
 
@@ -181,7 +180,7 @@ def parse_model(data: dict, source: str = "model") -> SerialModel:
     if isinstance(data, dict) and "model" in data and "representation" not in data:
         data = data["model"]
     try:
-        return ModelFile.model_validate(data).to_model()
+        return _ADAPTER.validate_python(data).to_model()
     except ValidationError as err:
         raise ModelError(f"{source}: invalid model file: {_describe(err)}") from None
 

@@ -1,0 +1,67 @@
+"""Benchmark: FK of 100,000 configurations, closed-form IK and numerical IK of 10,000 poses.
+
+    .venv/bin/python benchmarks/kinematics.py [--repeat 5]
+
+Prints the best of `repeat` runs, single-threaded BLAS (one core). Targets (issue 2):
+FK >= 1,000,000 poses/s, closed-form IK >= 50,000 poses/s.
+"""
+
+from __future__ import annotations
+
+import os
+
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from screwcal.ik import closed_form_ik, numerical_ik  # noqa: E402
+from screwcal.kinematics import forward_kinematics, parameter_jacobian  # noqa: E402
+from screwcal.robots import irb1600  # noqa: E402
+from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints  # noqa: E402
+
+
+def best_of(repeat: int, fn: Callable[[], object]) -> float:
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--repeat", type=int, default=5)
+    args = parser.parse_args()
+    rng = np.random.default_rng(0)
+    model = irb1600()
+    q_fk = rng.uniform(model.limits[:, 0], model.limits[:, 1], (100_000, 6))
+    q_ik = q_fk[:10_000]
+    T_ik = forward_kinematics(model, q_ik)
+    calibrated = apply_virtual_joints(model, THESIS_TABLE11)
+    T_cal = forward_kinematics(calibrated, q_ik[:1000])
+
+    rows = [
+        ("FK, 100,000 configurations", 100_000, lambda: forward_kinematics(model, q_fk), 1e6),
+        ("parameter Jacobian, 10,000", 10_000, lambda: parameter_jacobian(model, q_ik), None),
+        ("closed-form IK (8 branches), 10,000", 10_000, lambda: closed_form_ik(model, T_ik),
+         5e4),
+        ("numerical IK (8 branches), 1,000", 1000, lambda: numerical_ik(calibrated, T_cal),
+         None),
+    ]
+    print(f"{'benchmark':<40}{'time':>10}{'poses/s':>14}{'target':>12}")
+    for label, n, fn, target in rows:
+        t = best_of(args.repeat, fn)
+        rate = n / t
+        verdict = "" if target is None else (f"{target:>10,.0f} " + ("ok" if rate >= target
+                                                                     else "MISSED"))
+        print(f"{label:<40}{t * 1e3:>8.1f} ms{rate:>14,.0f}  {verdict}")
+
+
+if __name__ == "__main__":
+    main()

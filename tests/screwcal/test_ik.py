@@ -1,0 +1,104 @@
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from screwcal.errors import ModelError, UnreachableError
+from screwcal.ik import BRANCHES, closed_form_ik, numerical_ik
+from screwcal.kinematics import forward_kinematics
+from screwcal.robots import irb120, irb1600
+from screwcal.se3 import exp_twist
+from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from tests.conftest import random_q
+
+
+def _assert_branches_reach(model, sol, T):
+    """Every valid branch's FK equals its target (position and orientation)."""
+    ok = sol.valid
+    k, b = np.nonzero(ok)
+    T_b = forward_kinematics(model, sol.q[k, b])
+    np.testing.assert_allclose(T_b[:, :3, 3], T[k, :3, 3], atol=1e-7)
+    np.testing.assert_allclose(T_b[:, :3, :3], T[k, :3, :3], atol=1e-10)
+
+
+def _contains(sol, q):
+    d = np.abs((sol.q - q[:, None, :] + np.pi) % (2 * np.pi) - np.pi).max(axis=2)
+    return np.nanmin(d, axis=1) < 1e-7
+
+
+@pytest.mark.parametrize("make", [irb1600, irb120])
+def test_closed_form_round_trip_every_branch(rng, make):
+    model = make()
+    q = random_q(model, rng, 5000)
+    T = forward_kinematics(model, q)
+    sol = closed_form_ik(model, T)
+    assert sol.q.shape == (5000, 8, 6) and len(sol.branches) == 8
+    assert _contains(sol, q).all()  # the configuration that made the pose is one of the branches
+    _assert_branches_reach(model, sol, T)
+    # Every branch is exercised, and its flags are honest.
+    assert sol.valid.any(axis=0).all(), "a branch never produced a valid solution"
+    assert (model.within_limits(sol.q[sol.valid])).all()
+    outside = sol.reachable & ~sol.within_limits
+    assert outside.any() and not model.within_limits(sol.q[outside]).any()
+
+
+def test_branch_labels_are_distinct_configurations(rng):
+    model = irb1600()
+    q = np.radians([[10, 20, -30, 40, 50, 60]])
+    sol = closed_form_ik(model, forward_kinematics(model, q))
+    assert set(BRANCHES) == {(s, e, w) for s in ("front", "back") for e in ("up", "down")
+                             for w in ("noflip", "flip")}
+    found = sol.q[0][sol.reachable[0]]
+    assert len(np.unique(np.round(found, 9), axis=0)) == len(found)
+
+
+def test_nearest_returns_the_seed_configuration(rng):
+    model = irb1600()
+    q = random_q(model, rng, 200)
+    sol = closed_form_ik(model, forward_kinematics(model, q))
+    np.testing.assert_allclose(sol.nearest(q), q, atol=1e-7)
+
+
+def test_unreachable_target_raises_naming_it():
+    model = irb1600()
+    T = forward_kinematics(model, np.zeros((3, 6)))
+    T[1, :3, 3] = [3000.0, 0, 500]
+    with pytest.raises(UnreachableError, match="target 1 is out of the arm's reach"):
+        closed_form_ik(model, T)
+
+
+def test_all_branches_outside_limits_raise_on_nearest():
+    model = irb1600()
+    narrow = replace(model, limits=np.radians([[-1, 1]] * 6))
+    sol = closed_form_ik(narrow, forward_kinematics(model, np.radians([[90, 0, 0, 0, 30, 0]])))
+    assert not sol.within_limits.any()
+    with pytest.raises(UnreachableError, match="outside the joint limits"):
+        sol.nearest(np.zeros(6))
+
+
+def test_closed_form_refuses_a_calibrated_model():
+    with pytest.raises(ModelError, match="numerical_ik"):
+        closed_form_ik(replace(irb1600(), axis_dirs=_tilted(irb1600().axis_dirs)),
+                       np.eye(4)[None])
+
+
+def _tilted(dirs):
+    d = dirs + np.array([[0, 1e-3, 0]] + [[0, 0, 0]] * 5)
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def test_numerical_ik_of_a_calibrated_model(rng):
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    truth = replace(truth, axis_dirs=_tilted(truth.axis_dirs),
+                    base=exp_twist([0.01, -0.02, 0.03, 100, -50, 20]),
+                    tool=exp_twist([0.0, 0.0, 0.1, 0, 10, 120]))
+    q = random_q(truth, rng, 300)
+    T = forward_kinematics(truth, q)
+    sol = numerical_ik(truth, T)
+    assert _contains(sol, q).all()
+    _assert_branches_reach(truth, sol, T)
+
+
+def test_ik_rejects_bad_target_shapes():
+    with pytest.raises(ValueError, match=r"\(N, 4, 4\)"):
+        closed_form_ik(irb1600(), np.eye(4))

@@ -1,0 +1,60 @@
+import json
+
+import numpy as np
+import pytest
+
+from screwcal.errors import ModelError
+from screwcal.kinematics import forward_kinematics
+from screwcal.modelfile import load_model, model_file_from_model, resolve_model, save_model
+from screwcal.robots import irb1600
+from tests.conftest import random_model, random_q
+
+
+@pytest.mark.parametrize("representation", ["screws", "dh", "mdh"])
+def test_save_and_load_round_trip(tmp_path, rng, representation):
+    model = random_model(rng, "RRPRRR")
+    path = tmp_path / "m.json"
+    save_model(model, path, representation)
+    back = load_model(path)
+    q = random_q(model, rng, 100)
+    np.testing.assert_allclose(forward_kinematics(back, q), forward_kinematics(model, q),
+                               atol=1e-8)
+    np.testing.assert_allclose(back.limits, model.limits, atol=1e-12)
+    assert back.joint_types == model.joint_types
+    assert json.loads(path.read_text())["representation"] == representation
+
+
+def _irb1600_doc() -> dict:
+    return json.loads(model_file_from_model(irb1600()).model_dump_json())
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    (lambda d: d["joints"][1].update(direction=[0, 2, 0]), r"joints\.1.*unit vector"),
+    (lambda d: d["joints"][2].update(limits_deg=[65, -245]), r"joints\.2.*min < max"),
+    (lambda d: d["joints"][0].update(point_mm=[0, "nan", 0]), r"joints\.0.*point_mm"),
+    (lambda d: d["joints"][0].pop("direction"), r"joints"),
+    (lambda d: d.pop("home_flange"), r"home_flange"),
+    (lambda d: d["base"].update(rz=float("inf")), r"base\.rz"),
+    (lambda d: d.update(colour="red"), r"colour"),
+])
+def test_invalid_model_files_are_refused_with_the_field(tmp_path, edit, message):
+    doc = _irb1600_doc()
+    edit(doc)
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ModelError, match=message):
+        load_model(path)
+
+
+def test_not_json_and_missing_files(tmp_path):
+    bad = tmp_path / "x.json"
+    bad.write_text("{not json")
+    with pytest.raises(ModelError, match="not a JSON model file"):
+        load_model(bad)
+    with pytest.raises(ModelError, match="neither a built-in robot"):
+        resolve_model(str(tmp_path / "absent.json"))
+
+
+def test_builtin_limits_follow_the_spec():
+    np.testing.assert_allclose(irb1600().limits_deg, [[-180, 180], [-90, 150], [-245, 65],
+                                                      [-200, 200], [-115, 115], [-400, 400]])

@@ -1,0 +1,56 @@
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from screwcal.pose import (
+    pose_from_transform,
+    quaternion_wxyz_from_rotation,
+    rotation_from_euler_zyx_deg,
+    rotation_from_quaternion_wxyz,
+    transform_from_pose,
+)
+
+
+def _rx(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def _ry(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def _rz(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def test_orientation_convention_is_rz_ry_rx():
+    rx, ry, rz = 52.5837, 34.3963, 23.5934
+    expected = _rz(np.radians(rz)) @ _ry(np.radians(ry)) @ _rx(np.radians(rx))
+    np.testing.assert_allclose(rotation_from_euler_zyx_deg([rx, ry, rz]), expected, atol=1e-14)
+
+
+angles = st.tuples(st.floats(-179.9, 179.9), st.floats(-89.9, 89.9), st.floats(-179.9, 179.9))
+positions = st.tuples(*[st.floats(-3000, 3000)] * 3)
+
+
+@given(positions, angles)
+def test_pose_round_trip(p, a):
+    pose = np.array(p + a)
+    np.testing.assert_allclose(pose_from_transform(transform_from_pose(pose)), pose, atol=1e-9)
+
+
+@given(angles)
+def test_quaternion_round_trip_w_first_and_non_negative(a):
+    R = rotation_from_euler_zyx_deg(a)
+    q = quaternion_wxyz_from_rotation(R)
+    assert q[0] >= 0 and abs(np.linalg.norm(q) - 1) < 1e-12
+    np.testing.assert_allclose(rotation_from_quaternion_wxyz(q), R, atol=1e-12)
+
+
+def test_batches_keep_their_shape():
+    poses = np.zeros((3, 4, 6))
+    assert transform_from_pose(poses).shape == (3, 4, 4, 4)
+    assert pose_from_transform(transform_from_pose(poses)).shape == (3, 4, 6)
