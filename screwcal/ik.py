@@ -192,15 +192,18 @@ def _solutions(model: SerialModel, theta: Array, reach: Array, T_flange: Array) 
                        limits=model.limits)
 
 
-def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike) -> IKSolutions:
+def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike, require_all: bool = True
+                   ) -> IKSolutions:
     """All eight closed-form solutions for targets (N, 4, 4) of an ideal ABB-type model.
 
-    Raises UnreachableError when a target is out of reach on every branch.
+    Raises UnreachableError when a target is out of reach on every branch, unless
+    `require_all` is False (for screening many candidate targets: read `reachable`).
     """
     geo = WristPartitionedGeometry.from_model(model)
     T_flange = _flange_targets(model, T_world_tool)
     theta, reach = _closed_form_theta(geo, T_flange)
-    _raise_unreachable(reach)
+    if require_all:
+        _raise_unreachable(reach)
     return _solutions(model, theta, reach, T_flange)
 
 

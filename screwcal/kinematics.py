@@ -84,6 +84,23 @@ def flange_kinematics(model: SerialModel, q: ArrayLike) -> Array:
     return forward_kinematics(replace(model, base=np.eye(4), tool=np.eye(4)), q)
 
 
+def joint_positions(model: SerialModel, q: ArrayLike) -> Array:
+    """The robot's skeleton for drawing, (N, n + 1, 3) world positions: for each joint the foot
+    (at home) of the previous skeleton point on its axis — where the joint sits along the chain
+    rather than the arbitrary stored axis point — then the tool."""
+    q = _check_q(model, q)
+    _, partial = _chain(model, q, keep=True)
+    prev = np.zeros(3)  # the robot base origin, robot frame
+    pts = []
+    for i, A in enumerate(partial[:-1]):
+        w, p = model.axis_dirs[i], model.axis_points_mm[i]
+        foot = p + np.dot(prev - p, w) * w if model.joint_types[i] == "R" else prev
+        pts.append(A[:, :, :3] @ foot + A[:, :, 3])
+        prev = foot
+    pts.append(forward_kinematics(model, q)[:, :3, 3])
+    return np.stack(pts, axis=1)
+
+
 def spatial_jacobian(model: SerialModel, q: ArrayLike) -> Array:
     """Spatial Jacobian w.r.t. the joints, shape (N, 6, n): column i = Ad_{A_{i-1}} xi_i."""
     q = _check_q(model, q)

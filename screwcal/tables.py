@@ -11,7 +11,7 @@ import math
 import os
 import tempfile
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +29,7 @@ class NumericTable:
     values: Array
     ids: tuple[str, ...]
     lines: tuple[int, ...]
+    text: dict[str, tuple[str, ...]] = field(default_factory=dict)  # required text columns
 
     def column(self, name: str) -> Array:
         return self.values[:, self.columns.index(name)]
@@ -38,13 +39,14 @@ class NumericTable:
 
 
 def read_numeric_csv(path: str | Path, required: Sequence[str],
-                     optional_groups: Sequence[Sequence[str]] = (), min_rows: int = 1
-                     ) -> NumericTable:
+                     optional_groups: Sequence[Sequence[str]] = (), min_rows: int = 1,
+                     text_columns: Sequence[str] = ()) -> NumericTable:
     """Read a CSV with a header row; columns in any order, extra columns ignored.
 
     `required` numeric columns must all be present; each group of `optional_groups` is either
     wholly present or wholly absent (and, when present, filled on every row). An `id` column is
-    optional; without it ids are the 1-based data row numbers.
+    optional; without it ids are the 1-based data row numbers. `text_columns` are required,
+    non-empty and kept as text.
     """
     path = Path(path)
     label = str(path)
@@ -65,7 +67,7 @@ def read_numeric_csv(path: str | Path, required: Sequence[str],
     dupes = sorted({h for h in header if h and header.count(h) > 1})
     if dupes:
         raise DataFileError(label, f"duplicate column(s) {', '.join(dupes)} in the header", line=1)
-    missing = [c for c in required if c not in header]
+    missing = [c for c in (*text_columns, *required) if c not in header]
     if missing:
         raise DataFileError(label, f"missing column(s) {', '.join(missing)}; the header has "
                             f"{', '.join(h for h in header if h) or 'nothing'}", line=1,
@@ -81,6 +83,7 @@ def read_numeric_csv(path: str | Path, required: Sequence[str],
     index = {c: header.index(c) for c in columns}
     id_index = header.index("id") if "id" in header else None
     values, ids, lines = [], [], []
+    texts: dict[str, list[str]] = {c: [] for c in text_columns}
     for lineno, row in enumerate(rows[1:], start=2):
         if not any(cell.strip() for cell in row):
             continue  # blank line
@@ -99,13 +102,19 @@ def read_numeric_csv(path: str | Path, required: Sequence[str],
                 raise DataFileError(label, f"'{cell}' is not a finite number", line=lineno,
                                     column=c)
             rec.append(v)
+        for c in text_columns:
+            cell = row[header.index(c)].strip()
+            if not cell:
+                raise DataFileError(label, "is empty", line=lineno, column=c)
+            texts[c].append(cell)
         values.append(rec)
         ids.append(row[id_index].strip() if id_index is not None else str(len(ids) + 1))
         lines.append(lineno)
     if len(values) < min_rows:
         raise DataFileError(label, f"{len(values)} data row(s); at least {min_rows} needed")
     return NumericTable(path=label, columns=tuple(columns), values=np.array(values, float),
-                        ids=tuple(ids), lines=tuple(lines))
+                        ids=tuple(ids), lines=tuple(lines),
+                        text={c: tuple(v) for c, v in texts.items()})
 
 
 def write_csv_atomic(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[object]]

@@ -102,3 +102,13 @@ def test_numerical_ik_of_a_calibrated_model(rng):
 def test_ik_rejects_bad_target_shapes():
     with pytest.raises(ValueError, match=r"\(N, 4, 4\)"):
         closed_form_ik(irb1600(), np.eye(4))
+
+
+def test_ik_batch_equals_one_by_one(rng):
+    model = irb1600()
+    T = forward_kinematics(model, random_q(model, rng, 40))
+    batch = closed_form_ik(model, T)
+    for k in range(len(T)):
+        single = closed_form_ik(model, T[k:k + 1])
+        np.testing.assert_array_equal(single.q[0], batch.q[k])
+        np.testing.assert_array_equal(single.valid[0], batch.valid[k])

@@ -1,0 +1,189 @@
+"""`screwcal evaluate`: ISO 9283 pose accuracy and repeatability from a performance test file.
+
+    screwcal evaluate --data performance.csv --out report.json [--before before.csv]
+                      [--path line.csv [--path-before line0.csv]] [--plots DIR]
+
+`performance.csv` columns (any order, extra ignored): cycle, point, q1..q6, x_cmd, y_cmd, z_cmd,
+rx_cmd, ry_cmd, rz_cmd, x, y, z[, rx, ry, rz] — commanded and attained poses in mm and degrees.
+Every point needs >= 2 cycles, one row per (point, cycle), and one commanded pose.
+`line.csv` holds x, y, z (mm) of points measured along a commanded straight line (straightness).
+With `--before`, the report and plots compare the two (e.g. before and after calibration).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from screwcal.errors import DataFileError
+from screwcal.iso9283 import PoseMetrics, pose_metrics
+from screwcal.se3 import Array
+from screwcal.straightness import Straightness, straightness
+from screwcal.tables import joint_columns, read_numeric_csv
+
+CMD = ["x_cmd", "y_cmd", "z_cmd", "rx_cmd", "ry_cmd", "rz_cmd"]
+ATTAINED_POSITION = ["x", "y", "z"]
+ATTAINED_ORIENTATION = ["rx", "ry", "rz"]
+_CMD_TOL = 1e-3  # mm / deg: one commanded pose per point, as printed to 4 decimals
+
+
+@dataclass(frozen=True)
+class PointData:
+    label: str
+    cmd: Array  # (6,)
+    attained: Array  # (n, 3) or (n, 6)
+
+
+@dataclass(frozen=True)
+class PerformanceData:
+    path: str
+    points: tuple[PointData, ...]
+    full_pose: bool
+
+    @property
+    def commanded_mm(self) -> Array:
+        return np.vstack([np.tile(p.cmd[:3], (len(p.attained), 1)) for p in self.points])
+
+    @property
+    def attained_mm(self) -> Array:
+        return np.vstack([p.attained[:, :3] for p in self.points])
+
+
+def read_performance_csv(path: str | Path) -> PerformanceData:
+    """Read and check a performance test file (see the module docstring)."""
+    table = read_numeric_csv(path, ["cycle", *joint_columns(6), *CMD, *ATTAINED_POSITION],
+                             optional_groups=[ATTAINED_ORIENTATION], min_rows=2,
+                             text_columns=["point"])
+    full = all(c in table.columns for c in ATTAINED_ORIENTATION)
+    labels = table.text["point"]
+    cycles = table.column("cycle")
+    points = []
+    for label in dict.fromkeys(labels):  # first-seen order
+        rows = np.flatnonzero(np.array(labels) == label)
+        seen: dict[float, int] = {}
+        for r in rows:
+            if cycles[r] in seen:
+                raise DataFileError(table.path, f"point {label} has cycle {cycles[r]:g} twice "
+                                    f"(also line {table.lines[seen[cycles[r]]]})",
+                                    line=table.lines[r], column="cycle")
+            seen[cycles[r]] = r
+        if len(rows) < 2:
+            raise DataFileError(table.path, f"point {label} has {len(rows)} cycle; ISO 9283 "
+                                "repeatability needs at least 2", line=table.lines[rows[0]],
+                                column="point")
+        cmd = table.take(CMD)[rows]
+        moved = np.abs(cmd - cmd[0]).max(axis=1) > _CMD_TOL
+        if moved.any():
+            bad = rows[np.argmax(moved)]
+            raise DataFileError(table.path, f"point {label}'s commanded pose differs from its "
+                                f"first row (line {table.lines[rows[0]]})", line=table.lines[bad])
+        attained_cols = ATTAINED_POSITION + (ATTAINED_ORIENTATION if full else [])
+        points.append(PointData(label, cmd[0], table.take(attained_cols)[rows]))
+    return PerformanceData(table.path, tuple(points), full)
+
+
+def point_metrics(data: PerformanceData) -> dict[str, PoseMetrics]:
+    out = {}
+    for p in data.points:
+        if data.full_pose:
+            out[p.label] = pose_metrics(p.cmd[:3], p.attained[:, :3], p.cmd[3:], p.attained[:, 3:])
+        else:
+            out[p.label] = pose_metrics(p.cmd[:3], p.attained[:, :3])
+    return out
+
+
+def summarise(metrics: dict[str, PoseMetrics]) -> dict:
+    """Overall figures: mean and max over the points."""
+    ap = np.array([m.ap_mm for m in metrics.values()])
+    rp = np.array([m.rp_mm for m in metrics.values()])
+    out: dict = {"points": len(metrics), "ap_mm_mean": float(ap.mean()),
+                 "ap_mm_max": float(ap.max()), "rp_mm_mean": float(rp.mean()),
+                 "rp_mm_max": float(rp.max())}
+    if all(m.ap_abc_deg is not None for m in metrics.values()):
+        abc = np.abs(np.array([m.ap_abc_deg for m in metrics.values()]))
+        rpabc = np.array([m.rp_abc_deg for m in metrics.values()])
+        out |= {"ap_abc_deg_max_abs": abc.max(axis=0).tolist(),
+                "rp_abc_deg_max": rpabc.max(axis=0).tolist()}
+    return out
+
+
+def read_path_csv(path: str | Path) -> Array:
+    return read_numeric_csv(path, ATTAINED_POSITION, min_rows=3).take(ATTAINED_POSITION)
+
+
+def _section(data: PerformanceData, line: Straightness | None) -> dict:
+    metrics = point_metrics(data)
+    out = {"file": data.path, "measurement": "full pose" if data.full_pose else "position only",
+           "points": {k: m.to_dict() for k, m in metrics.items()},
+           "overall": summarise(metrics)}
+    if line is not None:
+        out["straightness"] = line.to_dict()
+    return out
+
+
+def build_report(after: PerformanceData, before: PerformanceData | None = None,
+                 line: Straightness | None = None, line_before: Straightness | None = None
+                 ) -> dict:
+    report = {
+        "standard": "ISO 9283:1998 pose accuracy (AP) and repeatability (RP); straightness by "
+                    "ISO 12780-1 least-squares line",
+        "units": {"length": "mm", "angle": "deg"},
+        "definitions": {
+            "ap_mm": "Eq. 2.5: distance from the commanded position to the mean attained one",
+            "rp_mm": "ISO 9283: mean(l) + 3 S_l, l = distance to the barycentre",
+            "rp_thesis_eq2_8_mm": "thesis Eq. 2.8: S_l alone (not the ISO figure)",
+            "ap_abc_deg": "Eq. 2.9: mean attained minus commanded rx, ry, rz",
+            "rp_abc_deg": "Eq. 2.10: 3 S of rx, ry, rz (the ISO figure is +-this)",
+            "straightness.peak_to_valley_mm": "peak + valley of signed deviations from the LS line",
+        },
+        "result": _section(after, line),
+    }
+    if before is not None:
+        report["before"] = _section(before, line_before)
+    return report
+
+
+def run(args: argparse.Namespace) -> int:
+    after = read_performance_csv(args.data)
+    before = read_performance_csv(args.before) if args.before else None
+    line = straightness(read_path_csv(args.path)) if args.path else None
+    line_before = straightness(read_path_csv(args.path_before)) if args.path_before else None
+    report = build_report(after, before, line, line_before)
+    if args.plots:
+        from screwcal import plots
+
+        folder = Path(args.plots)
+        folder.mkdir(parents=True, exist_ok=True)
+        results = {"after": point_metrics(after)} if before is None else \
+            {"before": point_metrics(before), "after": point_metrics(after)}
+        written = [plots.accuracy_per_point(results, folder / "accuracy_per_point.png"),
+                   plots.attained_vs_commanded(after.commanded_mm, after.attained_mm,
+                                               folder / "attained_vs_commanded.png")]
+        if line is not None:
+            lines = {"after": line} if line_before is None else {"before": line_before,
+                                                                 "after": line}
+            written.append(plots.straightness_along_path(lines, folder / "straightness.png"))
+        report["plots"] = [str(p) for p in written]
+    text = json.dumps(report, indent=2) + "\n"
+    Path(args.out).write_text(text, encoding="utf-8")
+    overall = report["result"]["overall"]
+    print(f"{overall['points']} points: AP mean {overall['ap_mm_mean']:.3f} mm, max "
+          f"{overall['ap_mm_max']:.3f} mm; RP max {overall['rp_mm_max']:.3f} mm -> {args.out}")
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("evaluate", help="ISO 9283 pose accuracy/repeatability and straightness",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", required=True, help="performance test CSV (see above)")
+    p.add_argument("--out", required=True, help="report JSON to write")
+    p.add_argument("--before", help="a second performance CSV to compare with (e.g. before)")
+    p.add_argument("--path", help="CSV of x, y, z measured along a straight line")
+    p.add_argument("--path-before", help="the same line measured before, for comparison")
+    p.add_argument("--plots", help="folder for PNG plots")
+    p.set_defaults(func=run)
+

@@ -1,0 +1,257 @@
+"""The ISO 9283 test cube, its inclined measuring plane, P1-P5, and the performance pose list.
+
+ISO 9283 (thesis 2.3.1, Fig. 13): a cube with edges parallel to the base axes, as large as the
+workspace allows; the measuring plane is the diagonal plane through the cube's lower front edge
+and upper back edge (inclined 45 deg). P1 is the cube's centre; P2-P5 lie on the plane's
+diagonals at 10 % of the diagonal's length from its corners. Each target is approached from the
+same direction: the robot first goes to a return point (the target plus `approach_mm`), then to
+the target (Fig. 13). One cycle visits P1, P5, P4, P3, P2 (ISO 9283's sequence); the default is 30
+cycles. Every pose has the same commanded orientation.
+
+A cube is feasible when every corner, target and return point has a closed-form IK solution on one
+branch (shoulder front, elbow up, no wrist flip) inside the joint limits less a margin, away from
+the wrist singularity, and — when a measuring arm is given — inside its sphere.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from screwcal.errors import ScrewcalError
+from screwcal.ik import BRANCHES, closed_form_ik
+from screwcal.model import SerialModel
+from screwcal.pose import transform_from_pose
+from screwcal.se3 import Array
+from screwcal.tables import write_csv_atomic
+
+CYCLE_ORDER = ("P1", "P5", "P4", "P3", "P2")
+DIAGONAL_FRACTION = 0.10
+_BRANCH = BRANCHES.index(("front", "up", "noflip"))
+FLANGE_DOWN_DEG = (0.0, 180.0, 0.0)
+
+
+class InfeasibleCubeError(ScrewcalError):
+    """No cube of the requested size fits the robot's workspace (and the arm's sphere)."""
+
+
+@dataclass(frozen=True)
+class ArmSphere:
+    """The measuring arm's reach: centre in the robot base frame (mm) and radius (mm)."""
+
+    centre_mm: tuple[float, float, float]
+    radius_mm: float = 1200.0
+
+
+@dataclass(frozen=True)
+class TestCube:
+    __test__ = False  # a test cube of ISO 9283, not a pytest test class
+    centre_mm: Array  # (3,)
+    edge_mm: float
+    orientation_deg: Array  # (3,) rx, ry, rz of every pose
+    approach_mm: Array  # (3,) return point = target + approach
+
+    @property
+    def corners_mm(self) -> Array:
+        """C1..C8, shape (8, 3): all sign combinations of +-edge/2 about the centre."""
+        h = self.edge_mm / 2
+        signs = np.array([[sx, sy, sz] for sz in (-1, 1) for sy in (-1, 1) for sx in (-1, 1)])
+        return self.centre_mm + h * signs
+
+    @property
+    def plane_corners_mm(self) -> Array:
+        """The inclined plane's corners (4, 3): lower front edge (x-, z-) then upper back edge
+        (x+, z+), in order around the rectangle."""
+        h = self.edge_mm / 2
+        s = np.array([[-1, -1, -1], [-1, 1, -1], [1, 1, 1], [1, -1, 1]], float)
+        return self.centre_mm + h * s
+
+    @property
+    def points_mm(self) -> dict[str, Array]:
+        """P1 (centre) and P2-P5 at 10 % of the diagonal from the plane's corners."""
+        c = self.centre_mm
+        out = {"P1": c.copy()}
+        for label, corner in zip(("P2", "P3", "P4", "P5"), self.plane_corners_mm, strict=True):
+            opposite = 2 * c - corner
+            out[label] = corner + DIAGONAL_FRACTION * (opposite - corner)
+        return out
+
+    def poses(self, positions_mm: ArrayLike) -> Array:
+        """Commanded poses (n, 6) at the given positions with the cube's orientation."""
+        p = np.atleast_2d(np.asarray(positions_mm, dtype=float))
+        return np.column_stack([p, np.tile(self.orientation_deg, (len(p), 1))])
+
+
+@dataclass(frozen=True)
+class PosePlan:
+    """One entry of a performance pose list."""
+
+    index: int
+    cycle: int
+    point: str
+    role: str  # "approach" (return point, not measured) or "target" (measured)
+    q_deg: tuple[float, ...]
+    pose_cmd: tuple[float, ...]  # x, y, z (mm), rx, ry, rz (deg)
+
+
+def _margins(model: SerialModel, poses: Array, wrist_margin_deg: float
+             ) -> tuple[Array, Array]:
+    """Joint solutions (..., k, 6) rad on the cube's branch, and the worst joint-limit margin in
+    deg over the k poses, for commanded poses (..., k, 6); -inf where a pose is unreachable or
+    too close to the wrist singularity."""
+    shape = poses.shape[:-1]
+    sol = closed_form_ik(model, transform_from_pose(poses.reshape(-1, 6)), require_all=False)
+    q = sol.q[:, _BRANCH]
+    lim = np.degrees(model.limits)
+    qd = np.degrees(np.nan_to_num(q))
+    margin = np.minimum(qd - lim[:, 0], lim[:, 1] - qd).min(axis=1)
+    bad = ~sol.reachable[:, _BRANCH] | (np.abs(qd[:, 4]) < wrist_margin_deg)
+    margin = np.where(bad, -np.inf, margin)
+    return q.reshape(*shape, 6), margin.reshape(shape).min(axis=-1)
+
+
+def _offsets(edge_mm: float, approach_mm: Array) -> Array:
+    """Every position that must be feasible, relative to the centre: corners, targets, returns."""
+    cube = TestCube(np.zeros(3), edge_mm, np.zeros(3), approach_mm)
+    targets = np.array(list(cube.points_mm.values()))
+    return np.vstack([cube.corners_mm, targets, targets + approach_mm])
+
+
+def find_test_cube(model: SerialModel, edge_mm: float | None = None, *,
+                   orientation_deg: Sequence[float] = FLANGE_DOWN_DEG,
+                   approach_mm: Sequence[float] = (0.0, 0.0, 50.0),
+                   arm: ArmSphere | None = None, floor_z_mm: float = 0.0,
+                   keepout_radius_mm: float = 300.0,
+                   margin_deg: float = 5.0, wrist_margin_deg: float = 10.0,
+                   grid_step_mm: float = 25.0) -> TestCube:
+    """The test cube: of the given edge, or (edge None) the largest feasible edge to 10 mm.
+
+    Centres are searched on a grid in the plane y = 0 in front of the robot (x > 0), with every
+    point above `floor_z_mm` and outside a cylinder of `keepout_radius_mm` about axis 1 (the
+    robot's own body: there is no collision model); among the feasible centres the one with the
+    largest joint-limit margin is kept.
+    """
+    orientation = np.asarray(orientation_deg, dtype=float)
+    approach = np.asarray(approach_mm, dtype=float)
+    reach = float(np.linalg.norm(model.home_flange[:3, 3])) + 200.0
+    xs = np.arange(grid_step_mm, reach, grid_step_mm)
+    zs = np.arange(floor_z_mm, reach + floor_z_mm, grid_step_mm)
+    centres = np.array([[x, 0.0, z] for x in xs for z in zs])
+
+    def best_for(edge: float) -> TestCube | None:
+        positions = centres[:, None, :] + _offsets(edge, approach)[None]  # (C, k, 3)
+        # The whole cube (not only its points) clears the floor and the robot's body.
+        lo, hi = centres - edge / 2, centres + edge / 2
+        gap = np.maximum(np.maximum(lo[:, :2], -hi[:, :2]), 0.0)  # to axis 1, per x and y
+        keep = (positions[..., 2] >= floor_z_mm).all(axis=1) & (lo[:, 2] >= floor_z_mm) & \
+            (np.hypot(gap[:, 0], gap[:, 1]) >= keepout_radius_mm)
+        if arm is not None:
+            dist = np.linalg.norm(positions - np.asarray(arm.centre_mm), axis=2)
+            keep &= (dist <= arm.radius_mm).all(axis=1)
+        if not keep.any():
+            return None
+        kept = positions[keep]
+        poses = np.concatenate([kept, np.broadcast_to(orientation, kept.shape)], axis=-1)
+        _, margin = _margins(model, poses, wrist_margin_deg)
+        if margin.max() < margin_deg:
+            return None
+        return TestCube(centres[keep][int(np.argmax(margin))], edge, orientation, approach)
+
+    if edge_mm is not None:
+        cube = best_for(float(edge_mm))
+        if cube is None:
+            where = " inside the measuring arm's sphere" if arm else ""
+            raise InfeasibleCubeError(
+                f"no {edge_mm:g} mm cube with orientation {orientation.tolist()} deg fits model "
+                f"'{model.name}' above z = {floor_z_mm:g} mm{where}; try a smaller edge")
+        return cube
+    lo, hi, found = 10.0, 2.0 * reach, None
+    while hi - lo > 10.0:
+        mid = (lo + hi) / 2
+        cube = best_for(mid)
+        lo, hi, found = (mid, hi, cube) if cube is not None else (lo, mid, found)
+    if found is None:
+        raise InfeasibleCubeError(f"no test cube fits model '{model.name}' with these settings")
+    return found
+
+
+def performance_pose_list(model: SerialModel, cube: TestCube, cycles: int = 30
+                          ) -> list[PosePlan]:
+    """The PERF list: per cycle, for each of P1, P5, P4, P3, P2 a return point then the target,
+    as joint targets (deg) on one IK branch, all inside the joint limits."""
+    if cycles < 1:
+        raise ScrewcalError(f"cycles must be at least 1; got {cycles}")
+    pts = cube.points_mm
+    order = [(label, role) for label in CYCLE_ORDER for role in ("approach", "target")]
+    positions = np.array([pts[label] + (cube.approach_mm if role == "approach" else 0.0)
+                          for label, role in order])
+    poses = cube.poses(positions)
+    q, margin = _margins(model, poses, 0.0)
+    if margin < 0:
+        raise InfeasibleCubeError(f"the cube's poses are not all reachable inside the limits of "
+                                  f"model '{model.name}' on one IK branch")
+    model.check_limits(q, "performance pose")
+    q_deg = np.degrees(q)
+    plans = []
+    for cycle in range(1, cycles + 1):
+        for k, (label, role) in enumerate(order):
+            plans.append(PosePlan(index=len(plans), cycle=cycle, point=label, role=role,
+                                  q_deg=tuple(float(v) for v in q_deg[k]),
+                                  pose_cmd=tuple(float(v) for v in poses[k])))
+    return plans
+
+
+POSE_LIST_COLUMNS = ("index", "cycle", "point", "role", "q1", "q2", "q3", "q4", "q5", "q6",
+                     "x_cmd", "y_cmd", "z_cmd", "rx_cmd", "ry_cmd", "rz_cmd")
+
+
+def write_pose_list(path: str, plans: Sequence[PosePlan]) -> None:
+    """The pose list as CSV (joint targets in deg, commanded pose in mm/deg)."""
+    write_csv_atomic(path, POSE_LIST_COLUMNS,
+                     ([p.index, p.cycle, p.point, p.role, *(f"{v:.4f}" for v in p.q_deg),
+                       *(f"{v:.4f}" for v in p.pose_cmd)] for p in plans))
+
+
+def run(args: argparse.Namespace) -> int:
+    from screwcal import plots
+    from screwcal.modelfile import resolve_model
+
+    model = resolve_model(args.robot)
+    arm = ArmSphere(tuple(args.arm_centre), args.arm_radius) if args.arm_centre else None
+    cube = find_test_cube(model, args.edge_mm, orientation_deg=args.orientation,
+                          approach_mm=args.approach, arm=arm, floor_z_mm=args.floor_z)
+    plans = performance_pose_list(model, cube, args.cycles)
+    write_pose_list(args.out, plans)
+    c = cube.centre_mm
+    print(f"cube edge {cube.edge_mm:.1f} mm, centre ({c[0]:.1f}, {c[1]:.1f}, {c[2]:.1f}) mm; "
+          f"{len(plans)} poses ({args.cycles} cycles x 5 points x return + target) -> {args.out}")
+    for label, p in cube.points_mm.items():
+        print(f"  {label}: ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) mm")
+    if args.plot:
+        q_p1 = np.radians(next(p.q_deg for p in plans if p.point == "P1" and p.role == "target"))
+        print(f"  plot -> {plots.test_cube(model, cube, q_p1, args.plot, arm)}")
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("testcube", help="ISO 9283 test cube and the performance pose list",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--robot", required=True, help="built-in robot or model file")
+    p.add_argument("--out", required=True, help="pose list CSV to write")
+    p.add_argument("--edge-mm", type=float, default=None,
+                   help="cube edge (default: the largest that fits)")
+    p.add_argument("--cycles", type=int, default=30, help="measuring cycles (default 30)")
+    p.add_argument("--orientation", type=float, nargs=3, default=list(FLANGE_DOWN_DEG),
+                   metavar=("RX", "RY", "RZ"), help="tool orientation, deg (default flange down)")
+    p.add_argument("--approach", type=float, nargs=3, default=[0.0, 0.0, 50.0],
+                   metavar=("DX", "DY", "DZ"), help="return point offset, mm (default 0 0 50)")
+    p.add_argument("--arm-centre", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="measuring arm base in the robot frame, mm: keep the cube in its reach")
+    p.add_argument("--arm-radius", type=float, default=1200.0, help="arm reach, mm")
+    p.add_argument("--floor-z", type=float, default=0.0, help="lowest allowed z, mm")
+    p.add_argument("--plot", help="PNG of the cube, plane, points and robot")
+    p.set_defaults(func=run)
