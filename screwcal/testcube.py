@@ -127,13 +127,15 @@ def find_test_cube(model: SerialModel, edge_mm: float | None = None, *,
                    arm: ArmSphere | None = None, floor_z_mm: float = 0.0,
                    keepout_radius_mm: float = 300.0,
                    margin_deg: float = 5.0, wrist_margin_deg: float = 10.0,
-                   grid_step_mm: float = 25.0) -> TestCube:
+                   grid_step_mm: float = 25.0, centre_mm: Sequence[float] | None = None
+                   ) -> TestCube:
     """The test cube: of the given edge, or (edge None) the largest feasible edge to 10 mm.
 
     Centres are searched on a grid in the plane y = 0 in front of the robot (x > 0), with every
     point above `floor_z_mm` and outside a cylinder of `keepout_radius_mm` about axis 1 (the
     robot's own body: there is no collision model); among the feasible centres the one with the
-    largest joint-limit margin is kept.
+    largest joint-limit margin is kept. With `centre_mm` (and an edge), that one cube is checked
+    instead of searched for.
     """
     orientation = np.asarray(orientation_deg, dtype=float)
     approach = np.asarray(approach_mm, dtype=float)
@@ -141,6 +143,10 @@ def find_test_cube(model: SerialModel, edge_mm: float | None = None, *,
     xs = np.arange(grid_step_mm, reach, grid_step_mm)
     zs = np.arange(floor_z_mm, reach + floor_z_mm, grid_step_mm)
     centres = np.array([[x, 0.0, z] for x in xs for z in zs])
+    if centre_mm is not None:
+        if edge_mm is None:
+            raise ScrewcalError("a given cube centre needs its edge length too")
+        centres = np.asarray(centre_mm, dtype=float).reshape(1, 3)
 
     def best_for(edge: float) -> TestCube | None:
         positions = centres[:, None, :] + _offsets(edge, approach)[None]  # (C, k, 3)
@@ -223,7 +229,8 @@ def run(args: argparse.Namespace) -> int:
     model = resolve_model(args.robot)
     arm = ArmSphere(tuple(args.arm_centre), args.arm_radius) if args.arm_centre else None
     cube = find_test_cube(model, args.edge_mm, orientation_deg=args.orientation,
-                          approach_mm=args.approach, arm=arm, floor_z_mm=args.floor_z)
+                          approach_mm=args.approach, arm=arm, floor_z_mm=args.floor_z,
+                          centre_mm=args.centre)
     plans = performance_pose_list(model, cube, args.cycles)
     write_pose_list(args.out, plans)
     c = cube.centre_mm
@@ -244,6 +251,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="pose list CSV to write")
     p.add_argument("--edge-mm", type=float, default=None,
                    help="cube edge (default: the largest that fits)")
+    p.add_argument("--centre", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="use the cube with this centre (mm, robot base frame; needs --edge-mm)")
     p.add_argument("--cycles", type=int, default=30, help="measuring cycles (default 30)")
     p.add_argument("--orientation", type=float, nargs=3, default=list(FLANGE_DOWN_DEG),
                    metavar=("RX", "RY", "RZ"), help="tool orientation, deg (default flange down)")

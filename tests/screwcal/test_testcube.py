@@ -62,6 +62,13 @@ def test_every_cube_point_is_reachable(plan):
     assert sol.valid.any(axis=1).all()
 
 
+def test_a_given_cube_is_checked_not_searched():
+    cube = find_test_cube(irb1600(), 300.0, centre_mm=(800.0, 100.0, 500.0))
+    np.testing.assert_allclose(cube.centre_mm, [800, 100, 500])
+    with pytest.raises(InfeasibleCubeError):
+        find_test_cube(irb1600(), 300.0, centre_mm=(100.0, 0.0, 500.0))  # inside the robot
+
+
 def test_impossible_cube_is_refused():
     with pytest.raises(InfeasibleCubeError, match="try a smaller edge"):
         find_test_cube(irb1600(), 3000.0)
