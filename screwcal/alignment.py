@@ -1,0 +1,47 @@
+"""Initial guesses of the unknown frames: the measuring system's frame (base) and the measured
+point's offset from the flange (tool), from nominal kinematics and measured positions.
+
+Alternates a weighted Kabsch fit of the base (scipy's Rotation.align_vectors) with the linear
+least-squares tool offset, which converges in a few rounds when the robot's own errors are
+small next to the frames' (as they are: millimetres against metres).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from screwcal.kinematics import flange_kinematics
+from screwcal.model import SerialModel
+from screwcal.se3 import Array, transform_from_rotation_translation
+
+
+def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: Array | None = None,
+                 *, fit_tool: bool = True, rounds: int = 20) -> tuple[Array, Array]:
+    """(base (4, 4), tool (4, 4)) so that base . flange(q) . tool best matches the measured
+    points; with rotations (full pose) the tool's rotation is fitted too."""
+    F = flange_kinematics(model, q)
+    R_f, p_f = F[:, :3, :3], F[:, :3, 3]
+    t_tool = np.zeros(3)
+    R_b, t_b = np.eye(3), np.zeros(3)
+    for _ in range(rounds):
+        pts = p_f + R_f @ t_tool
+        c_m, c_n = positions_mm.mean(axis=0), pts.mean(axis=0)
+        rot, _ = Rotation.align_vectors(positions_mm - c_m, pts - c_n)
+        R_b = rot.as_matrix()
+        t_b = c_m - R_b @ c_n
+        if not fit_tool:
+            break
+        # measured = R_b (p_f + R_f t) + t_b  ->  R_f t = R_b^T (measured - t_b) - p_f
+        rhs = (positions_mm - t_b) @ R_b - p_f
+        new = np.linalg.lstsq(R_f.reshape(-1, 3), rhs.reshape(-1), rcond=None)[0]
+        if np.linalg.norm(new - t_tool) < 1e-9:
+            t_tool = new
+            break
+        t_tool = new
+    R_tool = np.eye(3)
+    if rotations is not None and fit_tool:
+        # R_meas = R_b R_f R_tool: average R_tool over poses.
+        R_tool = Rotation.from_matrix(np.swapaxes(R_f, 1, 2) @ R_b.T @ rotations).mean().as_matrix()
+    return (transform_from_rotation_translation(R_b, t_b),
+            transform_from_rotation_translation(R_tool, t_tool))

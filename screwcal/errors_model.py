@@ -1,0 +1,248 @@
+"""Error models: which geometric parameters are identified, their names, units and Jacobians.
+
+A parameter vector x (numeric units: rad, mm) applies to a reference model by `apply`, and
+`jacobian` gives d(tool twist)/dx, spatial, exactly (not only at x = 0), so that scipy's
+least_squares gets the true Jacobian of the residuals at every step.
+
+Candidates, per model kind (thesis 2.2.1.2, 3.1, Table 11; Eq. 2.2):
+
+- "joints": the joint offsets J<i> (what a closed controller can correct, thesis Table 9).
+- "thesis": the joint offsets and the link offsets J1pz, J1px, J2pz, J4px (virtual prismatic
+  joints after joint i along the home-frame axis, `virtual_joints`).
+- "full": per revolute joint its direction (2 angles about the two normals of the nominal
+  axis), its location (2 shifts along those normals) and its zero; per prismatic joint its
+  direction; plus the home flange (3 rotations, 3 translations). The identification keeps an
+  independent subset (rank-revealing QR): 4r + 2p + 6 = 30 for a 6R arm with full-pose data
+  (Eq. 2.2).
+
+Frames, in every model: the measuring system's frame (`base`: rotation vector and translation
+relative to the starting guess) and the measured point's frame on the flange (`tool`), each
+identified or known. For position data the tool rotation is not observable; for distance data
+the base is not.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.spatial.transform import Rotation
+
+from screwcal.errors import ModelError
+from screwcal.kinematics import _chain, _check_q, _joint_twist, _to_homogeneous
+from screwcal.model import SerialModel
+from screwcal.se3 import Array, adjoint, skew, transform_from_rotation_translation
+from screwcal.virtual_joints import apply_virtual_joints, parse_name
+
+ModelKind = Literal["joints", "thesis", "full"]
+THESIS_LINK_OFFSETS = ("J1pz", "J1px", "J2pz", "J4px")
+
+
+@dataclass(frozen=True)
+class Param:
+    """One identifiable parameter. `kind` says how it acts; `index` the joint (0-based) or axis."""
+
+    name: str
+    unit: str  # "deg" or "mm" at the interface; values inside are rad or mm
+    kind: str  # zero | link | dir | point | home_rot | home_pos | base_rot | base_pos |
+    # tool_rot | tool_pos
+    joint: int = -1
+    axis: int = -1  # 0..2 for frames and link offsets, 0..1 for dir/point normals
+
+    @property
+    def is_angle(self) -> bool:
+        return self.unit == "deg"
+
+    @property
+    def group(self) -> str:
+        """"robot" for the robot's own geometry, "base"/"tool" for the frames."""
+        return self.kind.split("_")[0] if self.kind.startswith(("base", "tool")) else "robot"
+
+
+def _normals(w: Array) -> tuple[Array, Array]:
+    """Two unit normals of an axis direction, fixed by the direction alone."""
+    helper = np.array([1.0, 0, 0]) if abs(w[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(w, helper)
+    u /= np.linalg.norm(u)
+    return u, np.cross(w, u)
+
+
+def _frame_params(frame: str, rotation: bool, position: bool) -> list[Param]:
+    out = []
+    if rotation:
+        out += [Param(f"{frame}.r{c}", "deg", f"{frame}_rot", axis=k) for k, c in enumerate("xyz")]
+    if position:
+        out += [Param(f"{frame}.{c}", "mm", f"{frame}_pos", axis=k) for k, c in enumerate("xyz")]
+    return out
+
+
+def candidate_params(model: SerialModel, kind: ModelKind, *, base: bool, tool_rotation: bool,
+                     tool_position: bool) -> list[Param]:
+    """Every candidate parameter of an error model, frames first (they are always needed)."""
+    params = _frame_params("base", base, base)
+    params += _frame_params("tool", tool_rotation, tool_position)
+    n = model.n_joints
+    zeros = [Param(f"J{i + 1}", "deg" if model.joint_types[i] == "R" else "mm", "zero", joint=i)
+             for i in range(n)]
+    if kind == "joints":
+        return params + zeros
+    if kind == "thesis":
+        if n != 6:
+            raise ModelError("the thesis error model is defined for 6-joint arms")
+        links = []
+        for name in THESIS_LINK_OFFSETS:
+            j, _, axis = parse_name(name)
+            links.append(Param(name, "mm", "link", joint=j, axis=axis))
+        return params + zeros + links
+    robot: list[Param] = []
+    for i in range(n):
+        robot += [Param(f"J{i + 1}.dir.{c}", "deg", "dir", joint=i, axis=k)
+                  for k, c in enumerate("uv")]
+        if model.joint_types[i] == "R":
+            robot += [Param(f"J{i + 1}.pos.{c}", "mm", "point", joint=i, axis=k)
+                      for k, c in enumerate("uv")]
+        robot.append(zeros[i])
+    robot += _frame_params("home", True, True)
+    return params + robot
+
+
+def _rot_jacobian_left(phi: Array) -> Array:
+    """Left Jacobian of SO(3): exp(phi + d) = exp(J_l(phi) d) exp(phi) to first order."""
+    theta = float(np.linalg.norm(phi))
+    K = skew(phi)
+    if theta < 1e-8:
+        return np.eye(3) + 0.5 * K
+    return (np.eye(3) + (1 - np.cos(theta)) / theta**2 * K
+            + (theta - np.sin(theta)) / theta**3 * K @ K)
+
+
+def _rot_jacobian_right(phi: Array) -> Array:
+    """Right Jacobian of SO(3): exp(phi + d) = exp(phi) exp(J_r(phi) d)."""
+    return _rot_jacobian_left(-phi)
+
+
+@dataclass(frozen=True)
+class ErrorModel:
+    """A reference model and the parameters identified on it."""
+
+    reference: SerialModel
+    params: tuple[Param, ...]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.params)
+
+    def subset(self, keep: Sequence[int]) -> ErrorModel:
+        return ErrorModel(self.reference, tuple(self.params[k] for k in keep))
+
+    def to_interface(self, x: ArrayLike) -> Array:
+        """Numeric values (rad, mm) -> interface units (deg, mm)."""
+        x = np.asarray(x, dtype=float)
+        return np.where([p.is_angle for p in self.params], np.degrees(x), x)
+
+    def from_interface(self, values: ArrayLike) -> Array:
+        v = np.asarray(values, dtype=float)
+        return np.where([p.is_angle for p in self.params], np.radians(v), v)
+
+    # -- applying x ------------------------------------------------------------------------
+    def _collect(self, x: Array) -> dict:
+        m = self.reference
+        n = m.n_joints
+        out = {"zero": np.zeros(n), "link": {}, "dir": np.zeros((n, 2)), "point": np.zeros((n, 2)),
+               "home_rot": np.zeros(3), "home_pos": np.zeros(3), "base_rot": np.zeros(3),
+               "base_pos": np.zeros(3), "tool_rot": np.zeros(3), "tool_pos": np.zeros(3)}
+        for p, v in zip(self.params, x, strict=True):
+            if p.kind == "zero":
+                out["zero"][p.joint] += v
+            elif p.kind == "link":
+                out["link"][p.name] = v
+            elif p.kind in ("dir", "point"):
+                out[p.kind][p.joint, p.axis] += v
+            else:
+                out[p.kind][p.axis] += v
+        return out
+
+    def apply(self, x: ArrayLike) -> SerialModel:
+        """The model with the parameter values x (numeric units) applied to the reference."""
+        x = np.asarray(x, dtype=float)
+        m = self.reference
+        c = self._collect(x)
+        if c["link"]:
+            m = apply_virtual_joints(m, c["link"])
+        dirs = m.axis_dirs.copy()
+        points = m.axis_points_mm.copy()
+        for i in range(m.n_joints):
+            u, v = _normals(self.reference.axis_dirs[i])
+            if c["dir"][i].any():
+                d = dirs[i] + c["dir"][i, 0] * u + c["dir"][i, 1] * v
+                dirs[i] = d / np.linalg.norm(d)
+            points[i] = points[i] + c["point"][i, 0] * u + c["point"][i, 1] * v
+
+        def framed(T0: Array, rot: Array, pos: Array) -> Array:
+            R = Rotation.from_rotvec(rot).as_matrix() @ T0[:3, :3]
+            return transform_from_rotation_translation(R, T0[:3, 3] + pos)
+
+        return replace(m, axis_dirs=dirs, axis_points_mm=points,
+                       joint_zero=m.joint_zero + c["zero"],
+                       home_flange=framed(m.home_flange, c["home_rot"], c["home_pos"]),
+                       base=framed(m.base, c["base_rot"], c["base_pos"]),
+                       tool=framed(m.tool, c["tool_rot"], c["tool_pos"]))
+
+    # -- the Jacobian ----------------------------------------------------------------------
+    def jacobian(self, x: ArrayLike, q: ArrayLike) -> tuple[Array, Array]:
+        """Tool poses (N, 4, 4) and d(spatial tool twist)/dx (N, 6, P), exact at x."""
+        x = np.asarray(x, dtype=float)
+        model = self.apply(x)
+        q = _check_q(model, q)
+        c = self._collect(x)
+        A_end, partial = _chain(model, q, keep=True)
+        T = _to_homogeneous((A_end.reshape(-1, 4) @ (model.home_flange @ model.tool))
+                            .reshape(-1, 3, 4))
+        ad_cache: dict[int, Array] = {}
+
+        def ad(k: int) -> Array:
+            if k not in ad_cache:
+                ad_cache[k] = adjoint(partial[k])
+            return ad_cache[k]
+
+        N = q.shape[0]
+        J = np.zeros((N, 6, len(self.params)))
+        for col, p in enumerate(self.params):
+            if p.kind == "zero":
+                J[:, :, col] = _joint_twist(model, p.joint, partial[p.joint])
+            elif p.kind == "link":  # a translation of the chain after joint `joint`
+                J[:, :, col] = ad(p.joint + 1)[:, :, 3 + p.axis]
+            elif p.kind in ("dir", "point"):
+                i = p.joint
+                w, pt = model.axis_dirs[i], model.axis_points_mm[i]
+                u, v = _normals(self.reference.axis_dirs[i])
+                e = (u, v)[p.axis]
+                D = ad(i) - ad(i + 1)  # effect of a displacement of axis i
+                if p.kind == "dir":
+                    raw = self.reference.axis_dirs[i] + c["dir"][i, 0] * u + c["dir"][i, 1] * v
+                    dw = (e - np.dot(e, w) * w) / np.linalg.norm(raw)  # d normalize(raw)/d x
+                    a = np.cross(w, dw)
+                    J[:, :, col] = D @ np.r_[a, np.cross(pt, a)]
+                else:
+                    J[:, :, col] = D @ np.r_[np.zeros(3), e]
+            else:
+                frame, what = p.kind.split("_")
+                T0 = {"home": model.home_flange, "base": model.base, "tool": model.tool}[frame]
+                e = np.eye(3)[p.axis]
+                if what == "rot":
+                    w = _rot_jacobian_left(c[p.kind]) @ e
+                    local = np.r_[w, np.cross(T0[:3, 3], w)]  # rotation about the frame origin
+                else:
+                    local = np.r_[np.zeros(3), e]
+                if frame == "base":
+                    J[:, :, col] = local
+                elif frame == "home":
+                    J[:, :, col] = ad(model.n_joints) @ local
+                else:  # tool: expressed in the flange frame, carried by the flange pose
+                    Y = _to_homogeneous((A_end.reshape(-1, 4) @ model.home_flange)
+                                        .reshape(-1, 3, 4))
+                    J[:, :, col] = adjoint(Y) @ local
+        return T, J

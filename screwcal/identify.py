@@ -1,0 +1,358 @@
+"""Parameter identification (thesis 2.2.3, Eq. 2.4): Levenberg-Marquardt and Differential
+Evolution on an error model, with an honest account of what the data can tell.
+
+Residuals per pose, model minus measured: position (mm), then for full-pose data the rotation
+vector of R_model R_meas^T; or, for "distance" data (thesis Appendix D), the differences of all
+pairwise distances between measured points, which need no base alignment.
+
+Weighting:
+- "statistical" (default): each pose's residual is whitened by its covariance, the measuring
+  noise plus the random joint error carried through the joint Jacobian,
+  S_i = s_m^2 I + J_q,i S_q J_q,i^T (uniform +-a joint error: s_q = a / sqrt 3). Standard errors
+  then come from (J^T J)^-1 of the whitened Jacobian: the Cramer-Rao bound of this noise model.
+- "eq2.4": the thesis's objective, (1/W^2) sum |e_pos|^2 + sum |e_rot|^2, with the rotation
+  errors in degrees (the thesis gives no unit; in degrees W = 1 mm/deg balances the two, which is
+  what its Figs. 20-21 found best). Standard errors are scaled by the residual variance.
+
+Identifiability: the weighted Jacobian of every candidate parameter at the start is factorised
+by QR with column pivoting (frames and the model's preferred parameters first); the parameters
+outside the numerical rank are held at their starting value and reported with the kept
+parameters they cannot be told from. Nothing is "solved" that the data cannot determine.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import scipy.linalg
+from scipy.optimize import differential_evolution, least_squares
+from scipy.spatial.transform import Rotation
+
+from screwcal.alignment import align_frames
+from screwcal.errors import ScrewcalError
+from screwcal.errors_model import ErrorModel, ModelKind, Param, candidate_params
+from screwcal.kinematics import point_jacobian, spatial_jacobian
+from screwcal.measurements import MeasurementSet
+from screwcal.model import SerialModel
+from screwcal.se3 import Array
+
+Residual = Literal["pose", "position", "distance"]
+Frames = Literal["unknown", "known"]
+RANK_TOL = 1e-7  # relative to the largest singular value of the column-scaled Jacobian
+
+
+class IdentificationError(ScrewcalError):
+    """The identification cannot run on these data (too few poses, nothing identifiable)."""
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Stated noise: measuring system (mm, 1 sigma), flange-derived orientation (deg, 1 sigma),
+    random joint error (deg, uniform +-)."""
+
+    position_mm: float = 0.013
+    orientation_deg: float = 0.013 / 50.0 * np.sqrt(2) * 180 / np.pi  # holes ~50 mm apart
+    joint_deg: float = 0.05
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    model: SerialModel  # the calibrated model (base and tool included)
+    start_model: SerialModel  # the nominal model with the starting frames
+    params: tuple[Param, ...]  # identified
+    values: Array  # interface units (deg, mm), relative to the start
+    std_errors: Array
+    correlation: Array
+    removed: tuple[tuple[str, str], ...]  # (name, why)
+    unidentifiable_combinations: tuple[str, ...]
+    residual_kind: str
+    weighting: str
+    solver: str
+    rank: int
+    n_candidates: int
+    condition_number: float
+    o1: float  # Borm-Menq O1 of the column-scaled weighted Jacobian
+    min_singular_value: float
+    chi2_reduced: float
+    converged: bool
+    message: str
+    n_evaluations: int
+    seconds: float
+    residuals_before: Array  # (N,) position error norm per pose, mm (pairs for distances)
+    residuals_after: Array
+    rotation_before_deg: Array | None = None
+    rotation_after_deg: Array | None = None
+    degenerate: bool = False
+    covariance: Array = field(default_factory=lambda: np.zeros((0, 0)))  # numeric units
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.params)
+
+    def value(self, name: str) -> float:
+        return float(self.values[self.names.index(name)])
+
+
+# ----------------------------------------------------------------------------------------------
+# Residuals
+
+def _pairs(n: int) -> tuple[Array, Array]:
+    i, j = np.triu_indices(n, k=1)
+    return i, j
+
+
+class _Problem:
+    """Residuals and Jacobian of one identification, pure functions of x."""
+
+    def __init__(self, errors: ErrorModel, data: MeasurementSet, residual: Residual,
+                 weighting: str, weight_mm: float, noise: NoiseModel):
+        self.errors = errors
+        self.data = data
+        self.residual = residual
+        self.rows = 6 if residual == "pose" else 3
+        self._whiten = self._weights(weighting, weight_mm, noise)
+
+    def _weights(self, weighting: str, weight_mm: float, noise: NoiseModel) -> Array:
+        """Per-pose whitening matrices (N, k, k), or per-pair weights (P,) for distances."""
+        data, k = self.data, self.rows
+        N = len(data)
+        if weighting == "eq2.4":
+            w = np.r_[np.full(3, 1.0 / weight_mm), np.full(3, 180.0 / np.pi)][:k]
+            W = np.broadcast_to(np.diag(w), (N, k, k)).copy()
+            return W if self.residual != "distance" else np.full(len(_pairs(N)[0]), w[0])
+        model = self.errors.apply(np.zeros(len(self.errors.params)))
+        T = _fk(model, data.q)
+        Jq = point_jacobian(spatial_jacobian(model, data.q), T)[:, :k, :]
+        s_q = np.radians(noise.joint_deg) / np.sqrt(3.0)
+        s_m = np.r_[np.full(3, noise.position_mm), np.full(3, np.radians(noise.orientation_deg))]
+        cov = np.einsum("nij,nkj->nik", Jq, Jq) * s_q**2 + np.diag(s_m[:k] ** 2)
+        if self.residual == "distance":
+            i, j = _pairs(N)
+            u = data.positions_mm[i] - data.positions_mm[j]
+            u /= np.linalg.norm(u, axis=1, keepdims=True)
+            var = np.einsum("pi,pij,pj->p", u, cov[i] + cov[j], u)
+            return 1.0 / np.sqrt(var)
+        L = np.linalg.cholesky(cov)
+        return np.linalg.inv(L)
+
+    def raw(self, x: Array) -> tuple[Array, Array]:
+        """Unweighted residuals (N, k) or (P,) and their Jacobian (N, k, p) or (P, p)."""
+        T, Js = self.errors.jacobian(x, self.data.q)
+        J = point_jacobian(Js, T)
+        dp = T[:, :3, 3] - self.data.positions_mm
+        if self.residual == "distance":
+            i, j = _pairs(len(self.data))
+            d_model = T[i, :3, 3] - T[j, :3, 3]
+            d_meas = self.data.positions_mm[i] - self.data.positions_mm[j]
+            n_model = np.linalg.norm(d_model, axis=1)
+            r = n_model - np.linalg.norm(d_meas, axis=1)
+            u = d_model / n_model[:, None]
+            return r, np.einsum("pi,pij->pj", u, J[i, :3] - J[j, :3])
+        if self.residual == "position":
+            return dp, J[:, :3]
+        dR = T[:, :3, :3] @ np.swapaxes(self.data.rotations, 1, 2)
+        rot = Rotation.from_matrix(dR).as_rotvec()
+        return np.concatenate([dp, rot], axis=1), J
+        # (d rotvec / d omega is the identity to first order: the residual rotations are small)
+
+    def weighted(self, x: Array) -> tuple[Array, Array]:
+        r, J = self.raw(x)
+        if self.residual == "distance":
+            return r * self._whiten, J * self._whiten[:, None]
+        rw = np.einsum("nij,nj->ni", self._whiten, r).reshape(-1)
+        Jw = np.einsum("nij,njp->nip", self._whiten, J).reshape(-1, J.shape[-1])
+        return rw, Jw
+
+    def cost(self, x: Array) -> float:
+        r, _ = self.weighted(x)
+        return float(r @ r)
+
+
+def _fk(model: SerialModel, q: Array) -> Array:
+    from screwcal.kinematics import forward_kinematics
+
+    return forward_kinematics(model, q)
+
+
+# ----------------------------------------------------------------------------------------------
+# Identifiability
+
+def _select(J: Array, priority: Array) -> tuple[Array, int, Array]:
+    """Kept column indices (in candidate order), the rank, and the column norms. Columns of
+    higher `priority` (0, 1, 2) are taken first wherever they are independent."""
+    norms = np.linalg.norm(J, axis=0)
+    live = norms > 1e-12 * max(norms.max(), 1e-300)
+    Js = np.where(live, J / np.where(live, norms, 1.0), 0.0)
+    s = np.linalg.svd(Js, compute_uv=False)
+    rank = int(np.sum(s > RANK_TOL * s[0]))
+    order_weight = np.where(live, 1e4 ** np.asarray(priority, float), 0.0)
+    _, _, piv = scipy.linalg.qr(Js * order_weight, mode="economic", pivoting=True)
+    keep = np.sort(piv[:rank])
+    return keep, rank, norms
+
+
+def _why_removed(J: Array, keep: Array, removed: Array, names: list[str], norms: Array
+                 ) -> list[tuple[str, str]]:
+    out = []
+    Js = J / np.where(norms > 0, norms, 1.0)
+    for r in removed:
+        if norms[r] <= 1e-12 * max(norms.max(), 1e-300):
+            out.append((names[r], "has no effect on these measurements"))
+            continue
+        coef, *_ = np.linalg.lstsq(Js[:, keep], Js[:, r], rcond=None)
+        top = np.argsort(-np.abs(coef))[:3]
+        terms = " ".join(f"{coef[t]:+.3g} {names[keep[t]]}" for t in top if abs(coef[t]) > 1e-3)
+        out.append((names[r], f"not separable from {terms} (scaled columns)"))
+    return out
+
+
+def _null_combinations(J: Array, names: list[str]) -> list[str]:
+    norms = np.linalg.norm(J, axis=0)
+    Js = J / np.where(norms > 0, norms, 1.0)
+    _, s, Vt = np.linalg.svd(Js, full_matrices=False)
+    out = []
+    for k in np.flatnonzero(s < RANK_TOL * s[0]):
+        v = Vt[k]
+        top = np.argsort(-np.abs(v))[:4]
+        out.append(" ".join(f"{v[t]:+.2f} {names[t]}" for t in top if abs(v[t]) > 0.05))
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# The identification
+
+def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "full",
+             residual: Residual | None = None, frames: Frames = "unknown",
+             solver: Literal["lm", "de"] = "lm", weighting: str = "statistical",
+             weight_mm: float = 1.0, noise: NoiseModel | None = None,
+             de_link_bounds_mm: tuple[float, float] = (0.0, 1.0), seed: int = 0
+             ) -> CalibrationResult:
+    """Identify the error model `kind` of `nominal` from measured data."""
+    started = time.perf_counter()
+    noise = noise or NoiseModel()
+    residual = residual or ("pose" if data.full_pose else "position")
+    if residual == "pose" and not data.full_pose:
+        raise IdentificationError("pose residuals need orientations: the data are positions only")
+    if weighting not in ("statistical", "eq2.4"):
+        raise IdentificationError(f"weighting is 'statistical' or 'eq2.4', not '{weighting}'")
+    start = nominal
+    if frames == "unknown":
+        base, tool = align_frames(nominal, data.q, data.positions_mm,
+                                  data.rotations if residual == "pose" else None)
+        start = nominal.with_frames(base, tool)
+    unknown = frames == "unknown"
+    cands = candidate_params(start, kind, base=unknown and residual != "distance",
+                             tool_rotation=unknown and residual == "pose",
+                             tool_position=unknown)
+    errors_all = ErrorModel(start, tuple(cands))
+    problem_all = _Problem(errors_all, data, residual, weighting, weight_mm, noise)
+    r0, J0 = problem_all.weighted(np.zeros(len(cands)))
+    # The frames are unknown whatever the robot: take them first, then the model's own
+    # parameters (joint and link offsets: what a controller can correct), then axis terms.
+    priority = np.array([2 if p.group != "robot" else 1 if p.kind in ("zero", "link") else 0
+                         for p in cands])
+    keep, rank, norms = _select(J0, priority)
+    if rank == 0:
+        raise IdentificationError("no parameter has any effect on these measurements")
+    m = len(r0)
+    if m < rank:
+        raise IdentificationError(f"{len(data)} poses give {m} equations for {rank} identifiable "
+                                  "parameters: measure more poses")
+    names = [p.name for p in cands]
+    removed_idx = np.setdiff1d(np.arange(len(cands)), keep)
+    removed = _why_removed(J0, keep, removed_idx, names, norms)
+    combos = _null_combinations(J0, names)
+    requested_robot = [k for k, p in enumerate(cands) if p.group == "robot"]
+    degenerate = kind != "full" and any(k in removed_idx for k in requested_robot)
+
+    errors = errors_all.subset(keep)
+    problem = _Problem(errors, data, residual, weighting, weight_mm, noise)
+    p = len(keep)
+    x0 = np.zeros(p)
+
+    def fun(x: Array) -> Array:
+        return problem.weighted(x)[0]
+
+    def jac(x: Array) -> Array:
+        return problem.weighted(x)[1]
+
+    if solver == "lm":
+        sol = least_squares(fun, x0, jac=jac, method="lm", x_scale="jac", xtol=1e-12,
+                            ftol=1e-12, gtol=1e-12, max_nfev=200 * (p + 1))
+        x, converged, message, nfev = sol.x, sol.status > 0, sol.message, int(sol.nfev)
+    else:
+        bounds = _de_bounds(errors, de_link_bounds_mm)
+        de = differential_evolution(problem.cost, bounds, seed=seed, tol=1e-10, atol=0,
+                                    maxiter=400, popsize=12, polish=False, init="sobol")
+        polish = least_squares(fun, de.x, jac=jac, method="trf", x_scale="jac",
+                               bounds=tuple(zip(*bounds, strict=True)), xtol=1e-12, ftol=1e-12)
+        x, converged = polish.x, bool(de.success or polish.status > 0)
+        message = f"DE: {de.message}; polished: {polish.message}"
+        nfev = int(de.nfev + polish.nfev)
+
+    r, Jw = problem.weighted(x)
+    dof = max(m - p, 1)
+    chi2 = float(r @ r) / dof
+    cov = np.linalg.pinv(Jw.T @ Jw)
+    if weighting == "eq2.4":
+        cov = cov * chi2
+    std = np.sqrt(np.clip(np.diag(cov), 0, None))
+    corr = cov / np.outer(np.where(std > 0, std, 1), np.where(std > 0, std, 1))
+    col = np.linalg.norm(Jw, axis=0)
+    s = np.linalg.svd(Jw / np.where(col > 0, col, 1), compute_uv=False)
+    to_if = errors.to_interface
+    calibrated = errors.apply(x)
+    before = _pose_errors(start, data, residual)
+    after = _pose_errors(calibrated, data, residual)
+    return CalibrationResult(
+        model=calibrated, start_model=start, params=errors.params, values=to_if(x),
+        std_errors=to_if(std), correlation=corr, removed=tuple(removed),
+        unidentifiable_combinations=tuple(combos), residual_kind=residual, weighting=weighting,
+        solver=solver, rank=rank, n_candidates=len(cands),
+        condition_number=float(s[0] / s[-1]), o1=float(np.prod(s ** (1.0 / p)) / np.sqrt(m)),
+        min_singular_value=float(s[-1]), chi2_reduced=chi2, converged=bool(converged),
+        message=str(message), n_evaluations=nfev, seconds=time.perf_counter() - started,
+        residuals_before=before[0], residuals_after=after[0], rotation_before_deg=before[1],
+        rotation_after_deg=after[1], degenerate=degenerate, covariance=cov)
+
+
+def _pose_errors(model: SerialModel, data: MeasurementSet, residual: str
+                 ) -> tuple[Array, Array | None]:
+    """Position error norm per pose (mm) and rotation error (deg) when measured; for distance
+    data, the absolute error of each pairwise distance."""
+    T = _fk(model, data.q)
+    if residual == "distance":
+        i, j = _pairs(len(data))
+        return (np.abs(np.linalg.norm(T[i, :3, 3] - T[j, :3, 3], axis=1)
+                       - np.linalg.norm(data.positions_mm[i] - data.positions_mm[j], axis=1)),
+                None)
+    pos = np.linalg.norm(T[:, :3, 3] - data.positions_mm, axis=1)
+    if data.rotations is None:
+        return pos, None
+    dR = T[:, :3, :3] @ np.swapaxes(data.rotations, 1, 2)
+    return pos, np.degrees(Rotation.from_matrix(dR).magnitude())
+
+
+def _de_bounds(errors: ErrorModel, link_bounds_mm: tuple[float, float]
+               ) -> list[tuple[float, float]]:
+    """The thesis's bounds: joint offsets [-5, 5] deg, link offsets (0, 1) mm by default;
+    frames within +-2 deg and +-20 mm of the starting alignment; full-model axis terms within
+    +-1 deg and +-5 mm."""
+    out = []
+    for p in errors.params:
+        if p.kind == "zero":
+            out.append((-np.radians(5), np.radians(5)) if p.is_angle else (-5.0, 5.0))
+        elif p.kind == "link":
+            out.append(link_bounds_mm)
+        elif p.kind.endswith("rot"):
+            out.append((-np.radians(2), np.radians(2)))
+        elif p.kind.endswith("pos"):
+            out.append((-20.0, 20.0))
+        elif p.kind == "dir":
+            out.append((-np.radians(1), np.radians(1)))
+        else:
+            out.append((-5.0, 5.0))
+    return out

@@ -1,0 +1,67 @@
+"""Measured data for identification, and the measurement CSV of the offline contract.
+
+A `MeasurementSet` holds, per pose, the joint values the controller reported and what the
+measuring system saw of the measured point: its position (mm) and, for full-pose data, its
+orientation, in the measuring system's frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from screwcal.errors import DataFileError, ScrewcalError
+from screwcal.model import SerialModel
+from screwcal.pose import rotation_from_euler_zyx_deg
+from screwcal.se3 import Array
+from screwcal.tables import joint_columns, read_numeric_csv
+
+
+@dataclass(frozen=True)
+class MeasurementSet:
+    q: Array  # (N, n) joint readings, numeric units (rad / mm)
+    positions_mm: Array  # (N, 3)
+    rotations: Array | None = None  # (N, 3, 3) for full-pose data
+    ids: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        N = len(self.q)
+        if self.positions_mm.shape != (N, 3):
+            raise ScrewcalError(f"positions must be ({N}, 3); got {self.positions_mm.shape}")
+        if self.rotations is not None and self.rotations.shape != (N, 3, 3):
+            raise ScrewcalError(f"rotations must be ({N}, 3, 3); got {self.rotations.shape}")
+        if not self.ids:
+            object.__setattr__(self, "ids", tuple(str(k + 1) for k in range(N)))
+
+    @property
+    def full_pose(self) -> bool:
+        return self.rotations is not None
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    def take(self, index: ArrayLike) -> MeasurementSet:
+        idx = np.asarray(index)
+        return MeasurementSet(self.q[idx], self.positions_mm[idx],
+                              None if self.rotations is None else self.rotations[idx],
+                              tuple(np.asarray(self.ids, dtype=object)[idx]))
+
+
+def read_measurements_csv(path: str | Path, model: SerialModel) -> MeasurementSet:
+    """The measurement file of ../shared/spec/data-formats.md: q1..qn (deg), x, y, z (mm),
+    optionally rx, ry, rz (deg) on every row, optional id."""
+    table = read_numeric_csv(path, [*joint_columns(model.n_joints), "x", "y", "z"],
+                             optional_groups=[["rx", "ry", "rz"]])
+    q = model.joints_from_deg(table.take(joint_columns(model.n_joints)))
+    outside = ~model.within_limits(q)
+    if outside.any():
+        k = int(np.flatnonzero(outside)[0])
+        raise DataFileError(table.path, f"joint values outside the limits of model "
+                            f"'{model.name}'", line=table.lines[k])
+    rotations = None
+    if "rx" in table.columns:
+        rotations = rotation_from_euler_zyx_deg(table.take(["rx", "ry", "rz"]))
+    return MeasurementSet(q, table.take(["x", "y", "z"]), rotations, table.ids)
