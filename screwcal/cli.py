@@ -6,7 +6,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from screwcal import __version__, demo, evaluate, predict, testcube
+from screwcal import __version__, calibrate, demo, evaluate, predict, testcube
 from screwcal.errors import ScrewcalError
 
 
@@ -16,7 +16,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Screw-theory calibration of 6-axis industrial robots (mm and degrees).")
     parser.add_argument("--version", action="version", version=f"screwcal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for module in (demo, predict, evaluate, testcube):
+    for module in (demo, calibrate, predict, evaluate, testcube):
         module.add_parser(sub)
     return parser
 

@@ -32,8 +32,16 @@ class DataFileError(ScrewcalError):
 
 
 class UnreachableError(ScrewcalError):
-    """An inverse-kinematics target has no solution."""
+    """An inverse-kinematics target has no solution; `index` is the first such target."""
+
+    def __init__(self, message: str, index: int | None = None):
+        super().__init__(message)
+        self.index = index
 
 
 class JointLimitError(ScrewcalError):
-    """Joint values outside the model's joint limits."""
+    """Joint values outside the model's joint limits; `index` is the first such configuration."""
+
+    def __init__(self, message: str, index: int | None = None):
+        super().__init__(message)
+        self.index = index

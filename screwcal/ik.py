@@ -99,7 +99,7 @@ class IKSolutions:
             why = "outside the joint limits on every branch" if self.reachable[k].any() \
                 else "out of reach"
             raise UnreachableError(f"target {k} is {why} ({int(none.sum())} of "
-                                   f"{len(none)} targets have no valid solution)")
+                                   f"{len(none)} targets have no valid solution)", index=k)
         return q[np.arange(len(dist)), np.argmin(dist, axis=1)]
 
 
@@ -212,7 +212,7 @@ def _raise_unreachable(reach: Array) -> None:
     if none.any():
         k = int(np.flatnonzero(none)[0])
         raise UnreachableError(f"target {k} is out of the arm's reach on every branch "
-                               f"({int(none.sum())} of {len(none)} targets unreachable)")
+                               f"({int(none.sum())} of {len(none)} targets unreachable)", index=k)
 
 
 def _pose_error(T_target: Array, T: Array) -> Array:

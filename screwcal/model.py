@@ -140,7 +140,7 @@ class SerialModel:
             lo, hi = self.limits_deg[j]
             value = self.joints_to_deg(q[k])[j]
             raise JointLimitError(f"{what} {k}: joint {j + 1} = {value:.4f} is outside the limits "
-                                  f"[{lo:g}, {hi:g}] of model '{self.name}'")
+                                  f"[{lo:g}, {hi:g}] of model '{self.name}'", index=int(k))
 
     def with_frames(self, base: ArrayLike | None = None, tool: ArrayLike | None = None
                     ) -> SerialModel:

@@ -1,0 +1,149 @@
+"""`screwcal calibrate` and `screwcal compensate` (../shared/spec/data-formats.md).
+
+    screwcal calibrate --robot irb1600 --data measurements.csv --out result.json
+                       [--model full|thesis|joints] [--solver lm|de] [--weight-mm W]
+                       [--base-frame unknown|known] [--residual pose|position|distance]
+    screwcal compensate --model result.json --targets targets.csv --out compensated.csv
+
+By default the measuring system's frame and the measured point's offset from the flange are
+identified with the robot's errors; `--base-frame known` says the data are already in the robot
+base frame and the measured point is the flange. `--weight-mm W` selects the thesis's Eq. 2.4
+objective with that W; otherwise residuals are weighted statistically by the stated noise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from screwcal.correction import CorrectionRefusedError, compensate, joint_correction
+from screwcal.errors import DataFileError, JointLimitError, UnreachableError
+from screwcal.identify import CalibrationResult, NoiseModel, identify
+from screwcal.measurements import read_measurements_csv
+from screwcal.modelfile import PoseIn, load_model, model_file_from_model, resolve_model
+from screwcal.pose import pose_from_transform, transform_from_pose
+from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
+
+RESULT_FORMAT = "screwcal-calibration"
+
+
+def _summary(values: np.ndarray) -> dict:
+    return {"mean": float(values.mean()), "rms": float(np.sqrt(np.mean(values**2))),
+            "max": float(values.max())}
+
+
+def result_document(result: CalibrationResult, robot: str, settings: dict) -> dict:
+    """The result.json document: parameters, identifiability, residuals, model, correction."""
+    params = [{"name": p.name, "unit": p.unit, "group": p.group, "value": float(v),
+               "std_error": float(s)}
+              for p, v, s in zip(result.params, result.values, result.std_errors, strict=True)]
+    residuals: dict = {"kind": result.residual_kind, "unit": "mm",
+                       "before": result.residuals_before.tolist(),
+                       "after": result.residuals_after.tolist(),
+                       "summary_before": _summary(result.residuals_before),
+                       "summary_after": _summary(result.residuals_after)}
+    if result.rotation_after_deg is not None:
+        residuals |= {"rotation_before_deg": result.rotation_before_deg.tolist(),
+                      "rotation_after_deg": result.rotation_after_deg.tolist()}
+    try:
+        correction = joint_correction(result.names, result.values, result.std_errors,
+                                      result.model.n_joints).to_dict()
+    except CorrectionRefusedError as err:
+        correction = {"refused": str(err)}
+    return {
+        "format": RESULT_FORMAT, "version": 1, "robot": robot, "settings": settings,
+        "parameters": params,
+        "removed_parameters": [{"name": n, "reason": why} for n, why in result.removed],
+        "correlation": {"names": list(result.names), "matrix": result.correlation.tolist()},
+        "identifiability": {
+            "rank": result.rank, "candidates": result.n_candidates,
+            "condition_number": result.condition_number, "o1_borm_menq": result.o1,
+            "min_singular_value": result.min_singular_value, "degenerate": result.degenerate,
+            "unidentifiable_combinations": list(result.unidentifiable_combinations)},
+        "convergence": {"converged": result.converged, "message": result.message,
+                        "evaluations": result.n_evaluations, "seconds": result.seconds,
+                        "chi2_reduced": result.chi2_reduced},
+        "residuals": residuals,
+        "frames": {"base": PoseIn.of(result.model.base).model_dump(),
+                   "tool": PoseIn.of(result.model.tool).model_dump()},
+        "correction": correction,
+        "model": json.loads(model_file_from_model(result.model).model_dump_json()),
+    }
+
+
+def run_calibrate(args: argparse.Namespace) -> int:
+    nominal = resolve_model(args.robot)
+    data = read_measurements_csv(args.data, nominal)
+    weighting = "eq2.4" if args.weight_mm is not None else "statistical"
+    noise = NoiseModel(position_mm=args.noise_mm, joint_deg=args.joint_noise_deg)
+    result = identify(nominal, data, kind=args.model, residual=args.residual,
+                      frames=args.base_frame, solver=args.solver, weighting=weighting,
+                      weight_mm=args.weight_mm or 1.0, noise=noise)
+    settings = {"model": args.model, "solver": args.solver, "base_frame": args.base_frame,
+                "residual": result.residual_kind, "weighting": weighting,
+                "weight_mm": args.weight_mm, "noise_mm": args.noise_mm,
+                "joint_noise_deg": args.joint_noise_deg, "data": str(args.data),
+                "poses": len(data)}
+    doc = result_document(result, nominal.name, settings)
+    Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    b, a = doc["residuals"]["summary_before"], doc["residuals"]["summary_after"]
+    print(f"{args.model} model, {len(data)} poses, rank {result.rank}/{result.n_candidates}: "
+          f"residual mean {b['mean']:.3f} -> {a['mean']:.3f} mm, max {b['max']:.3f} -> "
+          f"{a['max']:.3f} mm{'' if result.converged else ' (NOT converged)'} -> {args.out}")
+    if result.degenerate:
+        print("warning: some requested parameters cannot be identified from these data; see "
+              "removed_parameters in the result")
+    return 0 if result.converged else 1
+
+
+def run_compensate(args: argparse.Namespace) -> int:
+    calibrated = load_model(args.model)
+    robot = args.robot or json.loads(Path(args.model).read_text(encoding="utf-8")).get("robot")
+    nominal = resolve_model(robot) if robot else calibrated
+    table = read_numeric_csv(args.targets, ["x", "y", "z", "rx", "ry", "rz"])
+    T = transform_from_pose(table.take(["x", "y", "z", "rx", "ry", "rz"]))
+    try:
+        comp = compensate(calibrated, nominal, T)
+    except (UnreachableError, JointLimitError) as err:
+        line = table.lines[err.index] if err.index is not None else None
+        raise DataFileError(table.path, f"no compensated target: {err}", line=line) from None
+    q_deg = calibrated.joints_to_deg(comp.q_rad)
+    poses = pose_from_transform(comp.nominal_tool0)
+    header = ["id", *joint_columns(calibrated.n_joints), "x", "y", "z", "rx", "ry", "rz"]
+    write_csv_atomic(args.out, header, ([i, *(f"{v:.4f}" for v in q), *(f"{v:.4f}" for v in p)]
+                                        for i, q, p in zip(table.ids, q_deg, poses, strict=True)))
+    print(f"compensated {len(q_deg)} targets -> {args.out} (joint targets, and the nominal "
+          f"tool0 poses of model '{nominal.name}' to program)")
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("calibrate", help="identify the robot's geometric errors from a CSV",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--robot", required=True, help="built-in robot (irb1600, irb120) or model file")
+    p.add_argument("--data", required=True, help="measurement CSV (q1..q6, x, y, z[, rx, ry, rz])")
+    p.add_argument("--out", required=True, help="result JSON to write")
+    p.add_argument("--model", choices=["full", "thesis", "joints"], default="full")
+    p.add_argument("--solver", choices=["lm", "de"], default="lm")
+    p.add_argument("--weight-mm", type=float, default=None,
+                   help="W of Eq. 2.4 (selects that objective; default: statistical weighting)")
+    p.add_argument("--base-frame", choices=["unknown", "known"], default="unknown")
+    p.add_argument("--residual", choices=["pose", "position", "distance"], default=None,
+                   help="default: pose for full-pose data, position otherwise")
+    p.add_argument("--noise-mm", type=float, default=0.013, help="measuring noise, 1 sigma")
+    p.add_argument("--joint-noise-deg", type=float, default=0.05,
+                   help="random joint error, uniform +-")
+    p.set_defaults(func=run_calibrate)
+
+    c = sub.add_parser("compensate", help="joint targets that make the calibrated robot reach "
+                       "desired poses", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    c.add_argument("--model", required=True, help="calibration result (or model file)")
+    c.add_argument("--targets", required=True,
+                   help="CSV of desired poses: id, x, y, z, rx, ry, rz (measuring frame)")
+    c.add_argument("--out", required=True, help="CSV to write: id, q1..q6, x..rz (nominal tool0)")
+    c.add_argument("--robot", help="nominal model, when the result does not name it")
+    c.set_defaults(func=run_compensate)

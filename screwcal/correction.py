@@ -1,0 +1,88 @@
+"""Correction (thesis 4.5) and compensation of a calibrated robot.
+
+- Joint-offset correction, for a controller whose kinematic parameters are closed: return home,
+  move each joint by its identified offset, and make that position the joints' new zero (update
+  the revolution counters). If the joint's true angle is q_reported + z, the position whose true
+  angle is 0 reads -z: the ZERO command targets -z. Offsets beyond a plausibility bound
+  (default 5 deg, the thesis's search range) or not identified to better than a tenth of a
+  degree are refused, never sent.
+- Compensated targets: for desired poses of the measured point (measuring frame), the joint
+  targets that make the calibrated robot reach them (numerical IK on the calibrated model), and
+  the nominal tool0 poses to program on a controller that runs its nominal model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from screwcal.errors import ScrewcalError
+from screwcal.ik import numerical_ik
+from screwcal.kinematics import flange_kinematics
+from screwcal.model import SerialModel
+from screwcal.se3 import Array
+
+PLAUSIBLE_OFFSET_DEG = 5.0
+MAX_STD_ERROR_DEG = 0.1
+
+
+class CorrectionRefusedError(ScrewcalError):
+    """A correction outside plausible bounds: nothing is sent."""
+
+
+@dataclass(frozen=True)
+class JointCorrection:
+    offsets_deg: Array  # identified joint offsets (true angle = reading + offset)
+    zero_command_deg: Array  # the ZERO targets: move there, then make it the new zero
+    identified: Array  # bool per joint: False where the data could not tell the offset
+
+    def to_dict(self) -> dict:
+        return {"offsets_deg": self.offsets_deg.tolist(),
+                "zero_command_deg": self.zero_command_deg.tolist(),
+                "identified": self.identified.tolist(),
+                "procedure": "home; move to zero_command_deg; set that position as the new "
+                             "zero (thesis 4.5)"}
+
+
+def joint_correction(names: tuple[str, ...], values_deg: ArrayLike, std_errors_deg: ArrayLike,
+                     n_joints: int, bound_deg: float = PLAUSIBLE_OFFSET_DEG,
+                     max_std_deg: float = MAX_STD_ERROR_DEG) -> JointCorrection:
+    """The joint-offset correction from identified joint zeros `J1`..`Jn` (deg)."""
+    values = np.asarray(values_deg, float)
+    stds = np.asarray(std_errors_deg, float)
+    offsets = np.zeros(n_joints)
+    identified = np.zeros(n_joints, bool)
+    for i in range(n_joints):
+        name = f"J{i + 1}"
+        if name not in names:
+            continue
+        k = names.index(name)
+        if abs(values[k]) > bound_deg:
+            raise CorrectionRefusedError(
+                f"joint {i + 1} offset {values[k]:+.3f} deg exceeds the plausible bound of "
+                f"+-{bound_deg:g} deg: check the data and the set-up before correcting")
+        if stds[k] > max_std_deg:
+            raise CorrectionRefusedError(
+                f"joint {i + 1} offset {values[k]:+.3f} deg is uncertain (std error "
+                f"{stds[k]:.3f} deg > {max_std_deg:g}): measure better-spread poses")
+        offsets[i], identified[i] = values[k], True
+    return JointCorrection(offsets, -offsets, identified)
+
+
+@dataclass(frozen=True)
+class Compensation:
+    q_rad: Array  # (N, n) joint targets (controller readings) that reach the desired poses
+    nominal_tool0: Array  # (N, 4, 4) the nominal flange pose of those joints: what to program
+
+
+def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLike,
+               q_ref: ArrayLike | None = None) -> Compensation:
+    """Joint targets (nearest to q_ref, default all zeros, within limits) and nominal tool0
+    targets that take the calibrated robot's measured point to T_desired (N, 4, 4)."""
+    T = np.asarray(T_desired, dtype=float)
+    sol = numerical_ik(calibrated, T)
+    q = sol.nearest(np.zeros(calibrated.n_joints) if q_ref is None else q_ref)
+    calibrated.check_limits(q, "compensated target")
+    return Compensation(q, flange_kinematics(nominal, q))
