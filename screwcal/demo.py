@@ -108,9 +108,9 @@ def format_report(r: DemoResult, n_poses: int, n_validation: int) -> str:
                          f"{r.fit.std_errors[r.fit.names.index(name)]:>11.3f}")
         else:
             lines.append(f"  {name:<12}{true_zero[i]:>10.3f}{'(not separable)':>23}")
-    lines += ["  (the full model explains the imposed link offsets partly through joint zeros, so a",
-              "   zero can differ from its imposed offset by more than its standard error; the",
-              "   validation errors on unseen poses are the measure of the calibration)",
+    lines += ["  (the full model explains the imposed link offsets partly through joint zeros,",
+              "   so a zero can differ from its imposed offset by more than its standard error;",
+              "   the validation errors on unseen poses are the measure of the calibration)",
               f"  done in {r.seconds:.2f} s"]
     return "\n".join(lines)
 
