@@ -33,7 +33,7 @@ from scipy.spatial.transform import Rotation
 
 from screwcal.alignment import align_frames
 from screwcal.errors import ScrewcalError
-from screwcal.errors_model import ErrorModel, ModelKind, Param, candidate_params
+from screwcal.errors_model import ErrorModel, ModelKind, Param, candidate_params, forward_batch
 from screwcal.kinematics import point_jacobian, spatial_jacobian
 from screwcal.measurements import MeasurementSet
 from screwcal.model import SerialModel
@@ -170,6 +170,23 @@ class _Problem:
         r, _ = self.weighted(x)
         return float(r @ r)
 
+    def cost_batch(self, X: Array) -> Array:
+        """Weighted sum of squares for a population X (p, S) (scipy's vectorized layout)."""
+        T = forward_batch(self.errors, X.T, self.data.q)  # (S, N, 4, 4)
+        if self.residual == "distance":
+            i, j = _pairs(len(self.data))
+            d_model = np.linalg.norm(T[:, i, :3, 3] - T[:, j, :3, 3], axis=2)
+            d_meas = np.linalg.norm(self.data.positions_mm[i] - self.data.positions_mm[j], axis=1)
+            r = (d_model - d_meas) * self._whiten
+            return np.sum(r**2, axis=1)
+        r = T[:, :, :3, 3] - self.data.positions_mm
+        if self.residual == "pose":
+            dR = T[:, :, :3, :3] @ np.swapaxes(self.data.rotations, 1, 2)
+            rot = Rotation.from_matrix(dR.reshape(-1, 3, 3)).as_rotvec().reshape(r.shape)
+            r = np.concatenate([r, rot], axis=2)
+        rw = np.einsum("nij,snj->sni", self._whiten, r)
+        return np.sum(rw**2, axis=(1, 2))
+
 
 def _fk(model: SerialModel, q: Array) -> Array:
     from screwcal.kinematics import forward_kinematics
@@ -192,6 +209,26 @@ def _select(J: Array, priority: Array) -> tuple[Array, int, Array]:
     _, _, piv = scipy.linalg.qr(Js * order_weight, mode="economic", pivoting=True)
     keep = np.sort(piv[:rank])
     return keep, rank, norms
+
+
+def structural_rank(errors: ErrorModel, residual: Residual, samples: int = 60) -> int:
+    """How many of the error model's parameters well-spread data could identify: the rank of
+    the column-scaled Jacobian over random configurations inside the limits."""
+    ref = errors.reference
+    q = np.random.default_rng(0).uniform(ref.limits[:, 0], ref.limits[:, 1],
+                                         (samples, ref.n_joints))
+    T, Js = errors.jacobian(np.zeros(len(errors.params)), q)
+    J = point_jacobian(Js, T)
+    if residual == "distance":
+        i, j = _pairs(samples)
+        u = T[i, :3, 3] - T[j, :3, 3]
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        rows = np.einsum("pi,pij->pj", u, J[i, :3] - J[j, :3])
+    else:
+        rows = J[:, : (6 if residual == "pose" else 3)].reshape(-1, J.shape[-1])
+    norms = np.linalg.norm(rows, axis=0)
+    s = np.linalg.svd(rows / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    return int(np.sum(s > RANK_TOL * s[0]))
 
 
 def _why_removed(J: Array, keep: Array, removed: Array, names: list[str], norms: Array
@@ -254,19 +291,23 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     # parameters (joint and link offsets: what a controller can correct), then axis terms.
     priority = np.array([2 if p.group != "robot" else 1 if p.kind in ("zero", "link") else 0
                          for p in cands])
-    keep, rank, norms = _select(J0, priority)
-    if rank == 0:
-        raise IdentificationError("no parameter has any effect on these measurements")
+    needed = structural_rank(errors_all, residual)
     m = len(r0)
-    if m < rank:
-        raise IdentificationError(f"{len(data)} poses give {m} equations for {rank} identifiable "
-                                  "parameters: measure more poses")
+    if m <= needed:
+        per_pose = {"pose": 6, "position": 3}.get(residual)
+        more = f" (at least {needed // per_pose + 1} poses)" if per_pose else ""
+        raise IdentificationError(f"{len(data)} poses give {m} equations for the {needed} "
+                                  f"parameters this model can identify: measure more poses{more}")
+    keep, rank, norms = _select(J0, priority)
     names = [p.name for p in cands]
     removed_idx = np.setdiff1d(np.arange(len(cands)), keep)
     removed = _why_removed(J0, keep, removed_idx, names, norms)
     combos = _null_combinations(J0, names)
+    # Degenerate: the poses separate fewer parameters than well-spread data would, or (for
+    # the thesis and joint models) a requested offset cannot be identified at all.
     requested_robot = [k for k, p in enumerate(cands) if p.group == "robot"]
-    degenerate = kind != "full" and any(k in removed_idx for k in requested_robot)
+    degenerate = rank < needed or (kind != "full" and any(k in removed_idx
+                                                          for k in requested_robot))
 
     errors = errors_all.subset(keep)
     problem = _Problem(errors, data, residual, weighting, weight_mm, noise)
@@ -285,8 +326,9 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         x, converged, message, nfev = sol.x, sol.status > 0, sol.message, int(sol.nfev)
     else:
         bounds = _de_bounds(errors, de_link_bounds_mm)
-        de = differential_evolution(problem.cost, bounds, seed=seed, tol=1e-10, atol=0,
-                                    maxiter=400, popsize=12, polish=False, init="sobol")
+        de = differential_evolution(problem.cost_batch, bounds, seed=seed, tol=1e-7, atol=0,
+                                    maxiter=1000, popsize=15, polish=False, init="sobol",
+                                    vectorized=True, updating="deferred")
         polish = least_squares(fun, de.x, jac=jac, method="trf", x_scale="jac",
                                bounds=tuple(zip(*bounds, strict=True)), xtol=1e-12, ftol=1e-12)
         x, converged = polish.x, bool(de.success or polish.status > 0)

@@ -1,0 +1,127 @@
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from screwcal.correction import CorrectionRefusedError, joint_correction
+from screwcal.demo import random_configurations
+from screwcal.identify import IdentificationError, NoiseModel, identify
+from screwcal.kinematics import forward_kinematics
+from screwcal.robots import irb1600
+from screwcal.se3 import exp_twist
+from screwcal.simulate import simulate_measurements
+from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+
+BASE = exp_twist([0.2, -0.1, 2.5, 1400, -600, -300])  # the measuring system's frame
+TOOL = exp_twist([0.0, 0.0, 0.0, 25, -40, 90])  # the measured point on the flange
+
+
+def full_truth(rng):
+    """An independent truth: every axis tilted and shifted, zeros and the flange off."""
+    m = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    dirs = m.axis_dirs + rng.normal(0, np.radians(0.1), m.axis_dirs.shape)
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    return replace(m, axis_dirs=dirs,
+                   axis_points_mm=m.axis_points_mm + rng.normal(0, 0.5, (6, 3)),
+                   home_flange=exp_twist(np.r_[rng.normal(0, 2e-3, 3), rng.normal(0, 0.5, 3)])
+                   @ m.home_flange)
+
+
+def validation_rms(truth, model, rng, n=300):
+    q = random_configurations(n, rng)
+    d = forward_kinematics(truth, q)[:, :3, 3] - forward_kinematics(model, q)[:, :3, 3]
+    return float(np.sqrt(np.mean(np.sum(d**2, axis=1))))
+
+
+@pytest.mark.parametrize("frames", ["known", "unknown"])
+@pytest.mark.parametrize("full_pose", [True, False])
+def test_full_model_predicts_unseen_poses_to_the_noise_level(rng, frames, full_pose):
+    """The measured point sits off the flange axis (as the thesis's holes do): known frames
+    means the base and this tool offset are given."""
+    truth = full_truth(rng).with_frames(BASE if frames == "unknown" else np.eye(4), TOOL)
+    nominal = irb1600() if frames == "unknown" else irb1600().with_frames(np.eye(4), TOOL)
+    q = random_configurations(60, rng)
+    data = simulate_measurements(truth, q, rng, joint_noise_deg=0.0, full_pose=full_pose)
+    result = identify(nominal, data, kind="full", frames=frames, noise=NoiseModel(joint_deg=0))
+    assert result.converged and not result.degenerate
+    assert validation_rms(truth, result.start_model, rng) > 1.0  # the errors are real
+    # The noise level of a 3-D point is sqrt(3) x 0.013 mm; allow three times that.
+    assert validation_rms(truth, result.model, rng) < 3 * np.sqrt(3) * 0.013
+    assert result.chi2_reduced == pytest.approx(1.0, abs=0.35)
+
+
+def test_thesis_model_recovers_table_11(rng):
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    data = simulate_measurements(truth, random_configurations(40, rng), rng)
+    r = identify(irb1600(), data, kind="thesis", frames="known")
+    assert not r.degenerate and not r.removed
+    imposed = {"J1": 2.0, "J2": 1.1, "J3": 3.1, "J4": -2.0, "J5": 3.7, "J6": -4.6,
+               "J1pz": 0.3, "J1px": 0.3, "J2pz": 0.3, "J4px": 0.3}
+    for name, value in imposed.items():
+        k = r.names.index(name)
+        assert abs(r.values[k] - value) < 4 * r.std_errors[k], name
+    assert r.std_errors[r.names.index("J1")] < 0.05
+
+
+def test_unknown_frames_make_the_thesis_model_degenerate_and_say_why(rng):
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11).with_frames(BASE, TOOL)
+    data = simulate_measurements(truth, random_configurations(40, rng), rng)
+    r = identify(irb1600(), data, kind="thesis")
+    assert r.degenerate
+    removed = dict(r.removed)
+    assert "J1" in removed and "base.rz" in removed["J1"]
+    assert "J6" in removed and "tool.rz" in removed["J6"]
+    assert "J1pz" in removed and "base.z" in removed["J1pz"]
+    assert "J1" not in r.names  # held, not solved with garbage
+
+
+def test_distance_data_need_no_base_alignment(rng):
+    truth = full_truth(rng).with_frames(BASE, TOOL)
+    data = simulate_measurements(truth, random_configurations(40, rng), rng,
+                                 joint_noise_deg=0.0, full_pose=False)
+    r = identify(irb1600(), data, kind="full", residual="distance", noise=NoiseModel(joint_deg=0))
+    assert r.converged and not any(p.group == "base" for p in r.params)
+    assert r.residuals_after.mean() < 0.05 < r.residuals_before.mean()
+
+
+def test_too_few_poses_are_refused(rng):
+    data = simulate_measurements(irb1600(), random_configurations(5, rng), rng)
+    with pytest.raises(IdentificationError, match=r"5 poses give 30 equations for the 30 .*"
+                                                  r"at least 6 poses"):
+        identify(irb1600(), data, kind="full", frames="known")
+
+
+def test_poorly_spread_poses_are_reported_degenerate(rng):
+    """Joint 6 never moves: its axis cannot be told from the flange, beyond the model's own
+    redundancy."""
+    q = random_configurations(40, rng)
+    q[:, 5] = 0.3
+    data = simulate_measurements(irb1600(), q, rng)
+    r = identify(irb1600(), data, kind="full", frames="known")
+    assert r.degenerate and r.rank < 30
+
+
+def test_de_agrees_with_lm_on_the_thesis_model(rng):
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    data = simulate_measurements(truth, random_configurations(40, rng), rng)
+    lm = identify(irb1600(), data, kind="thesis", frames="known")
+    de = identify(irb1600(), data, kind="thesis", frames="known", solver="de")
+    np.testing.assert_allclose(de.values, lm.values, atol=1e-3)
+
+
+def test_eq_2_4_weighting_runs_and_scales_errors(rng):
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    data = simulate_measurements(truth, random_configurations(40, rng), rng)
+    r = identify(irb1600(), data, kind="joints", frames="known", weighting="eq2.4", weight_mm=1.0)
+    assert r.converged and r.weighting == "eq2.4"
+    assert np.all(np.abs(r.values - [2.0, 1.1, 3.1, -2.0, 3.7, -4.6]) < 0.5)
+
+
+def test_correction_is_minus_the_offsets_and_refuses_the_implausible():
+    c = joint_correction(("J1", "J2"), [1.0, -2.0], [0.01, 0.01], 6)
+    np.testing.assert_allclose(c.zero_command_deg, [-1, 2, 0, 0, 0, 0])
+    assert c.identified.tolist() == [True, True, False, False, False, False]
+    with pytest.raises(CorrectionRefusedError, match="exceeds the plausible bound"):
+        joint_correction(("J1",), [7.0], [0.01], 6)
+    with pytest.raises(CorrectionRefusedError, match="uncertain"):
+        joint_correction(("J1",), [1.0], [0.5], 6)
