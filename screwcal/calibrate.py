@@ -126,7 +126,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--robot", required=True, help="built-in robot (irb1600, irb120) or model file")
     p.add_argument("--data", required=True, help="measurement CSV (q1..q6, x, y, z[, rx, ry, rz])")
     p.add_argument("--out", required=True, help="result JSON to write")
-    p.add_argument("--model", choices=["full", "thesis", "joints"], default="full")
+    p.add_argument("--model", choices=["full", "thesis", "joints", "frames"], default="full",
+                   help="error model (frames: the nominal robot, only the frames fitted)")
     p.add_argument("--solver", choices=["lm", "de"], default="lm")
     p.add_argument("--weight-mm", type=float, default=None,
                    help="W of Eq. 2.4 (selects that objective; default: statistical weighting)")

@@ -6,6 +6,8 @@ least_squares gets the true Jacobian of the residuals at every step.
 
 Candidates, per model kind (thesis 2.2.1.2, 3.1, Table 11; Eq. 2.2):
 
+- "frames": nothing of the robot: the nominal model with only the frames fitted (the
+  uncalibrated robot's accuracy, the "before" of a calibration).
 - "joints": the joint offsets J<i> (what a closed controller can correct, thesis Table 9).
 - "thesis": the joint offsets and the link offsets J1pz, J1px, J2pz, J4px (virtual prismatic
   joints after joint i along the home-frame axis, `virtual_joints`).
@@ -37,7 +39,7 @@ from screwcal.model import SerialModel
 from screwcal.se3 import Array, adjoint, skew, transform_from_rotation_translation
 from screwcal.virtual_joints import apply_virtual_joints, parse_name
 
-ModelKind = Literal["joints", "thesis", "full"]
+ModelKind = Literal["frames", "joints", "thesis", "full"]
 THESIS_LINK_OFFSETS = ("J1pz", "J1px", "J2pz", "J4px")
 
 
@@ -87,6 +89,8 @@ def candidate_params(model: SerialModel, kind: ModelKind, *, base: bool, tool_ro
     n = model.n_joints
     zeros = [Param(f"J{i + 1}", "deg" if model.joint_types[i] == "R" else "mm", "zero", joint=i)
              for i in range(n)]
+    if kind == "frames":
+        return params
     if kind == "joints":
         return params + zeros
     if kind == "thesis":
