@@ -108,22 +108,25 @@ class _Problem:
     """Residuals and Jacobian of one identification, pure functions of x."""
 
     def __init__(self, errors: ErrorModel, data: MeasurementSet, residual: Residual,
-                 weighting: str, weight_mm: float, noise: NoiseModel):
+                 weighting: str, weight_mm: float, noise: NoiseModel,
+                 weights_at: Array | None = None):
         self.errors = errors
         self.data = data
         self.residual = residual
         self.rows = 6 if residual == "pose" else 3
-        self._whiten = self._weights(weighting, weight_mm, noise)
+        at = np.zeros(len(errors.params)) if weights_at is None else weights_at
+        self._whiten = self._weights(weighting, weight_mm, noise, at)
 
-    def _weights(self, weighting: str, weight_mm: float, noise: NoiseModel) -> Array:
-        """Per-pose whitening matrices (N, k, k), or per-pair weights (P,) for distances."""
+    def _weights(self, weighting: str, weight_mm: float, noise: NoiseModel, at: Array) -> Array:
+        """Per-pose whitening matrices (N, k, k), or per-pair weights (P,) for distances; the
+        joint-noise part is carried through the joint Jacobian of the model at x = `at`."""
         data, k = self.data, self.rows
         N = len(data)
         if weighting == "eq2.4":
             w = np.r_[np.full(3, 1.0 / weight_mm), np.full(3, 180.0 / np.pi)][:k]
             W = np.broadcast_to(np.diag(w), (N, k, k)).copy()
             return W if self.residual != "distance" else np.full(len(_pairs(N)[0]), w[0])
-        model = self.errors.apply(np.zeros(len(self.errors.params)))
+        model = self.errors.apply(at)
         T = _fk(model, data.q)
         Jq = point_jacobian(spatial_jacobian(model, data.q), T)[:, :k, :]
         s_q = np.radians(noise.joint_deg) / np.sqrt(3.0)
@@ -320,10 +323,14 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     def jac(x: Array) -> Array:
         return problem.weighted(x)[1]
 
+    def lm(problem: _Problem, x_start: Array) -> tuple[Array, bool, str, int]:
+        sol = least_squares(lambda x: problem.weighted(x)[0], x_start,
+                            jac=lambda x: problem.weighted(x)[1], method="lm", x_scale="jac",
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200 * (p + 1))
+        return sol.x, bool(sol.status > 0), str(sol.message), int(sol.nfev)
+
     if solver == "lm":
-        sol = least_squares(fun, x0, jac=jac, method="lm", x_scale="jac", xtol=1e-12,
-                            ftol=1e-12, gtol=1e-12, max_nfev=200 * (p + 1))
-        x, converged, message, nfev = sol.x, sol.status > 0, sol.message, int(sol.nfev)
+        x, converged, message, nfev = lm(problem, x0)
     else:
         bounds = _de_bounds(errors, de_link_bounds_mm)
         de = differential_evolution(problem.cost_batch, bounds, seed=seed, tol=1e-7, atol=0,
@@ -334,6 +341,15 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         x, converged = polish.x, bool(de.success or polish.status > 0)
         message = f"DE: {de.message}; polished: {polish.message}"
         nfev = int(de.nfev + polish.nfev)
+    if weighting == "statistical":
+        # The joint noise dominates and is very directional: weights taken at the starting
+        # model mis-shape it by the size of the errors being identified. Re-weight at the
+        # estimate and solve again (iteratively re-weighted GLS; one pass is enough, the
+        # weights' own error is then second order).
+        problem = _Problem(errors, data, residual, weighting, weight_mm, noise, weights_at=x)
+        x, converged_again, message_again, nfev_again = lm(problem, x)
+        converged = converged and converged_again
+        message, nfev = f"{message}; re-weighted: {message_again}", nfev + nfev_again
 
     r, Jw = problem.weighted(x)
     dof = max(m - p, 1)

@@ -125,3 +125,17 @@ def test_correction_is_minus_the_offsets_and_refuses_the_implausible():
         joint_correction(("J1",), [7.0], [0.01], 6)
     with pytest.raises(CorrectionRefusedError, match="uncertain"):
         joint_correction(("J1",), [1.0], [0.5], 6)
+
+
+@pytest.mark.slow
+def test_lm_is_statistically_efficient():
+    """Issue 3: >= 200 simulated calibrations, the RMS error of every joint offset within 1.2x
+    of its Cramer-Rao bound from the same Jacobian and noise model."""
+    from screwcal.montecarlo import efficiency_study
+
+    rows = efficiency_study(samples=200, seed=0)
+    offsets = [r for r in rows if r.name in {f"J{i}" for i in range(1, 7)}]
+    assert len(offsets) == 6
+    for r in offsets:
+        assert r.ratio <= 1.2, f"{r.name}: RMS {r.rms_error:.4f} vs bound {r.bound:.4f}"
+        assert r.ratio >= 0.8, f"{r.name}: better than the bound means the bound is wrong"
