@@ -26,7 +26,8 @@ the base is not.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -34,10 +35,10 @@ from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from screwcal.errors import ModelError
-from screwcal.kinematics import _chain, _check_q, _joint_twist, _to_homogeneous
+from screwcal.kinematics import _chain, _check_q, _to_homogeneous
 from screwcal.model import SerialModel
 from screwcal.se3 import Array, adjoint, skew, transform_from_rotation_translation
-from screwcal.virtual_joints import apply_virtual_joints, parse_name
+from screwcal.virtual_joints import parse_name
 
 ModelKind = Literal["frames", "joints", "thesis", "full"]
 THESIS_LINK_OFFSETS = ("J1pz", "J1px", "J2pz", "J4px")
@@ -174,81 +175,126 @@ class ErrorModel:
         x = np.asarray(x, dtype=float)
         m = self.reference
         c = self._collect(x)
-        if c["link"]:
-            m = apply_virtual_joints(m, c["link"])
-        dirs = m.axis_dirs.copy()
-        points = m.axis_points_mm.copy()
-        for i in range(m.n_joints):
-            u, v = _normals(self.reference.axis_dirs[i])
-            if c["dir"][i].any():
-                d = dirs[i] + c["dir"][i, 0] * u + c["dir"][i, 1] * v
-                dirs[i] = d / np.linalg.norm(d)
-            points[i] = points[i] + c["point"][i, 0] * u + c["point"][i, 1] * v
+        normals = self._normals_table
+        dirs = m.axis_dirs + np.einsum("nk,nkj->nj", c["dir"], normals)
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        points = m.axis_points_mm + np.einsum("nk,nkj->nj", c["point"], normals)
+        for name, value in c["link"].items():  # as virtual_joints.apply_virtual_joints
+            j, _, axis = parse_name(name)
+            points[j + 1:, axis] += value
+            c["home_pos"][axis] += value
 
         def framed(T0: Array, rot: Array, pos: Array) -> Array:
+            if not rot.any() and not pos.any():
+                return T0
             R = Rotation.from_rotvec(rot).as_matrix() @ T0[:3, :3]
             return transform_from_rotation_translation(R, T0[:3, 3] + pos)
 
-        return replace(m, axis_dirs=dirs, axis_points_mm=points,
-                       joint_zero=m.joint_zero + c["zero"],
-                       home_flange=framed(m.home_flange, c["home_rot"], c["home_pos"]),
-                       base=framed(m.base, c["base_rot"], c["base_pos"]),
-                       tool=framed(m.tool, c["tool_rot"], c["tool_pos"]))
+        return m.derived(axis_dirs=dirs, axis_points_mm=points,
+                         joint_zero=m.joint_zero + c["zero"],
+                         home_flange=framed(m.home_flange, c["home_rot"], c["home_pos"]),
+                         base=framed(m.base, c["base_rot"], c["base_pos"]),
+                         tool=framed(m.tool, c["tool_rot"], c["tool_pos"]))
 
     # -- the Jacobian ----------------------------------------------------------------------
+    @cached_property
+    def _normals_table(self) -> Array:
+        """(n, 2, 3): the two normals of each reference axis (fixed for this error model)."""
+        w = self.reference.axis_dirs
+        helper = np.where((np.abs(w[:, 0]) < 0.9)[:, None], [1.0, 0, 0], [0, 1.0, 0])
+        u = np.cross(w, helper)
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        return np.stack([u, np.cross(w, u)], axis=1)
+
+    @cached_property
+    def _layout(self) -> dict:
+        """Column indices by kind, and each column's carrier, fixed for this error model."""
+        n = self.reference.n_joints
+        kinds: dict[str, list[int]] = {}
+        for col, p in enumerate(self.params):
+            kinds.setdefault(p.kind, []).append(col)
+        carriers: dict[tuple, list[int]] = {}
+        for col, p in enumerate(self.params):
+            if p.kind == "zero":
+                key: tuple = ("partial", p.joint)
+            elif p.kind == "link":
+                key = ("partial", p.joint + 1)
+            elif p.kind in ("dir", "point"):
+                key = ("axis", p.joint)
+            else:
+                frame = p.kind.split("_")[0]
+                key = ("partial", n) if frame == "home" else (frame,)
+            carriers.setdefault(key, []).append(col)
+        idx = {k: np.array(v, dtype=int) for k, v in kinds.items()}
+        joint = np.array([p.joint for p in self.params], dtype=int)
+        axis = np.array([p.axis for p in self.params], dtype=int)
+        return {"kinds": idx, "joint": joint, "axis": axis,
+                "carriers": {k: np.array(v, dtype=int) for k, v in carriers.items()}}
+
     def jacobian(self, x: ArrayLike, q: ArrayLike) -> tuple[Array, Array]:
-        """Tool poses (N, 4, 4) and d(spatial tool twist)/dx (N, 6, P), exact at x."""
+        """Tool poses (N, 4, 4) and d(spatial tool twist)/dx (N, 6, P), exact at x.
+
+        Each column is a local twist carried to the world by one of a few adjoints (a joint's
+        partial product, the difference of two for an axis displacement, the flange, or the
+        identity for the base); columns sharing a carrier are computed together.
+        """
         x = np.asarray(x, dtype=float)
         model = self.apply(x)
         q = _check_q(model, q)
         c = self._collect(x)
         A_end, partial = _chain(model, q, keep=True)
-        T = _to_homogeneous((A_end.reshape(-1, 4) @ (model.home_flange @ model.tool))
-                            .reshape(-1, 3, 4))
-        ad_cache: dict[int, Array] = {}
-
-        def ad(k: int) -> Array:
-            if k not in ad_cache:
-                ad_cache[k] = adjoint(partial[k])
-            return ad_cache[k]
-
-        N = q.shape[0]
-        J = np.zeros((N, 6, len(self.params)))
-        for col, p in enumerate(self.params):
-            if p.kind == "zero":
-                J[:, :, col] = _joint_twist(model, p.joint, partial[p.joint])
-            elif p.kind == "link":  # a translation of the chain after joint `joint`
-                J[:, :, col] = ad(p.joint + 1)[:, :, 3 + p.axis]
-            elif p.kind in ("dir", "point"):
-                i = p.joint
-                w, pt = model.axis_dirs[i], model.axis_points_mm[i]
-                u, v = _normals(self.reference.axis_dirs[i])
-                e = (u, v)[p.axis]
-                D = ad(i) - ad(i + 1)  # effect of a displacement of axis i
-                if p.kind == "dir":
-                    raw = self.reference.axis_dirs[i] + c["dir"][i, 0] * u + c["dir"][i, 1] * v
-                    dw = (e - np.dot(e, w) * w) / np.linalg.norm(raw)  # d normalize(raw)/d x
-                    a = np.cross(w, dw)
-                    J[:, :, col] = D @ np.r_[a, np.cross(pt, a)]
-                else:
-                    J[:, :, col] = D @ np.r_[np.zeros(3), e]
-            else:
-                frame, what = p.kind.split("_")
-                T0 = {"home": model.home_flange, "base": model.base, "tool": model.tool}[frame]
-                e = np.eye(3)[p.axis]
-                if what == "rot":
-                    w = _rot_jacobian_left(c[p.kind]) @ e
-                    local = np.r_[w, np.cross(T0[:3, 3], w)]  # rotation about the frame origin
-                else:
-                    local = np.r_[np.zeros(3), e]
-                if frame == "base":
-                    J[:, :, col] = local
-                elif frame == "home":
-                    J[:, :, col] = ad(model.n_joints) @ local
-                else:  # tool: expressed in the flange frame, carried by the flange pose
-                    Y = _to_homogeneous((A_end.reshape(-1, 4) @ model.home_flange)
-                                        .reshape(-1, 3, 4))
-                    J[:, :, col] = adjoint(Y) @ local
+        Y = _to_homogeneous((A_end.reshape(-1, 4) @ model.home_flange).reshape(-1, 3, 4))
+        T = Y @ model.tool
+        lay = self._layout
+        normals = self._normals_table
+        local = np.zeros((6, len(self.params)))
+        kinds, joint, axis = lay["kinds"], lay["joint"], lay["axis"]
+        if "zero" in kinds:
+            cols = kinds["zero"]
+            j = joint[cols]
+            w = model.axis_dirs[j]
+            rev = model.is_revolute[j]
+            local[:3, cols] = np.where(rev[:, None], w, 0.0).T
+            local[3:, cols] = np.where(rev[:, None], np.cross(model.axis_points_mm[j], w), w).T
+        if "link" in kinds:
+            cols = kinds["link"]
+            local[3 + axis[cols], cols] = 1.0  # a translation of the chain after the joint
+        if "point" in kinds:
+            cols = kinds["point"]
+            local[3:, cols] = normals[joint[cols], axis[cols]].T
+        if "dir" in kinds:
+            cols = kinds["dir"]
+            j = joint[cols]
+            w, pt = model.axis_dirs[j], model.axis_points_mm[j]
+            e = normals[j, axis[cols]]
+            raw = self.reference.axis_dirs[j] + np.einsum("kc,kcj->kj", c["dir"][j], normals[j])
+            dw = (e - np.sum(e * w, axis=1, keepdims=True) * w) / np.linalg.norm(
+                raw, axis=1, keepdims=True)  # d normalize(raw)/dx
+            a = np.cross(w, dw)
+            local[:3, cols] = a.T
+            local[3:, cols] = np.cross(pt, a).T
+        for frame, T0 in (("home", model.home_flange), ("base", model.base),
+                          ("tool", model.tool)):
+            if f"{frame}_rot" in kinds:
+                cols = kinds[f"{frame}_rot"]
+                w = _rot_jacobian_left(c[f"{frame}_rot"])[:, axis[cols]]
+                local[:3, cols] = w
+                local[3:, cols] = np.cross(T0[:3, 3], w.T).T  # about the frame origin
+            if f"{frame}_pos" in kinds:
+                cols = kinds[f"{frame}_pos"]
+                local[3 + axis[cols], cols] = 1.0
+        J = np.empty((len(q), 6, len(self.params)))
+        ad = [adjoint(A) for A in partial]
+        for key, cols in lay["carriers"].items():
+            L = local[:, cols]
+            if key[0] == "base":
+                J[:, :, cols] = L
+            elif key[0] == "partial":
+                J[:, :, cols] = ad[key[1]] @ L
+            elif key[0] == "axis":  # effect of a displacement of axis i
+                J[:, :, cols] = (ad[key[1]] - ad[key[1] + 1]) @ L
+            else:  # tool: expressed in the flange frame, carried by the flange pose
+                J[:, :, cols] = adjoint(Y) @ L
         return T, J
 
 
@@ -285,7 +331,7 @@ def forward_batch(errors: ErrorModel, X: ArrayLike, q: ArrayLike) -> Array:
             points[:, p.joint + 1:, p.axis] += v[:, None]
             frame["home_pos"][:, p.axis] += v
         elif p.kind in ("dir", "point"):
-            e = _normals(ref.axis_dirs[p.joint])[p.axis]
+            e = errors._normals_table[p.joint, p.axis]
             target = dirs if p.kind == "dir" else points
             target[:, p.joint] += v[:, None] * e
         else:

@@ -44,6 +44,12 @@ Frames = Literal["unknown", "known"]
 RANK_TOL = 1e-7  # relative to the largest singular value of the column-scaled Jacobian
 
 
+def _svd(a: Array, compute_uv: bool = True) -> tuple[Array, Array, Array] | Array:
+    """SVD by LAPACK's gesvd: numpy's default (gesdd) took 100+ ms, instead of 1, on the
+    exactly rank-deficient identification Jacobians."""
+    return scipy.linalg.svd(a, full_matrices=False, compute_uv=compute_uv, lapack_driver="gesvd")
+
+
 class IdentificationError(ScrewcalError):
     """The identification cannot run on these data (too few poses, nothing identifiable)."""
 
@@ -116,6 +122,7 @@ class _Problem:
         self.rows = 6 if residual == "pose" else 3
         at = np.zeros(len(errors.params)) if weights_at is None else weights_at
         self._whiten = self._weights(weighting, weight_mm, noise, at)
+        self._last: tuple[bytes, tuple[Array, Array]] | None = None
 
     def _weights(self, weighting: str, weight_mm: float, noise: NoiseModel, at: Array) -> Array:
         """Per-pose whitening matrices (N, k, k), or per-pair weights (P,) for distances; the
@@ -141,10 +148,14 @@ class _Problem:
         L = np.linalg.cholesky(cov)
         return np.linalg.inv(L)
 
-    def raw(self, x: Array) -> tuple[Array, Array]:
-        """Unweighted residuals (N, k) or (P,) and their Jacobian (N, k, p) or (P, p)."""
-        T, Js = self.errors.jacobian(x, self.data.q)
-        J = point_jacobian(Js, T)
+    def raw(self, x: Array, jacobian: bool = True) -> tuple[Array, Array | None]:
+        """Unweighted residuals (N, k) or (P,) and, if asked, their Jacobian (N, k, p) or
+        (P, p)."""
+        if jacobian:
+            T, Js = self.errors.jacobian(x, self.data.q)
+            J = point_jacobian(Js, T)
+        else:
+            T, J = _fk(self.errors.apply(x), self.data.q), None
         dp = T[:, :3, 3] - self.data.positions_mm
         if self.residual == "distance":
             i, j = _pairs(len(self.data))
@@ -152,25 +163,47 @@ class _Problem:
             d_meas = self.data.positions_mm[i] - self.data.positions_mm[j]
             n_model = np.linalg.norm(d_model, axis=1)
             r = n_model - np.linalg.norm(d_meas, axis=1)
+            if J is None:
+                return r, None
             u = d_model / n_model[:, None]
             return r, np.einsum("pi,pij->pj", u, J[i, :3] - J[j, :3])
         if self.residual == "position":
-            return dp, J[:, :3]
+            return dp, None if J is None else J[:, :3]
         dR = T[:, :3, :3] @ np.swapaxes(self.data.rotations, 1, 2)
         rot = Rotation.from_matrix(dR).as_rotvec()
         return np.concatenate([dp, rot], axis=1), J
         # (d rotvec / d omega is the identity to first order: the residual rotations are small)
 
+    def residuals(self, x: Array) -> Array:
+        """Weighted residuals alone (no Jacobian: most LM evaluations only need these)."""
+        if self._last is not None and self._last[0] == x.tobytes():
+            return self._last[1][0]
+        r, _ = self.raw(x, jacobian=False)
+        return self._apply_weights(r)
+
     def weighted(self, x: Array) -> tuple[Array, Array]:
+        """Weighted residuals and Jacobian; the last evaluation is kept, since least_squares
+        asks for the residuals and the Jacobian at the same x one after the other."""
+        key = x.tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
         r, J = self.raw(x)
+        assert J is not None
         if self.residual == "distance":
-            return r * self._whiten, J * self._whiten[:, None]
-        rw = np.einsum("nij,nj->ni", self._whiten, r).reshape(-1)
-        Jw = np.einsum("nij,njp->nip", self._whiten, J).reshape(-1, J.shape[-1])
-        return rw, Jw
+            out = (r * self._whiten, J * self._whiten[:, None])
+        else:
+            out = (self._apply_weights(r),
+                   np.einsum("nij,njp->nip", self._whiten, J).reshape(-1, J.shape[-1]))
+        self._last = (key, out)
+        return out
+
+    def _apply_weights(self, r: Array) -> Array:
+        if self.residual == "distance":
+            return r * self._whiten
+        return np.einsum("nij,nj->ni", self._whiten, r).reshape(-1)
 
     def cost(self, x: Array) -> float:
-        r, _ = self.weighted(x)
+        r = self.residuals(x)
         return float(r @ r)
 
     def cost_batch(self, X: Array) -> Array:
@@ -200,23 +233,48 @@ def _fk(model: SerialModel, q: Array) -> Array:
 # ----------------------------------------------------------------------------------------------
 # Identifiability
 
-def _select(J: Array, priority: Array) -> tuple[Array, int, Array]:
-    """Kept column indices (in candidate order), the rank, and the column norms. Columns of
-    higher `priority` (0, 1, 2) are taken first wherever they are independent."""
+def _select(J: Array, priority: Array, names: list[str]
+            ) -> tuple[Array, int, Array, list[str]]:
+    """Kept column indices (in candidate order), the rank, the column norms, and the null-space
+    combinations. Columns of higher `priority` (0, 1, 2) are taken first wherever they are
+    independent."""
     norms = np.linalg.norm(J, axis=0)
     live = norms > 1e-12 * max(norms.max(), 1e-300)
     Js = np.where(live, J / np.where(live, norms, 1.0), 0.0)
-    s = np.linalg.svd(Js, compute_uv=False)
+    _, s, Vt = _svd(Js)
     rank = int(np.sum(s > RANK_TOL * s[0]))
+    combos = []
+    for v in Vt[rank:]:
+        top = np.argsort(-np.abs(v))[:4]
+        combos.append(" ".join(f"{v[t]:+.2f} {names[t]}" for t in top if abs(v[t]) > 0.05))
     order_weight = np.where(live, 1e4 ** np.asarray(priority, float), 0.0)
     _, _, piv = scipy.linalg.qr(Js * order_weight, mode="economic", pivoting=True)
     keep = np.sort(piv[:rank])
-    return keep, rank, norms
+    return keep, rank, norms, combos
+
+
+_STRUCTURAL_RANKS: dict[bytes, int] = {}
 
 
 def structural_rank(errors: ErrorModel, residual: Residual, samples: int = 60) -> int:
     """How many of the error model's parameters well-spread data could identify: the rank of
-    the column-scaled Jacobian over random configurations inside the limits."""
+    the column-scaled Jacobian over random configurations inside the limits. It depends on the
+    model's structure only, so it is cached: the base frame moves the whole world rigidly and
+    cannot change it, and the tool (the measured point) only through its rough place."""
+    ref = errors.reference
+    key = b"|".join([residual.encode(), str(samples).encode(), *(p.name.encode()
+                                                                  for p in errors.params),
+                     *(a.tobytes() for a in (ref.axis_dirs, ref.axis_points_mm,
+                                             ref.home_flange, ref.limits)),
+                     np.round(ref.tool, 1).tobytes()])
+    if key not in _STRUCTURAL_RANKS:
+        if len(_STRUCTURAL_RANKS) > 256:
+            _STRUCTURAL_RANKS.clear()
+        _STRUCTURAL_RANKS[key] = _structural_rank(errors, residual, samples)
+    return _STRUCTURAL_RANKS[key]
+
+
+def _structural_rank(errors: ErrorModel, residual: Residual, samples: int) -> int:
     ref = errors.reference
     q = np.random.default_rng(0).uniform(ref.limits[:, 0], ref.limits[:, 1],
                                          (samples, ref.n_joints))
@@ -230,7 +288,7 @@ def structural_rank(errors: ErrorModel, residual: Residual, samples: int = 60) -
     else:
         rows = J[:, : (6 if residual == "pose" else 3)].reshape(-1, J.shape[-1])
     norms = np.linalg.norm(rows, axis=0)
-    s = np.linalg.svd(rows / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    s = _svd(rows / np.where(norms > 0, norms, 1.0), compute_uv=False)
     return int(np.sum(s > RANK_TOL * s[0]))
 
 
@@ -246,18 +304,6 @@ def _why_removed(J: Array, keep: Array, removed: Array, names: list[str], norms:
         top = np.argsort(-np.abs(coef))[:3]
         terms = " ".join(f"{coef[t]:+.3g} {names[keep[t]]}" for t in top if abs(coef[t]) > 1e-3)
         out.append((names[r], f"not separable from {terms} (scaled columns)"))
-    return out
-
-
-def _null_combinations(J: Array, names: list[str]) -> list[str]:
-    norms = np.linalg.norm(J, axis=0)
-    Js = J / np.where(norms > 0, norms, 1.0)
-    _, s, Vt = np.linalg.svd(Js, full_matrices=False)
-    out = []
-    for k in np.flatnonzero(s < RANK_TOL * s[0]):
-        v = Vt[k]
-        top = np.argsort(-np.abs(v))[:4]
-        out.append(" ".join(f"{v[t]:+.2f} {names[t]}" for t in top if abs(v[t]) > 0.05))
     return out
 
 
@@ -301,11 +347,10 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         more = f" (at least {needed // per_pose + 1} poses)" if per_pose else ""
         raise IdentificationError(f"{len(data)} poses give {m} equations for the {needed} "
                                   f"parameters this model can identify: measure more poses{more}")
-    keep, rank, norms = _select(J0, priority)
     names = [p.name for p in cands]
+    keep, rank, norms, combos = _select(J0, priority, names)
     removed_idx = np.setdiff1d(np.arange(len(cands)), keep)
     removed = _why_removed(J0, keep, removed_idx, names, norms)
-    combos = _null_combinations(J0, names)
     # Degenerate: the poses separate fewer parameters than well-spread data would, or (for
     # the thesis and joint models) a requested offset cannot be identified at all.
     requested_robot = [k for k, p in enumerate(cands) if p.group == "robot"]
@@ -317,14 +362,8 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     p = len(keep)
     x0 = np.zeros(p)
 
-    def fun(x: Array) -> Array:
-        return problem.weighted(x)[0]
-
-    def jac(x: Array) -> Array:
-        return problem.weighted(x)[1]
-
     def lm(problem: _Problem, x_start: Array) -> tuple[Array, bool, str, int]:
-        sol = least_squares(lambda x: problem.weighted(x)[0], x_start,
+        sol = least_squares(problem.residuals, x_start,
                             jac=lambda x: problem.weighted(x)[1], method="lm", x_scale="jac",
                             xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200 * (p + 1))
         return sol.x, bool(sol.status > 0), str(sol.message), int(sol.nfev)
@@ -336,7 +375,8 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         de = differential_evolution(problem.cost_batch, bounds, seed=seed, tol=1e-7, atol=0,
                                     maxiter=1000, popsize=15, polish=False, init="sobol",
                                     vectorized=True, updating="deferred")
-        polish = least_squares(fun, de.x, jac=jac, method="trf", x_scale="jac",
+        polish = least_squares(problem.residuals, de.x, jac=lambda x: problem.weighted(x)[1],
+                               method="trf", x_scale="jac",
                                bounds=tuple(zip(*bounds, strict=True)), xtol=1e-12, ftol=1e-12)
         x, converged = polish.x, bool(de.success or polish.status > 0)
         message = f"DE: {de.message}; polished: {polish.message}"
@@ -354,13 +394,13 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     r, Jw = problem.weighted(x)
     dof = max(m - p, 1)
     chi2 = float(r @ r) / dof
-    cov = np.linalg.pinv(Jw.T @ Jw)
+    cov = scipy.linalg.pinvh(Jw.T @ Jw)
     if weighting == "eq2.4":
         cov = cov * chi2
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     corr = cov / np.outer(np.where(std > 0, std, 1), np.where(std > 0, std, 1))
     col = np.linalg.norm(Jw, axis=0)
-    s = np.linalg.svd(Jw / np.where(col > 0, col, 1), compute_uv=False)
+    s = _svd(Jw / np.where(col > 0, col, 1), compute_uv=False)
     to_if = errors.to_interface
     calibrated = errors.apply(x)
     before = _pose_errors(start, data, residual)

@@ -37,11 +37,14 @@ def _frozen(a: ArrayLike, shape: tuple[int, ...], what: str) -> Array:
     return arr
 
 
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+
+
 def _check_rigid(T: Array, what: str) -> None:
     R = T[:3, :3]
-    if not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
+    if np.abs(R.T @ R - np.eye(3)).max() > 1e-9 or np.linalg.det(R) < 0:
         raise ModelError(f"{what}: the rotation part is not a proper rotation matrix")
-    if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0]):
+    if np.abs(T[3] - _LAST_ROW).max() > 1e-12:
         raise ModelError(f"{what}: the last row must be (0, 0, 0, 1), got {T[3].tolist()}")
 
 
@@ -100,6 +103,15 @@ class SerialModel:
                              f"got {self.limits[i].tolist()}")
         for what in ("home_flange", "base", "tool"):
             _check_rigid(getattr(self, what), f"model '{self.name}', {what}")
+
+    def derived(self, **changes: object) -> SerialModel:
+        """A copy with some arrays replaced, skipping validation: for numeric code that derives
+        models from a validated one by steps that keep the invariants (unit axes from
+        normalisation, rotations from exponentials). Everything else uses dataclasses.replace."""
+        out = object.__new__(SerialModel)
+        for name in self.__dataclass_fields__:
+            object.__setattr__(out, name, changes.get(name, getattr(self, name)))
+        return out
 
     @property
     def n_joints(self) -> int:
