@@ -17,19 +17,24 @@ from screwcal.se3 import Array, transform_from_rotation_translation
 
 
 def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: Array | None = None,
-                 *, fit_tool: bool = True, rounds: int = 20) -> tuple[Array, Array]:
+                 *, fit_tool: bool = True, rounds: int = 20, base: Array | None = None
+                 ) -> tuple[Array, Array]:
     """(base (4, 4), tool (4, 4)) so that base . flange(q) . tool best matches the measured
-    points; with rotations (full pose) the tool's rotation is fitted too."""
+    points; with rotations (full pose) the tool's rotation is fitted too. A given `base` (from
+    the thesis's alignment, `base_alignment`) is kept and only the tool is fitted."""
     F = flange_kinematics(model, q)
     R_f, p_f = F[:, :3, :3], F[:, :3, 3]
     t_tool = np.zeros(3)
     R_b, t_b = np.eye(3), np.zeros(3)
+    if base is not None:
+        R_b, t_b = base[:3, :3], base[:3, 3]
     for _ in range(rounds):
-        pts = p_f + R_f @ t_tool
-        c_m, c_n = positions_mm.mean(axis=0), pts.mean(axis=0)
-        rot, _ = Rotation.align_vectors(positions_mm - c_m, pts - c_n)
-        R_b = rot.as_matrix()
-        t_b = c_m - R_b @ c_n
+        if base is None:
+            pts = p_f + R_f @ t_tool
+            c_m, c_n = positions_mm.mean(axis=0), pts.mean(axis=0)
+            rot, _ = Rotation.align_vectors(positions_mm - c_m, pts - c_n)
+            R_b = rot.as_matrix()
+            t_b = c_m - R_b @ c_n
         if not fit_tool:
             break
         # measured = R_b (p_f + R_f t) + t_b  ->  R_f t = R_b^T (measured - t_b) - p_f

@@ -19,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from screwcal import base_alignment
+from screwcal.base_alignment import base_from_sweeps, fit_circle, read_sweeps_csv
 from screwcal.correction import CorrectionRefusedError, compensate, joint_correction
 from screwcal.errors import DataFileError, JointLimitError, UnreachableError
 from screwcal.identify import CalibrationResult, NoiseModel, identify
@@ -79,9 +81,12 @@ def run_calibrate(args: argparse.Namespace) -> int:
     data = read_measurements_csv(args.data, nominal)
     weighting = "eq2.4" if args.weight_mm is not None else "statistical"
     noise = NoiseModel(position_mm=args.noise_mm, joint_deg=args.joint_noise_deg)
+    base_guess = None
+    if args.base_guess:
+        base_guess = base_from_sweeps(nominal, *read_sweeps_csv(args.base_guess))
     result = identify(nominal, data, kind=args.model, residual=args.residual,
                       frames=args.base_frame, solver=args.solver, weighting=weighting,
-                      weight_mm=args.weight_mm or 1.0, noise=noise)
+                      weight_mm=args.weight_mm or 1.0, noise=noise, base_guess=base_guess)
     settings = {"model": args.model, "solver": args.solver, "base_frame": args.base_frame,
                 "residual": result.residual_kind, "weighting": weighting,
                 "weight_mm": args.weight_mm, "noise_mm": args.noise_mm,
@@ -120,7 +125,32 @@ def run_compensate(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_align(args: argparse.Namespace) -> int:
+    nominal = resolve_model(args.robot)
+    j1, j2, q1 = read_sweeps_csv(args.sweeps)
+    base = base_from_sweeps(nominal, j1, j2, q1)
+    c1, c2 = fit_circle(j1), fit_circle(j2)
+    doc = {"robot": nominal.name, "base": PoseIn.of(base).model_dump(),
+           "meaning": "pose of the robot base frame in the measuring system's frame (mm, deg)",
+           "j1_circle_rms_mm": c1.rms_mm, "j2_circle_rms_mm": c2.rms_mm}
+    Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    b = doc["base"]
+    print(f"robot base in the measuring frame: x {b['x']:.3f} y {b['y']:.3f} z {b['z']:.3f} mm, "
+          f"rx {b['rx']:.4f} ry {b['ry']:.4f} rz {b['rz']:.4f} deg; circle fits RMS "
+          f"{c1.rms_mm:.3f} / {c2.rms_mm:.3f} mm -> {args.out}")
+    return 0
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    a = sub.add_parser("align", help="base frame from joint 1 and joint 2 sweeps (thesis 4.6)",
+                       description=base_alignment.__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    a.add_argument("--robot", required=True, help="built-in robot or model file")
+    a.add_argument("--sweeps", required=True,
+                   help="CSV: joint (1|2), q1 (deg), x, y, z (mm), in the order probed")
+    a.add_argument("--out", required=True, help="JSON with the base pose")
+    a.set_defaults(func=run_align)
+
     p = sub.add_parser("calibrate", help="identify the robot's geometric errors from a CSV",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--robot", required=True, help="built-in robot (irb1600, irb120) or model file")
@@ -134,6 +164,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--base-frame", choices=["unknown", "known"], default="unknown")
     p.add_argument("--residual", choices=["pose", "position", "distance"], default=None,
                    help="default: pose for full-pose data, position otherwise")
+    p.add_argument("--base-guess", metavar="SWEEPS_CSV",
+                   help="start the base frame from the thesis's joint 1/joint 2 sweeps (4.6)")
     p.add_argument("--noise-mm", type=float, default=0.013, help="measuring noise, 1 sigma")
     p.add_argument("--joint-noise-deg", type=float, default=0.05,
                    help="random joint error, uniform +-")

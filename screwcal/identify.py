@@ -314,9 +314,10 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
              residual: Residual | None = None, frames: Frames = "unknown",
              solver: Literal["lm", "de"] = "lm", weighting: str = "statistical",
              weight_mm: float = 1.0, noise: NoiseModel | None = None,
-             de_link_bounds_mm: tuple[float, float] = (0.0, 1.0), seed: int = 0
-             ) -> CalibrationResult:
-    """Identify the error model `kind` of `nominal` from measured data."""
+             de_link_bounds_mm: tuple[float, float] = (0.0, 1.0), seed: int = 0,
+             base_guess: Array | None = None) -> CalibrationResult:
+    """Identify the error model `kind` of `nominal` from measured data. With unknown frames,
+    `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there."""
     started = time.perf_counter()
     noise = noise or NoiseModel()
     residual = residual or ("pose" if data.full_pose else "position")
@@ -327,7 +328,8 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     start = nominal
     if frames == "unknown":
         base, tool = align_frames(nominal, data.q, data.positions_mm,
-                                  data.rotations if residual == "pose" else None)
+                                  data.rotations if residual == "pose" else None,
+                                  base=base_guess)
         start = nominal.with_frames(base, tool)
     unknown = frames == "unknown"
     cands = candidate_params(start, kind, base=unknown and residual != "distance",
@@ -362,26 +364,46 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     p = len(keep)
     x0 = np.zeros(p)
 
-    def lm(problem: _Problem, x_start: Array) -> tuple[Array, bool, str, int]:
+    def lm(problem: _Problem, x_start: Array, tol: float = 1e-12
+           ) -> tuple[Array, bool, str, int]:
         sol = least_squares(problem.residuals, x_start,
                             jac=lambda x: problem.weighted(x)[1], method="lm", x_scale="jac",
-                            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200 * (p + 1))
+                            xtol=tol, ftol=tol, gtol=tol, max_nfev=200 * (p + 1))
         return sol.x, bool(sol.status > 0), str(sol.message), int(sol.nfev)
 
+    statistical = weighting == "statistical"
     if solver == "lm":
-        x, converged, message, nfev = lm(problem, x0)
+        # With statistical weights a second, re-weighted pass refines to full precision, so
+        # the first only needs to come close.
+        x, converged, message, nfev = lm(problem, x0, 1e-6 if statistical else 1e-12)
     else:
+        # DE searches the robot's parameters within the thesis's bounds, the frames held at
+        # their starting alignment (the thesis's DE had an aligned base); a bounded
+        # trust-region polish then refines everything together.
         bounds = _de_bounds(errors, de_link_bounds_mm)
-        de = differential_evolution(problem.cost_batch, bounds, seed=seed, tol=1e-7, atol=0,
-                                    maxiter=1000, popsize=15, polish=False, init="sobol",
-                                    vectorized=True, updating="deferred")
-        polish = least_squares(problem.residuals, de.x, jac=lambda x: problem.weighted(x)[1],
-                               method="trf", x_scale="jac",
-                               bounds=tuple(zip(*bounds, strict=True)), xtol=1e-12, ftol=1e-12)
+        robot = np.array([q.group == "robot" for q in errors.params])
+        searched = robot if robot.any() else np.ones(p, bool)
+
+        def cost_robot(X: Array) -> Array:
+            full = np.zeros((p, X.shape[1]))
+            full[searched] = X
+            return problem.cost_batch(full)
+
+        de = differential_evolution(cost_robot, [b for b, s in zip(bounds, searched,
+                                                                   strict=True) if s],
+                                    seed=seed, tol=1e-7, atol=0, maxiter=1000, popsize=15,
+                                    polish=False, init="sobol", vectorized=True,
+                                    updating="deferred")
+        start_x = np.zeros(p)
+        start_x[searched] = de.x
+        polish = least_squares(problem.residuals, start_x,
+                               jac=lambda x: problem.weighted(x)[1], method="trf",
+                               x_scale="jac", bounds=tuple(zip(*bounds, strict=True)),
+                               xtol=1e-12, ftol=1e-12)
         x, converged = polish.x, bool(de.success or polish.status > 0)
         message = f"DE: {de.message}; polished: {polish.message}"
         nfev = int(de.nfev + polish.nfev)
-    if weighting == "statistical":
+    if statistical:
         # The joint noise dominates and is very directional: weights taken at the starting
         # model mis-shape it by the size of the errors being identified. Re-weight at the
         # estimate and solve again (iteratively re-weighted GLS; one pass is enough, the
