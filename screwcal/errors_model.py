@@ -37,7 +37,14 @@ from scipy.spatial.transform import Rotation
 from screwcal.errors import ModelError
 from screwcal.kinematics import _chain, _check_q, _to_homogeneous
 from screwcal.model import SerialModel
-from screwcal.se3 import Array, adjoint, skew, transform_from_rotation_translation
+from screwcal.se3 import (
+    Array,
+    adjoint,
+    cross,
+    rotation_from_rotvec,
+    skew,
+    transform_from_rotation_translation,
+)
 from screwcal.virtual_joints import parse_name
 
 ModelKind = Literal["frames", "joints", "thesis", "full"]
@@ -187,7 +194,7 @@ class ErrorModel:
         def framed(T0: Array, rot: Array, pos: Array) -> Array:
             if not rot.any() and not pos.any():
                 return T0
-            R = Rotation.from_rotvec(rot).as_matrix() @ T0[:3, :3]
+            R = rotation_from_rotvec(rot) @ T0[:3, :3]
             return transform_from_rotation_translation(R, T0[:3, 3] + pos)
 
         return m.derived(axis_dirs=dirs, axis_points_mm=points,
@@ -255,7 +262,7 @@ class ErrorModel:
             w = model.axis_dirs[j]
             rev = model.is_revolute[j]
             local[:3, cols] = np.where(rev[:, None], w, 0.0).T
-            local[3:, cols] = np.where(rev[:, None], np.cross(model.axis_points_mm[j], w), w).T
+            local[3:, cols] = np.where(rev[:, None], cross(model.axis_points_mm[j], w), w).T
         if "link" in kinds:
             cols = kinds["link"]
             local[3 + axis[cols], cols] = 1.0  # a translation of the chain after the joint
@@ -270,16 +277,16 @@ class ErrorModel:
             raw = self.reference.axis_dirs[j] + np.einsum("kc,kcj->kj", c["dir"][j], normals[j])
             dw = (e - np.sum(e * w, axis=1, keepdims=True) * w) / np.linalg.norm(
                 raw, axis=1, keepdims=True)  # d normalize(raw)/dx
-            a = np.cross(w, dw)
+            a = cross(w, dw)
             local[:3, cols] = a.T
-            local[3:, cols] = np.cross(pt, a).T
+            local[3:, cols] = cross(pt, a).T
         for frame, T0 in (("home", model.home_flange), ("base", model.base),
                           ("tool", model.tool)):
             if f"{frame}_rot" in kinds:
                 cols = kinds[f"{frame}_rot"]
                 w = _rot_jacobian_left(c[f"{frame}_rot"])[:, axis[cols]]
                 local[:3, cols] = w
-                local[3:, cols] = np.cross(T0[:3, 3], w.T).T  # about the frame origin
+                local[3:, cols] = cross(T0[:3, 3], w.T).T  # about the frame origin
             if f"{frame}_pos" in kinds:
                 cols = kinds[f"{frame}_pos"]
                 local[3 + axis[cols], cols] = 1.0

@@ -37,7 +37,7 @@ from screwcal.errors_model import ErrorModel, ModelKind, Param, candidate_params
 from screwcal.kinematics import point_jacobian, spatial_jacobian
 from screwcal.measurements import MeasurementSet
 from screwcal.model import SerialModel
-from screwcal.se3 import Array
+from screwcal.se3 import Array, rotvec_from_rotation
 
 Residual = Literal["pose", "position", "distance"]
 Frames = Literal["unknown", "known"]
@@ -170,8 +170,7 @@ class _Problem:
         if self.residual == "position":
             return dp, None if J is None else J[:, :3]
         dR = T[:, :3, :3] @ np.swapaxes(self.data.rotations, 1, 2)
-        rot = Rotation.from_matrix(dR).as_rotvec()
-        return np.concatenate([dp, rot], axis=1), J
+        return np.concatenate([dp, rotvec_from_rotation(dR)], axis=1), J
         # (d rotvec / d omega is the identity to first order: the residual rotations are small)
 
     def residuals(self, x: Array) -> Array:
@@ -218,7 +217,7 @@ class _Problem:
         r = T[:, :, :3, 3] - self.data.positions_mm
         if self.residual == "pose":
             dR = T[:, :, :3, :3] @ np.swapaxes(self.data.rotations, 1, 2)
-            rot = Rotation.from_matrix(dR.reshape(-1, 3, 3)).as_rotvec().reshape(r.shape)
+            rot = rotvec_from_rotation(dR)
             r = np.concatenate([r, rot], axis=2)
         rw = np.einsum("nij,snj->sni", self._whiten, r)
         return np.sum(rw**2, axis=(1, 2))
@@ -296,11 +295,12 @@ def _why_removed(J: Array, keep: Array, removed: Array, names: list[str], norms:
                  ) -> list[tuple[str, str]]:
     out = []
     Js = J / np.where(norms > 0, norms, 1.0)
-    for r in removed:
+    coefs = np.linalg.lstsq(Js[:, keep], Js[:, removed], rcond=None)[0] if len(removed) else None
+    for k, r in enumerate(removed):
         if norms[r] <= 1e-12 * max(norms.max(), 1e-300):
             out.append((names[r], "has no effect on these measurements"))
             continue
-        coef, *_ = np.linalg.lstsq(Js[:, keep], Js[:, r], rcond=None)
+        coef = coefs[:, k]
         top = np.argsort(-np.abs(coef))[:3]
         terms = " ".join(f"{coef[t]:+.3g} {names[keep[t]]}" for t in top if abs(coef[t]) > 1e-3)
         out.append((names[r], f"not separable from {terms} (scaled columns)"))
@@ -372,10 +372,21 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         return sol.x, bool(sol.status > 0), str(sol.message), int(sol.nfev)
 
     statistical = weighting == "statistical"
+    reweighted = False
     if solver == "lm":
-        # With statistical weights a second, re-weighted pass refines to full precision, so
-        # the first only needs to come close.
-        x, converged, message, nfev = lm(problem, x0, 1e-6 if statistical else 1e-12)
+        # The candidate Jacobian at the start gives one Gauss-Newton step for free; with
+        # statistical weights, take the weights there (the joint noise is very directional:
+        # weights at the starting model mis-shape it by the size of the errors being
+        # identified) and solve once. If that step does not lower the cost, solve from the
+        # start and re-weight afterwards.
+        x_gn = -np.linalg.lstsq(J0[:, keep], r0, rcond=None)[0]
+        if statistical and problem.cost(x_gn) < float(r0 @ r0):
+            problem = _Problem(errors, data, residual, weighting, weight_mm, noise,
+                               weights_at=x_gn)
+            x, converged, message, nfev = lm(problem, x_gn)
+            reweighted = True
+        else:
+            x, converged, message, nfev = lm(problem, x0, 1e-6 if statistical else 1e-12)
     else:
         # DE searches the robot's parameters within the thesis's bounds, the frames held at
         # their starting alignment (the thesis's DE had an aligned base); a bounded
@@ -403,11 +414,9 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         x, converged = polish.x, bool(de.success or polish.status > 0)
         message = f"DE: {de.message}; polished: {polish.message}"
         nfev = int(de.nfev + polish.nfev)
-    if statistical:
-        # The joint noise dominates and is very directional: weights taken at the starting
-        # model mis-shape it by the size of the errors being identified. Re-weight at the
-        # estimate and solve again (iteratively re-weighted GLS; one pass is enough, the
-        # weights' own error is then second order).
+    if statistical and not reweighted:
+        # Re-weight at the estimate and solve again (iteratively re-weighted GLS; one pass is
+        # enough, the weights' own error is then second order).
         problem = _Problem(errors, data, residual, weighting, weight_mm, noise, weights_at=x)
         x, converged_again, message_again, nfev_again = lm(problem, x)
         converged = converged and converged_again

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.model import SerialModel
-from screwcal.se3 import Array, adjoint, exp_twist, skew
+from screwcal.se3 import Array, adjoint, cross, exp_twist, skew
 
 
 def _joint_generators(model: SerialModel) -> tuple[Array, Array]:
@@ -115,7 +115,7 @@ def _joint_twist(model: SerialModel, i: int, A: Array) -> Array:
     if model.joint_types[i] == "P":
         return np.concatenate([np.zeros_like(w), w], axis=1)
     p = R @ model.axis_points_mm[i] + A[:, :, 3]
-    return np.concatenate([w, np.cross(p, w)], axis=1)
+    return np.concatenate([w, cross(p, w)], axis=1)
 
 
 def point_jacobian(J_spatial: ArrayLike, T: ArrayLike) -> Array:
@@ -128,7 +128,7 @@ def point_jacobian(J_spatial: ArrayLike, T: ArrayLike) -> Array:
     p = np.asarray(T, dtype=float)[:, :3, 3]
     w = J[:, :3, :]
     v = J[:, 3:, :]
-    dp = v + np.cross(w, p[:, :, None], axis=1)
+    dp = v + np.swapaxes(cross(np.swapaxes(w, 1, 2), p[:, None, :]), 1, 2)
     return np.concatenate([dp, w], axis=1)
 
 

@@ -26,6 +26,49 @@ def skew(w: ArrayLike) -> Array:
     return out
 
 
+def cross(a: ArrayLike, b: ArrayLike) -> Array:
+    """Cross product over the last axis, (..., 3) x (..., 3) -> (..., 3). np.cross does the
+    same with axis bookkeeping that costs more than the arithmetic for small batches."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
+def rotation_from_rotvec(phi: ArrayLike) -> Array:
+    """Rodrigues' formula, (..., 3) -> (..., 3, 3) (Annex B); for the solver's hot path, where
+    scipy's Rotation costs more than the arithmetic."""
+    phi = np.asarray(phi, dtype=float)
+    theta = np.linalg.norm(phi, axis=-1)
+    small = theta < 1e-9
+    th = np.where(small, 1.0, theta)
+    A = np.where(small, 1.0 - theta**2 / 6.0, np.sin(th) / th)
+    B = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(th)) / th**2)
+    K = skew(phi)
+    return np.eye(3) + A[..., None, None] * K + B[..., None, None] * (K @ K)
+
+
+def rotvec_from_rotation(R: ArrayLike) -> Array:
+    """The rotation vector of rotations (..., 3, 3), the inverse of `rotation_from_rotvec`.
+    Angles within 0.1 rad of 180 deg, where this formula loses precision, go to scipy."""
+    R = np.asarray(R, dtype=float)
+    cos = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
+    theta = np.arccos(cos)
+    v = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
+                  R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    sin = np.sin(theta)
+    small = theta < 1e-6
+    scale = np.where(small, 0.5 + theta**2 / 12.0, theta / (2.0 * np.where(small, 1.0, sin)))
+    out = v * scale[..., None]
+    near_pi = theta > np.pi - 0.1
+    if np.any(near_pi):
+        from scipy.spatial.transform import Rotation
+
+        out[near_pi] = Rotation.from_matrix(R[near_pi]).as_rotvec()
+    return out
+
+
 def twist_hat(xi: ArrayLike) -> Array:
     """4x4 matrix form of twists (omega, v), shape (..., 6) -> (..., 4, 4)."""
     xi = np.asarray(xi, dtype=float)

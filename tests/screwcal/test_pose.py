@@ -54,3 +54,16 @@ def test_batches_keep_their_shape():
     poses = np.zeros((3, 4, 6))
     assert transform_from_pose(poses).shape == (3, 4, 4, 4)
     assert pose_from_transform(transform_from_pose(poses)).shape == (3, 4, 6)
+
+
+def test_rodrigues_exp_and_log_match_scipy(rng):
+    from scipy.spatial.transform import Rotation
+
+    from screwcal.se3 import rotation_from_rotvec, rotvec_from_rotation
+
+    phi = np.concatenate([rng.normal(0, 1, (200, 3)), rng.normal(0, 1e-8, (5, 3)),
+                          np.pi * np.array([[1.0, 0, 0], [0, 0.6, 0.8]]) * 0.999])
+    R = rotation_from_rotvec(phi)
+    np.testing.assert_allclose(R, Rotation.from_rotvec(phi).as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(rotvec_from_rotation(R), Rotation.from_matrix(R).as_rotvec(),
+                               atol=1e-9)
