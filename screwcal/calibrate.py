@@ -51,7 +51,7 @@ def result_document(result: CalibrationResult, robot: str, settings: dict) -> di
         residuals |= {"rotation_before_deg": result.rotation_before_deg.tolist(),
                       "rotation_after_deg": result.rotation_after_deg.tolist()}
     try:
-        correction = joint_correction(result.names, result.values, result.std_errors,
+        correction = joint_correction(result.params, result.values, result.std_errors,
                                       result.model.n_joints).to_dict()
     except CorrectionRefusedError as err:
         correction = {"refused": str(err)}

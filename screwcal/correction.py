@@ -13,12 +13,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.errors import ScrewcalError
+from screwcal.errors_model import Param
 from screwcal.ik import numerical_ik
 from screwcal.kinematics import flange_kinematics
 from screwcal.model import SerialModel
@@ -46,26 +48,26 @@ class JointCorrection:
                              "zero (thesis 4.5)"}
 
 
-def joint_correction(names: tuple[str, ...], values_deg: ArrayLike, std_errors_deg: ArrayLike,
-                     n_joints: int, bound_deg: float = PLAUSIBLE_OFFSET_DEG,
+def joint_correction(params: Sequence[Param], values_deg: ArrayLike,
+                     std_errors_deg: ArrayLike, n_joints: int,
+                     bound_deg: float = PLAUSIBLE_OFFSET_DEG,
                      max_std_deg: float = MAX_STD_ERROR_DEG) -> JointCorrection:
-    """The joint-offset correction from identified joint zeros `J1`..`Jn` (deg)."""
+    """The joint-offset correction from the identified joint zeros (deg) among `params`."""
     values = np.asarray(values_deg, float)
     stds = np.asarray(std_errors_deg, float)
     offsets = np.zeros(n_joints)
     identified = np.zeros(n_joints, bool)
-    for i in range(n_joints):
-        name = f"J{i + 1}"
-        if name not in names:
+    for k, p in enumerate(params):
+        if p.kind != "zero" or not p.is_angle:
             continue
-        k = names.index(name)
+        i = p.joint
         if abs(values[k]) > bound_deg:
             raise CorrectionRefusedError(
-                f"joint {i + 1} offset {values[k]:+.3f} deg exceeds the plausible bound of "
-                f"+-{bound_deg:g} deg: check the data and the set-up before correcting")
+                f"joint {i + 1} offset {values[k]:+.3f} deg ({p.name}) exceeds the plausible "
+                f"bound of +-{bound_deg:g} deg: check the data and the set-up before correcting")
         if stds[k] > max_std_deg:
             raise CorrectionRefusedError(
-                f"joint {i + 1} offset {values[k]:+.3f} deg is uncertain (std error "
+                f"joint {i + 1} offset {values[k]:+.3f} deg ({p.name}) is uncertain (std error "
                 f"{stds[k]:.3f} deg > {max_std_deg:g}): measure better-spread poses")
         offsets[i], identified[i] = values[k], True
     return JointCorrection(offsets, -offsets, identified)

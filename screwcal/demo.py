@@ -102,12 +102,12 @@ def format_report(r: DemoResult, n_poses: int, n_validation: int) -> str:
     ]
     true_zero = np.degrees(r.true_model.joint_zero)
     for i in range(6):
-        name = f"J{i + 1}"
-        if name in r.fit.names:
-            lines.append(f"  {name:<12}{true_zero[i]:>10.3f}{r.fit.value(name):>12.3f}"
-                         f"{r.fit.std_errors[r.fit.names.index(name)]:>11.3f}")
+        k = r.fit.joint_offset_index(i)
+        if k is not None:
+            lines.append(f"  {r.fit.names[k]:<12}{true_zero[i]:>10.3f}{r.fit.values[k]:>12.3f}"
+                         f"{r.fit.std_errors[k]:>11.3f}")
         else:
-            lines.append(f"  {name:<12}{true_zero[i]:>10.3f}{'(not separable)':>23}")
+            lines.append(f"  {'J' + str(i + 1):<12}{true_zero[i]:>10.3f}{'(not separable)':>23}")
     lines += ["  (the full model explains the imposed link offsets partly through joint zeros,",
               "   so a zero can differ from its imposed offset by more than its standard error;",
               "   the validation errors on unseen poses are the measure of the calibration)",

@@ -26,7 +26,7 @@ the base is not.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Literal
 
@@ -49,6 +49,9 @@ from screwcal.virtual_joints import parse_name
 
 ModelKind = Literal["frames", "joints", "thesis", "full"]
 THESIS_LINK_OFFSETS = ("J1pz", "J1px", "J2pz", "J4px")
+# Table 11's names of the joint offsets. Joint 3 turns about y in the usual frame; the thesis
+# still writes J3rz (../shared/seed/README.md): it is the joint-3 offset.
+THESIS_JOINT_OFFSETS = ("J1rz", "J2ry", "J3rz", "J4rx", "J5ry", "J6rx")
 
 
 @dataclass(frozen=True)
@@ -97,6 +100,8 @@ def candidate_params(model: SerialModel, kind: ModelKind, *, base: bool, tool_ro
     n = model.n_joints
     zeros = [Param(f"J{i + 1}", "deg" if model.joint_types[i] == "R" else "mm", "zero", joint=i)
              for i in range(n)]
+    if kind == "thesis":  # named as the thesis names them (Table 11)
+        zeros = [replace(z, name=THESIS_JOINT_OFFSETS[z.joint]) for z in zeros]
     if kind == "frames":
         return params
     if kind == "joints":

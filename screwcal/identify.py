@@ -98,6 +98,13 @@ class CalibrationResult:
     def names(self) -> tuple[str, ...]:
         return tuple(p.name for p in self.params)
 
+    def joint_offset_index(self, joint: int) -> int | None:
+        """Index of joint `joint`'s (0-based) identified offset, whatever the model names it."""
+        for k, p in enumerate(self.params):
+            if p.kind == "zero" and p.joint == joint:
+                return k
+        return None
+
     def value(self, name: str) -> float:
         return float(self.values[self.names.index(name)])
 

@@ -24,10 +24,10 @@ from screwcal.simulate import orientation_noise_rad, simulate_measurements
 from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 
 # Thesis Table 11, "Residuo LM": |estimated - imposed| of its one LM calibration.
-THESIS_RESIDUAL_LM = {"J1": 0.028, "J1pz": 0.161, "J1px": 0.184, "J2": 0.006, "J2pz": 0.102,
-                      "J3": 0.001, "J4": 0.063, "J4px": 0.097, "J5": 0.086, "J6": 0.013}
-IMPOSED = {"J1": 2.0, "J2": 1.1, "J3": 3.1, "J4": -2.0, "J5": 3.7, "J6": -4.6, "J1pz": 0.3,
-           "J1px": 0.3, "J2pz": 0.3, "J4px": 0.3}
+THESIS_RESIDUAL_LM = {"J1rz": 0.028, "J1pz": 0.161, "J1px": 0.184, "J2ry": 0.006,
+                      "J2pz": 0.102, "J3rz": 0.001, "J4rx": 0.063, "J4px": 0.097, "J5ry": 0.086,
+                      "J6rx": 0.013}
+IMPOSED = THESIS_TABLE11
 
 
 @dataclass(frozen=True)

@@ -78,10 +78,11 @@ def test_thesis_model_with_known_frames_and_de(tmp_path, rng):
                  "--model", "thesis", "--base-frame", "known", "--weight-mm", "1"]) == 0
     doc = json.loads(out.read_text())
     values = {p["name"]: p["value"] for p in doc["parameters"]}
-    assert values["J5"] == pytest.approx(3.7, abs=0.1)
+    assert values["J5ry"] == pytest.approx(3.7, abs=0.1)
     assert doc["settings"]["weighting"] == "eq2.4"
     np.testing.assert_allclose(doc["correction"]["zero_command_deg"],
-                               [-values[f"J{i}"] for i in range(1, 7)])
+                               [-values[n] for n in ("J1rz", "J2ry", "J3rz", "J4rx", "J5ry",
+                                                     "J6rx")])
 
 
 @pytest.mark.parametrize(("content", "message"), [

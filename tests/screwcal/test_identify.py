@@ -5,6 +5,7 @@ import pytest
 
 from screwcal.correction import CorrectionRefusedError, joint_correction
 from screwcal.demo import random_configurations
+from screwcal.errors_model import Param
 from screwcal.identify import IdentificationError, NoiseModel, identify
 from screwcal.kinematics import forward_kinematics
 from screwcal.robots import irb1600
@@ -55,12 +56,11 @@ def test_thesis_model_recovers_table_11(rng):
     data = simulate_measurements(truth, random_configurations(40, rng), rng)
     r = identify(irb1600(), data, kind="thesis", frames="known")
     assert not r.degenerate and not r.removed
-    imposed = {"J1": 2.0, "J2": 1.1, "J3": 3.1, "J4": -2.0, "J5": 3.7, "J6": -4.6,
-               "J1pz": 0.3, "J1px": 0.3, "J2pz": 0.3, "J4px": 0.3}
-    for name, value in imposed.items():
+    assert set(r.names) == set(THESIS_TABLE11)  # named as the thesis names them
+    for name, value in THESIS_TABLE11.items():
         k = r.names.index(name)
         assert abs(r.values[k] - value) < 4 * r.std_errors[k], name
-    assert r.std_errors[r.names.index("J1")] < 0.05
+    assert r.std_errors[r.names.index("J1rz")] < 0.05
 
 
 def test_unknown_frames_make_the_thesis_model_degenerate_and_say_why(rng):
@@ -69,10 +69,10 @@ def test_unknown_frames_make_the_thesis_model_degenerate_and_say_why(rng):
     r = identify(irb1600(), data, kind="thesis")
     assert r.degenerate
     removed = dict(r.removed)
-    assert "J1" in removed and "base.rz" in removed["J1"]
-    assert "J6" in removed and "tool.rz" in removed["J6"]
+    assert "J1rz" in removed and "base.rz" in removed["J1rz"]
+    assert "J6rx" in removed and "tool.rz" in removed["J6rx"]
     assert "J1pz" in removed and "base.z" in removed["J1pz"]
-    assert "J1" not in r.names  # held, not solved with garbage
+    assert "J1rz" not in r.names  # held, not solved with garbage
 
 
 def test_distance_data_need_no_base_alignment(rng):
@@ -118,13 +118,14 @@ def test_eq_2_4_weighting_runs_and_scales_errors(rng):
 
 
 def test_correction_is_minus_the_offsets_and_refuses_the_implausible():
-    c = joint_correction(("J1", "J2"), [1.0, -2.0], [0.01, 0.01], 6)
+    j1, j2 = (Param(n, "deg", "zero", joint=i) for i, n in enumerate(("J1rz", "J2ry")))
+    c = joint_correction((j1, j2), [1.0, -2.0], [0.01, 0.01], 6)
     np.testing.assert_allclose(c.zero_command_deg, [-1, 2, 0, 0, 0, 0])
     assert c.identified.tolist() == [True, True, False, False, False, False]
     with pytest.raises(CorrectionRefusedError, match="exceeds the plausible bound"):
-        joint_correction(("J1",), [7.0], [0.01], 6)
+        joint_correction((j1,), [7.0], [0.01], 6)
     with pytest.raises(CorrectionRefusedError, match="uncertain"):
-        joint_correction(("J1",), [1.0], [0.5], 6)
+        joint_correction((j1,), [1.0], [0.5], 6)
 
 
 @pytest.mark.slow
@@ -134,7 +135,7 @@ def test_lm_is_statistically_efficient():
     from screwcal.montecarlo import efficiency_study
 
     rows = efficiency_study(samples=200, seed=0)
-    offsets = [r for r in rows if r.name in {f"J{i}" for i in range(1, 7)}]
+    offsets = [r for r in rows if r.unit == "deg"]
     assert len(offsets) == 6
     for r in offsets:
         assert r.ratio <= 1.2, f"{r.name}: RMS {r.rms_error:.4f} vs bound {r.bound:.4f}"
