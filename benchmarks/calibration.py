@@ -8,40 +8,28 @@ in-process, 1,000 poses <= 0.5 s, DE on 40 poses <= 10 s.
 
 from __future__ import annotations
 
-import os
+# isort: off
+from timing import best_of  # first: it pins BLAS to one core before numpy loads
 
-for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(var, "1")
+# isort: on
+import argparse
+import csv
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
 
-import argparse  # noqa: E402
-import csv  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Callable  # noqa: E402
-from pathlib import Path  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from screwcal.demo import random_configurations  # noqa: E402
-from screwcal.identify import identify  # noqa: E402
-from screwcal.measurements import MeasurementSet  # noqa: E402
-from screwcal.pose import euler_zyx_deg_from_rotation  # noqa: E402
-from screwcal.robots import irb1600  # noqa: E402
-from screwcal.se3 import exp_twist  # noqa: E402
-from screwcal.simulate import simulate_measurements  # noqa: E402
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints  # noqa: E402
-
-
-def best_of(repeat: int, fn: Callable[[], object]) -> float:
-    fn()  # warm-up (imports, caches)
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
+from screwcal.demo import random_configurations
+from screwcal.identify import identify
+from screwcal.measurements import MeasurementSet
+from screwcal.pose import euler_zyx_deg_from_rotation
+from screwcal.robots import irb1600
+from screwcal.se3 import exp_twist
+from screwcal.simulate import simulate_measurements
+from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 
 
 def write_csv(path: Path, data: MeasurementSet) -> None:

@@ -8,30 +8,18 @@ FK >= 1,000,000 poses/s, closed-form IK >= 50,000 poses/s.
 
 from __future__ import annotations
 
-import os
+# isort: off
+from timing import best_of  # first: it pins BLAS to one core before numpy loads
 
-for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(var, "1")
+# isort: on
+import argparse
 
-import argparse  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Callable  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from screwcal.ik import closed_form_ik, numerical_ik  # noqa: E402
-from screwcal.kinematics import forward_kinematics, parameter_jacobian  # noqa: E402
-from screwcal.robots import irb1600  # noqa: E402
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints  # noqa: E402
-
-
-def best_of(repeat: int, fn: Callable[[], object]) -> float:
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
+from screwcal.ik import closed_form_ik, numerical_ik
+from screwcal.kinematics import forward_kinematics, parameter_jacobian
+from screwcal.robots import irb1600
+from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 
 
 def main() -> None:
