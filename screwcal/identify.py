@@ -34,22 +34,20 @@ from scipy.spatial.transform import Rotation
 from screwcal.alignment import align_frames
 from screwcal.errors import ScrewcalError
 from screwcal.errors_model import ErrorModel, ModelKind, Param, candidate_params, forward_batch
-from screwcal.kinematics import point_jacobian, spatial_jacobian
+from screwcal.identifiability import (
+    Residual,
+    explain_removed,
+    pairs,
+    select_identifiable,
+    structural_rank,
+    svd,
+)
+from screwcal.kinematics import forward_kinematics, point_jacobian, spatial_jacobian
 from screwcal.measurements import MeasurementSet
 from screwcal.model import SerialModel
 from screwcal.se3 import Array, rotvec_from_rotation
 
-Residual = Literal["pose", "position", "distance"]
 Frames = Literal["unknown", "known"]
-RANK_TOL = 1e-7  # relative to the largest singular value of the column-scaled Jacobian
-
-
-def _svd(a: Array, compute_uv: bool = True) -> tuple[Array, Array, Array] | Array:
-    """SVD by LAPACK's gesvd: numpy's default (gesdd) took 100+ ms, instead of 1, on the
-    exactly rank-deficient identification Jacobians."""
-    return scipy.linalg.svd(a, full_matrices=False, compute_uv=compute_uv, lapack_driver="gesvd")
-
-
 class IdentificationError(ScrewcalError):
     """The identification cannot run on these data (too few poses, nothing identifiable)."""
 
@@ -112,11 +110,6 @@ class CalibrationResult:
 # ----------------------------------------------------------------------------------------------
 # Residuals
 
-def _pairs(n: int) -> tuple[Array, Array]:
-    i, j = np.triu_indices(n, k=1)
-    return i, j
-
-
 class _Problem:
     """Residuals and Jacobian of one identification, pure functions of x."""
 
@@ -139,15 +132,15 @@ class _Problem:
         if weighting == "eq2.4":
             w = np.r_[np.full(3, 1.0 / weight_mm), np.full(3, 180.0 / np.pi)][:k]
             W = np.broadcast_to(np.diag(w), (N, k, k)).copy()
-            return W if self.residual != "distance" else np.full(len(_pairs(N)[0]), w[0])
+            return W if self.residual != "distance" else np.full(len(pairs(N)[0]), w[0])
         model = self.errors.apply(at)
-        T = _fk(model, data.q)
+        T = forward_kinematics(model, data.q)
         Jq = point_jacobian(spatial_jacobian(model, data.q), T)[:, :k, :]
         s_q = np.radians(noise.joint_deg) / np.sqrt(3.0)
         s_m = np.r_[np.full(3, noise.position_mm), np.full(3, np.radians(noise.orientation_deg))]
         cov = np.einsum("nij,nkj->nik", Jq, Jq) * s_q**2 + np.diag(s_m[:k] ** 2)
         if self.residual == "distance":
-            i, j = _pairs(N)
+            i, j = pairs(N)
             u = data.positions_mm[i] - data.positions_mm[j]
             u /= np.linalg.norm(u, axis=1, keepdims=True)
             var = np.einsum("pi,pij,pj->p", u, cov[i] + cov[j], u)
@@ -162,10 +155,10 @@ class _Problem:
             T, Js = self.errors.jacobian(x, self.data.q)
             J = point_jacobian(Js, T)
         else:
-            T, J = _fk(self.errors.apply(x), self.data.q), None
+            T, J = forward_kinematics(self.errors.apply(x), self.data.q), None
         dp = T[:, :3, 3] - self.data.positions_mm
         if self.residual == "distance":
-            i, j = _pairs(len(self.data))
+            i, j = pairs(len(self.data))
             d_model = T[i, :3, 3] - T[j, :3, 3]
             d_meas = self.data.positions_mm[i] - self.data.positions_mm[j]
             n_model = np.linalg.norm(d_model, axis=1)
@@ -216,7 +209,7 @@ class _Problem:
         """Weighted sum of squares for a population X (p, S) (scipy's vectorized layout)."""
         T = forward_batch(self.errors, X.T, self.data.q)  # (S, N, 4, 4)
         if self.residual == "distance":
-            i, j = _pairs(len(self.data))
+            i, j = pairs(len(self.data))
             d_model = np.linalg.norm(T[:, i, :3, 3] - T[:, j, :3, 3], axis=2)
             d_meas = np.linalg.norm(self.data.positions_mm[i] - self.data.positions_mm[j], axis=1)
             r = (d_model - d_meas) * self._whiten
@@ -229,93 +222,6 @@ class _Problem:
         rw = np.einsum("nij,snj->sni", self._whiten, r)
         return np.sum(rw**2, axis=(1, 2))
 
-
-def _fk(model: SerialModel, q: Array) -> Array:
-    from screwcal.kinematics import forward_kinematics
-
-    return forward_kinematics(model, q)
-
-
-# ----------------------------------------------------------------------------------------------
-# Identifiability
-
-def _select(J: Array, priority: Array, names: list[str]
-            ) -> tuple[Array, int, Array, list[str]]:
-    """Kept column indices (in candidate order), the rank, the column norms, and the null-space
-    combinations. Columns of higher `priority` (0, 1, 2) are taken first wherever they are
-    independent."""
-    norms = np.linalg.norm(J, axis=0)
-    live = norms > 1e-12 * max(norms.max(), 1e-300)
-    Js = np.where(live, J / np.where(live, norms, 1.0), 0.0)
-    _, s, Vt = _svd(Js)
-    rank = int(np.sum(s > RANK_TOL * s[0]))
-    combos = []
-    for v in Vt[rank:]:
-        top = np.argsort(-np.abs(v))[:4]
-        combos.append(" ".join(f"{v[t]:+.2f} {names[t]}" for t in top if abs(v[t]) > 0.05))
-    order_weight = np.where(live, 1e4 ** np.asarray(priority, float), 0.0)
-    _, _, piv = scipy.linalg.qr(Js * order_weight, mode="economic", pivoting=True)
-    keep = np.sort(piv[:rank])
-    return keep, rank, norms, combos
-
-
-_STRUCTURAL_RANKS: dict[bytes, int] = {}
-
-
-def structural_rank(errors: ErrorModel, residual: Residual, samples: int = 60) -> int:
-    """How many of the error model's parameters well-spread data could identify: the rank of
-    the column-scaled Jacobian over random configurations inside the limits. It depends on the
-    model's structure only, so it is cached: the base frame moves the whole world rigidly and
-    cannot change it, and the tool (the measured point) only through its rough place."""
-    ref = errors.reference
-    key = b"|".join([residual.encode(), str(samples).encode(), *(p.name.encode()
-                                                                  for p in errors.params),
-                     *(a.tobytes() for a in (ref.axis_dirs, ref.axis_points_mm,
-                                             ref.home_flange, ref.limits)),
-                     np.round(ref.tool, 1).tobytes()])
-    if key not in _STRUCTURAL_RANKS:
-        if len(_STRUCTURAL_RANKS) > 256:
-            _STRUCTURAL_RANKS.clear()
-        _STRUCTURAL_RANKS[key] = _structural_rank(errors, residual, samples)
-    return _STRUCTURAL_RANKS[key]
-
-
-def _structural_rank(errors: ErrorModel, residual: Residual, samples: int) -> int:
-    ref = errors.reference
-    q = np.random.default_rng(0).uniform(ref.limits[:, 0], ref.limits[:, 1],
-                                         (samples, ref.n_joints))
-    T, Js = errors.jacobian(np.zeros(len(errors.params)), q)
-    J = point_jacobian(Js, T)
-    if residual == "distance":
-        i, j = _pairs(samples)
-        u = T[i, :3, 3] - T[j, :3, 3]
-        u /= np.linalg.norm(u, axis=1, keepdims=True)
-        rows = np.einsum("pi,pij->pj", u, J[i, :3] - J[j, :3])
-    else:
-        rows = J[:, : (6 if residual == "pose" else 3)].reshape(-1, J.shape[-1])
-    norms = np.linalg.norm(rows, axis=0)
-    s = _svd(rows / np.where(norms > 0, norms, 1.0), compute_uv=False)
-    return int(np.sum(s > RANK_TOL * s[0]))
-
-
-def _why_removed(J: Array, keep: Array, removed: Array, names: list[str], norms: Array
-                 ) -> list[tuple[str, str]]:
-    out = []
-    Js = J / np.where(norms > 0, norms, 1.0)
-    coefs = np.linalg.lstsq(Js[:, keep], Js[:, removed], rcond=None)[0] if len(removed) else None
-    for k, r in enumerate(removed):
-        if norms[r] <= 1e-12 * max(norms.max(), 1e-300):
-            out.append((names[r], "has no effect on these measurements"))
-            continue
-        coef = coefs[:, k]
-        top = np.argsort(-np.abs(coef))[:3]
-        terms = " ".join(f"{coef[t]:+.3g} {names[keep[t]]}" for t in top if abs(coef[t]) > 1e-3)
-        out.append((names[r], f"not separable from {terms} (scaled columns)"))
-    return out
-
-
-# ----------------------------------------------------------------------------------------------
-# The identification
 
 def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "full",
              residual: Residual | None = None, frames: Frames = "unknown",
@@ -357,9 +263,9 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         raise IdentificationError(f"{len(data)} poses give {m} equations for the {needed} "
                                   f"parameters this model can identify: measure more poses{more}")
     names = [p.name for p in cands]
-    keep, rank, norms, combos = _select(J0, priority, names)
+    keep, rank, norms, combos = select_identifiable(J0, priority, names)
     removed_idx = np.setdiff1d(np.arange(len(cands)), keep)
-    removed = _why_removed(J0, keep, removed_idx, names, norms)
+    removed = explain_removed(J0, keep, removed_idx, names, norms)
     # Degenerate: the poses separate fewer parameters than well-spread data would, or (for
     # the thesis and joint models) a requested offset cannot be identified at all.
     requested_robot = [k for k, p in enumerate(cands) if p.group == "robot"]
@@ -438,7 +344,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     corr = cov / np.outer(np.where(std > 0, std, 1), np.where(std > 0, std, 1))
     col = np.linalg.norm(Jw, axis=0)
-    s = _svd(Jw / np.where(col > 0, col, 1), compute_uv=False)
+    s = svd(Jw / np.where(col > 0, col, 1), compute_uv=False)
     to_if = errors.to_interface
     calibrated = errors.apply(x)
     before = _pose_errors(start, data, residual)
@@ -459,9 +365,9 @@ def _pose_errors(model: SerialModel, data: MeasurementSet, residual: str
                  ) -> tuple[Array, Array | None]:
     """Position error norm per pose (mm) and rotation error (deg) when measured; for distance
     data, the absolute error of each pairwise distance."""
-    T = _fk(model, data.q)
+    T = forward_kinematics(model, data.q)
     if residual == "distance":
-        i, j = _pairs(len(data))
+        i, j = pairs(len(data))
         return (np.abs(np.linalg.norm(T[i, :3, 3] - T[j, :3, 3], axis=1)
                        - np.linalg.norm(data.positions_mm[i] - data.positions_mm[j], axis=1)),
                 None)

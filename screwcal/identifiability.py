@@ -1,0 +1,109 @@
+"""What the data can tell: the numerical rank of the identification Jacobian, which parameters
+are kept (QR with column pivoting, by priority), why the others are removed, and how many
+parameters well-spread data could identify at all (the structural rank).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+import scipy.linalg
+
+from screwcal.errors_model import ErrorModel
+from screwcal.kinematics import point_jacobian
+from screwcal.se3 import Array
+
+Residual = Literal["pose", "position", "distance"]
+
+RANK_TOL = 1e-7  # relative to the largest singular value of the column-scaled Jacobian
+
+
+def svd(a: Array, compute_uv: bool = True) -> tuple[Array, Array, Array] | Array:
+    """SVD by LAPACK's gesvd: numpy's default (gesdd) took 100+ ms, instead of 1, on the
+    exactly rank-deficient identification Jacobians."""
+    return scipy.linalg.svd(a, full_matrices=False, compute_uv=compute_uv, lapack_driver="gesvd")
+
+
+def pairs(n: int) -> tuple[Array, Array]:
+    i, j = np.triu_indices(n, k=1)
+    return i, j
+
+
+def select_identifiable(J: Array, priority: Array, names: list[str]
+            ) -> tuple[Array, int, Array, list[str]]:
+    """Kept column indices (in candidate order), the rank, the column norms, and the null-space
+    combinations. Columns of higher `priority` (0, 1, 2) are taken first wherever they are
+    independent."""
+    norms = np.linalg.norm(J, axis=0)
+    live = norms > 1e-12 * max(norms.max(), 1e-300)
+    Js = np.where(live, J / np.where(live, norms, 1.0), 0.0)
+    _, s, Vt = svd(Js)
+    rank = int(np.sum(s > RANK_TOL * s[0]))
+    combos = []
+    for v in Vt[rank:]:
+        top = np.argsort(-np.abs(v))[:4]
+        combos.append(" ".join(f"{v[t]:+.2f} {names[t]}" for t in top if abs(v[t]) > 0.05))
+    order_weight = np.where(live, 1e4 ** np.asarray(priority, float), 0.0)
+    _, _, piv = scipy.linalg.qr(Js * order_weight, mode="economic", pivoting=True)
+    keep = np.sort(piv[:rank])
+    return keep, rank, norms, combos
+
+
+_STRUCTURAL_RANKS: dict[bytes, int] = {}
+
+
+def structural_rank(errors: ErrorModel, residual: Residual, samples: int = 60) -> int:
+    """How many of the error model's parameters well-spread data could identify: the rank of
+    the column-scaled Jacobian over random configurations inside the limits. It depends on the
+    model's structure only, so it is cached: the base frame moves the whole world rigidly and
+    cannot change it, and the tool (the measured point) only through its rough place."""
+    ref = errors.reference
+    key = b"|".join([residual.encode(), str(samples).encode(), *(p.name.encode()
+                                                                  for p in errors.params),
+                     *(a.tobytes() for a in (ref.axis_dirs, ref.axis_points_mm,
+                                             ref.home_flange, ref.limits)),
+                     np.round(ref.tool, 1).tobytes()])
+    if key not in _STRUCTURAL_RANKS:
+        if len(_STRUCTURAL_RANKS) > 256:
+            _STRUCTURAL_RANKS.clear()
+        _STRUCTURAL_RANKS[key] = _structural_rank(errors, residual, samples)
+    return _STRUCTURAL_RANKS[key]
+
+
+def _structural_rank(errors: ErrorModel, residual: Residual, samples: int) -> int:
+    ref = errors.reference
+    q = np.random.default_rng(0).uniform(ref.limits[:, 0], ref.limits[:, 1],
+                                         (samples, ref.n_joints))
+    T, Js = errors.jacobian(np.zeros(len(errors.params)), q)
+    J = point_jacobian(Js, T)
+    if residual == "distance":
+        i, j = pairs(samples)
+        u = T[i, :3, 3] - T[j, :3, 3]
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        rows = np.einsum("pi,pij->pj", u, J[i, :3] - J[j, :3])
+    else:
+        rows = J[:, : (6 if residual == "pose" else 3)].reshape(-1, J.shape[-1])
+    norms = np.linalg.norm(rows, axis=0)
+    s = svd(rows / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    return int(np.sum(s > RANK_TOL * s[0]))
+
+
+def explain_removed(J: Array, keep: Array, removed: Array, names: list[str], norms: Array
+                 ) -> list[tuple[str, str]]:
+    out = []
+    Js = J / np.where(norms > 0, norms, 1.0)
+    coefs = np.linalg.lstsq(Js[:, keep], Js[:, removed], rcond=None)[0] if len(removed) else None
+    for k, r in enumerate(removed):
+        if norms[r] <= 1e-12 * max(norms.max(), 1e-300):
+            out.append((names[r], "has no effect on these measurements"))
+            continue
+        coef = coefs[:, k]
+        top = np.argsort(-np.abs(coef))[:3]
+        terms = " ".join(f"{coef[t]:+.3g} {names[keep[t]]}" for t in top if abs(coef[t]) > 1e-3)
+        out.append((names[r], f"not separable from {terms} (scaled columns)"))
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# The identification
