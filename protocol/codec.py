@@ -1,0 +1,395 @@
+"""The controller wire protocol v1 (../shared/spec/protocol.md) as bytes in, messages out: no I/O.
+
+Every frame, both directions, is 80 ASCII bytes: a payload of 1-79 printable characters (no
+`#`), `#`, then spaces. Payloads are `SEQ VERB [args...]`; the thesis's data packets (Table 12)
+are `SEQ j|p FLAG IDX v1..v6`.
+
+`encode(message) -> bytes` makes one frame; `Decoder.feed(data) -> list[Message]` takes any
+chunks (TCP splits and merges) and returns the messages completed so far. A malformed frame raises
+`FramingError` (fatal: the decoder refuses further input); a malformed payload in a good frame
+raises `PayloadError` with the ERR code to answer, and the frames after it stay buffered for the
+next `feed`. Nothing else is ever raised.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Literal, Union
+
+from protocol.errors import FramingError, PayloadError
+
+FRAME_LEN = 80
+MAX_SEQ = 999_999
+MAX_LIST = 200
+PROTOCOL_VERSION = 1
+Lists = Literal["CAL", "PERF"]
+Modes = Literal["AUTO", "STEP"]
+States = Literal["IDLE", "MOVING", "WAITING", "FAULT"]
+FIRST, MIDDLE, LAST = 0, 1, 2
+_NUMBER = re.compile(r"-?[0-9]+(\.[0-9]+)?\Z")
+_INT = re.compile(r"[0-9]+\Z")
+
+# ERR codes (protocol.md)
+BAD_FRAME, UNKNOWN_VERB, BAD_ARGUMENTS, WRONG_STATE, LIST_TOO_LONG, VERSION = 10, 11, 12, 13, 14, 15
+OUT_OF_LIMITS, MOTION_ERROR, ABORTED, NOT_ALLOWED = 20, 21, 22, 23
+
+Six = tuple[float, float, float, float, float, float]
+
+
+# -- messages ------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Helo:
+    seq: int
+    version: int = PROTOCOL_VERSION
+
+
+@dataclass(frozen=True)
+class Stat:
+    """The STAT request (no arguments)."""
+
+    seq: int
+
+
+@dataclass(frozen=True)
+class Load:
+    seq: int
+    list: Lists
+    count: int
+
+
+@dataclass(frozen=True)
+class Run:
+    seq: int
+    list: Lists
+    mode: Modes
+
+
+@dataclass(frozen=True)
+class Go:
+    seq: int
+    idx: int
+
+
+@dataclass(frozen=True)
+class MovJ:
+    seq: int
+    joints_deg: Six
+
+
+@dataclass(frozen=True)
+class Home:
+    seq: int
+
+
+@dataclass(frozen=True)
+class Zero:
+    seq: int
+    joints_deg: Six
+
+
+@dataclass(frozen=True)
+class Abrt:
+    seq: int
+
+
+@dataclass(frozen=True)
+class Bye:
+    seq: int
+
+
+@dataclass(frozen=True)
+class Joints:
+    """`j` packet: joint space, degrees (4 decimals)."""
+
+    seq: int
+    flag: int
+    idx: int
+    values: Six
+
+
+@dataclass(frozen=True)
+class Pose:
+    """`p` packet: tool0 in the base frame, x y z mm (3 decimals), rx ry rz deg (4 decimals),
+    R = Rz(rz) Ry(ry) Rx(rx)."""
+
+    seq: int
+    flag: int
+    idx: int
+    values: Six
+
+
+@dataclass(frozen=True)
+class Ack:
+    seq: int
+    verb: str
+    args: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Err:
+    seq: int
+    code: int
+    text: str
+
+
+@dataclass(frozen=True)
+class StatReply:
+    seq: int
+    state: States
+    mode: Modes
+    list: Literal["CAL", "PERF", "NONE"]
+    idx: int
+    count: int
+    last_seq: int
+
+
+@dataclass(frozen=True)
+class Wait:
+    seq: int
+    idx: int
+
+
+@dataclass(frozen=True)
+class Done:
+    seq: int
+    verb: str
+
+
+Request = Union[Helo, Stat, Load, Run, Go, MovJ, Home, Zero, Abrt, Bye]  # noqa: UP007
+Reply = Union[Ack, Err, StatReply, Wait, Done]  # noqa: UP007
+Data = Union[Joints, Pose]  # noqa: UP007
+Message = Union[Request, Reply, Data]  # noqa: UP007
+
+REQUEST_VERBS = ("HELO", "STAT", "LOAD", "RUN", "GO", "MOVJ", "HOME", "ZERO", "ABRT", "BYE")
+REPLY_VERBS = ("ACK", "ERR", "STAT", "WAIT", "DONE")
+DATA_VERBS = ("j", "p")
+VERBS = tuple(dict.fromkeys(REQUEST_VERBS + REPLY_VERBS + DATA_VERBS))
+
+
+# -- encoding ------------------------------------------------------------------------------------
+
+def _num(value: float, decimals: int) -> str:
+    text = f"{value:.{decimals}f}"
+    if "e" in text or "inf" in text or "nan" in text:
+        raise ValueError(f"{value!r} cannot be written as a protocol number")
+    return "0." + "0" * decimals if float(text) == 0.0 else text  # no "-0.0000"
+
+
+def _check_seq(seq: int) -> None:
+    if not 1 <= seq <= MAX_SEQ:
+        raise ValueError(f"SEQ must be 1..{MAX_SEQ}, got {seq}")
+
+
+def payload_of(msg: Message) -> str:
+    """The payload text of a message (without framing)."""
+    _check_seq(msg.seq)
+    s = msg.seq
+    match msg:
+        case Helo():
+            return f"{s} HELO {msg.version}"
+        case Stat():
+            return f"{s} STAT"
+        case Load():
+            return f"{s} LOAD {msg.list} {msg.count}"
+        case Run():
+            return f"{s} RUN {msg.list} {msg.mode}"
+        case Go():
+            return f"{s} GO {msg.idx}"
+        case MovJ() | Zero():
+            verb = "MOVJ" if isinstance(msg, MovJ) else "ZERO"
+            return f"{s} {verb} " + " ".join(_num(v, 4) for v in msg.joints_deg)
+        case Home():
+            return f"{s} HOME"
+        case Abrt():
+            return f"{s} ABRT"
+        case Bye():
+            return f"{s} BYE"
+        case Joints():
+            return f"{s} j {msg.flag} {msg.idx} " + " ".join(_num(v, 4) for v in msg.values)
+        case Pose():
+            vals = [_num(v, 3) for v in msg.values[:3]] + [_num(v, 4) for v in msg.values[3:]]
+            return f"{s} p {msg.flag} {msg.idx} " + " ".join(vals)
+        case Ack():
+            return " ".join([str(s), "ACK", msg.verb, *msg.args])
+        case Err():
+            return f"{s} ERR {msg.code} {msg.text}"
+        case StatReply():
+            return (f"{s} STAT {msg.state} {msg.mode} {msg.list} {msg.idx} {msg.count} "
+                    f"{msg.last_seq}")
+        case Wait():
+            return f"{s} WAIT {msg.idx}"
+        case Done():
+            return f"{s} DONE {msg.verb}"
+    raise TypeError(f"not a protocol message: {msg!r}")
+
+
+def frame(payload: str) -> bytes:
+    """An 80-byte frame around a payload of 1-79 printable characters without '#'."""
+    if not 1 <= len(payload) <= FRAME_LEN - 1:
+        raise ValueError(f"payload must be 1-79 characters, got {len(payload)}: {payload!r}")
+    if "#" in payload or any(not 0x20 <= ord(c) <= 0x7E for c in payload):
+        raise ValueError(f"payload must be printable ASCII without '#': {payload!r}")
+    return (payload + "#").ljust(FRAME_LEN).encode("ascii")
+
+
+def encode(msg: Message) -> bytes:
+    return frame(payload_of(msg))
+
+
+# -- decoding ------------------------------------------------------------------------------------
+
+def unframe(data: bytes) -> str:
+    """The payload of one 80-byte frame, or FramingError."""
+    if len(data) != FRAME_LEN:
+        raise FramingError(f"a frame is {FRAME_LEN} bytes, got {len(data)}")
+    bad = [b for b in data if not 0x20 <= b <= 0x7E]
+    if bad:
+        raise FramingError(f"non-printable byte 0x{bad[0]:02x} in frame")
+    end = data.find(b"#")
+    if end < 1:
+        raise FramingError("no '#' in frame" if end < 0 else "empty payload before '#'")
+    if data[end + 1:].strip(b" "):
+        raise FramingError("characters other than spaces after '#'")
+    return data[:end].decode("ascii")
+
+
+def _number(tok: str, seq: int) -> float:
+    if not _NUMBER.match(tok):
+        raise PayloadError(f"'{tok}' is not a protocol number", BAD_ARGUMENTS, seq)
+    return float(tok)
+
+
+def _integer(tok: str, seq: int, what: str, lo: int = 0, hi: int = MAX_SEQ) -> int:
+    if not _INT.match(tok) or not lo <= int(tok) <= hi:
+        raise PayloadError(f"{what} must be an integer {lo}..{hi}, got '{tok}'", BAD_ARGUMENTS,
+                           seq)
+    return int(tok)
+
+
+def _six(args: list[str], seq: int) -> Six:
+    if len(args) != 6:
+        raise PayloadError(f"expected 6 values, got {len(args)}", BAD_ARGUMENTS, seq)
+    a, b, c, d, e, f = (_number(t, seq) for t in args)
+    return (a, b, c, d, e, f)
+
+
+def _choice(tok: str, options: tuple[str, ...], seq: int, what: str) -> str:
+    if tok not in options:
+        raise PayloadError(f"{what} must be one of {', '.join(options)}, got '{tok}'",
+                           BAD_ARGUMENTS, seq)
+    return tok
+
+
+def parse_payload(payload: str) -> Message:
+    """A message from a payload, or PayloadError."""
+    if payload != payload.strip(" ") or "  " in payload:
+        raise PayloadError("tokens must be separated by single spaces", BAD_FRAME)
+    tokens = payload.split(" ")
+    if not _INT.match(tokens[0]) or not 1 <= int(tokens[0]) <= MAX_SEQ:
+        raise PayloadError(f"SEQ must be an integer 1..{MAX_SEQ}, got '{tokens[0]}'", BAD_FRAME)
+    seq = int(tokens[0])
+    if len(tokens) < 2:
+        raise PayloadError("no verb", UNKNOWN_VERB, seq)
+    verb, args = tokens[1], tokens[2:]
+
+    def need(n: int) -> None:
+        if len(args) != n:
+            raise PayloadError(f"{verb} takes {n} argument(s), got {len(args)}", BAD_ARGUMENTS,
+                               seq)
+
+    if verb in ("j", "p"):
+        if len(args) != 8:
+            raise PayloadError(f"a {verb} packet has FLAG IDX and 6 values", BAD_ARGUMENTS, seq)
+        flag = _integer(args[0], seq, "FLAG", 0, 2)
+        idx = _integer(args[1], seq, "IDX", 0, MAX_LIST - 1)
+        values = _six(args[2:], seq)
+        return Joints(seq, flag, idx, values) if verb == "j" else Pose(seq, flag, idx, values)
+    match verb:
+        case "HELO":
+            need(1)
+            return Helo(seq, _integer(args[0], seq, "version", 0, 999))
+        case "STAT" if not args:
+            return Stat(seq)
+        case "STAT":
+            need(6)
+            return StatReply(seq, _choice(args[0], ("IDLE", "MOVING", "WAITING", "FAULT"), seq,
+                                          "STATE"),  # type: ignore[arg-type]
+                             _choice(args[1], ("AUTO", "STEP"), seq, "MODE"),  # type: ignore[arg-type]
+                             _choice(args[2], ("CAL", "PERF", "NONE"), seq, "LIST"),  # type: ignore[arg-type]
+                             _integer(args[3], seq, "IDX", 0, MAX_LIST),
+                             _integer(args[4], seq, "COUNT", 0, MAX_LIST),
+                             _integer(args[5], seq, "LASTSEQ", 0, MAX_SEQ))
+        case "LOAD":
+            need(2)
+            return Load(seq, _choice(args[0], ("CAL", "PERF"), seq, "list"),  # type: ignore[arg-type]
+                        _integer(args[1], seq, "N", 0, MAX_SEQ))
+        case "RUN":
+            need(2)
+            return Run(seq, _choice(args[0], ("CAL", "PERF"), seq, "list"),  # type: ignore[arg-type]
+                       _choice(args[1], ("AUTO", "STEP"), seq, "mode"))  # type: ignore[arg-type]
+        case "GO":
+            need(1)
+            return Go(seq, _integer(args[0], seq, "IDX", 0, MAX_LIST - 1))
+        case "MOVJ" | "ZERO":
+            values = _six(args, seq)
+            return MovJ(seq, values) if verb == "MOVJ" else Zero(seq, values)
+        case "HOME" | "ABRT" | "BYE":
+            need(0)
+            return {"HOME": Home, "ABRT": Abrt, "BYE": Bye}[verb](seq)
+        case "ACK":
+            if not args:
+                raise PayloadError("ACK names the verb it acknowledges", BAD_ARGUMENTS, seq)
+            return Ack(seq, args[0], tuple(args[1:]))
+        case "ERR":
+            if len(args) < 2:
+                raise PayloadError("ERR has a CODE and a TEXT", BAD_ARGUMENTS, seq)
+            return Err(seq, _integer(args[0], seq, "CODE", 0, 99), " ".join(args[1:]))
+        case "WAIT":
+            need(1)
+            return Wait(seq, _integer(args[0], seq, "IDX", 0, MAX_LIST - 1))
+        case "DONE":
+            need(1)
+            return Done(seq, args[0])
+    raise PayloadError(f"unknown verb '{verb}'", UNKNOWN_VERB, seq)
+
+
+class Decoder:
+    """Incremental decoder: feed it any chunks, get whole messages back."""
+
+    def __init__(self) -> None:
+        self._buffer = bytearray()
+        self._broken: FramingError | None = None
+
+    @property
+    def pending_bytes(self) -> int:
+        return len(self._buffer)
+
+    def feed(self, data: bytes = b"") -> list[Message]:
+        """Messages completed by `data`. Raises FramingError (then and on every later call) or
+        PayloadError (the frames after the bad one stay buffered: call `feed()` again)."""
+        if self._broken is not None:
+            raise FramingError(f"decoder stopped after a framing error: {self._broken}")
+        self._buffer += data
+        out: list[Message] = []
+        while len(self._buffer) >= FRAME_LEN:
+            chunk = bytes(self._buffer[:FRAME_LEN])
+            del self._buffer[:FRAME_LEN]
+            try:
+                payload = unframe(chunk)
+            except FramingError as err:
+                self._broken = err
+                if out:  # hand over what came before; the error comes on the next call
+                    self._buffer[:0] = chunk
+                    self._broken = None
+                    return out
+                raise
+            try:
+                out.append(parse_payload(payload))
+            except PayloadError:
+                if out:  # the good messages first; this frame raises on the next call
+                    self._buffer[:0] = chunk
+                    return out
+                raise
+        return out
