@@ -1,0 +1,22 @@
+"""Faults the IRC5 emulator can inject, for the client's tests. Each fires once."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass
+class FaultPlan:
+    split_frames: bool = False  # every frame written in two pieces
+    merge_frames: bool = False  # a pose's j and p frames written in one piece
+    drop_at_pose: int | None = None  # close the connection instead of sending pose k's packets
+    stall_at_pose: int | None = None  # go silent for stall_s before pose k
+    stall_s: float = 30.0
+    garble_at_pose: int | None = None  # pose k's j frame loses its '#'
+
+    def take(self, name: str, idx: int) -> bool:
+        """True once when the fault `name` is due at pose `idx`."""
+        if getattr(self, name) == idx:
+            setattr(self, name, None)
+            return True
+        return False

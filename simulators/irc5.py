@@ -1,0 +1,378 @@
+"""An ABB IRC5 emulator: the controller side of the wire protocol (../shared/spec/protocol.md)
+over real TCP, around a `World`.
+
+Like the RAPID server it stands in for (thesis 4.4, Algorithms 1-2), it serves one client at a
+time and keeps listening after a client leaves; it handles one request at a time and reads
+nothing while a move runs (requests wait, decoded but unhandled, until the move ends); it refuses
+targets outside the joint limits before any motion (lists at LOAD time); it reports joints as
+its encoders read them and tool0 as the NOMINAL kinematics of those joints (CRobT), rounded like
+32-bit nums. Motion is a joint-space move at `speed_deg_s`, scaled by `time_scale` (0: instant).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from protocol import codec
+from protocol.codec import (
+    ABORTED,
+    BAD_ARGUMENTS,
+    LIST_TOO_LONG,
+    NOT_ALLOWED,
+    OUT_OF_LIMITS,
+    VERSION,
+    WRONG_STATE,
+    Abrt,
+    Ack,
+    Bye,
+    Decoder,
+    Done,
+    Err,
+    Go,
+    Helo,
+    Home,
+    Joints,
+    Load,
+    Message,
+    MovJ,
+    Pose,
+    Run,
+    Stat,
+    StatReply,
+    Wait,
+    Zero,
+)
+from protocol.errors import FramingError, PayloadError
+from screwcal.errors import ScrewcalError
+from screwcal.ik import closed_form_ik
+from screwcal.pose import pose_from_transform, transform_from_pose
+from simulators.faults import FaultPlan
+from simulators.world import World
+
+LOAD_TIMEOUT_S = 5.0
+
+
+@dataclass
+class EmulatorSettings:
+    speed_deg_s: float = 60.0
+    time_scale: float = 1.0
+    faults: FaultPlan = field(default_factory=FaultPlan)
+
+
+class _SessionEndedError(Exception):
+    """The session ends (BYE, a dropped link, an injected fault)."""
+
+
+class IRC5Emulator:
+    def __init__(self, world: World, settings: EmulatorSettings | None = None):
+        self.world = world
+        self.settings = settings or EmulatorSettings()
+        self.lists: dict[str, list[np.ndarray]] = {"CAL": [], "PERF": []}
+        self.state, self.mode, self.list_name = "IDLE", "AUTO", "NONE"
+        self.idx = self.count = self.last_seq = 0
+        self.sessions = 0
+        self._server: asyncio.base_events.Server | None = None
+        self._session_lock = asyncio.Lock()
+
+    # -- server ------------------------------------------------------------------------------
+    async def start(self, host: str = "127.0.0.1", port: int = 0) -> tuple[str, int]:
+        self._server = await asyncio.start_server(self._serve, host, port)
+        sock = self._server.sockets[0]
+        bound = sock.getsockname()
+        return bound[0], bound[1]
+
+    async def stop(self) -> None:
+        if self._server is not None:
+            self._server.close()
+            await self._server.wait_closed()
+
+    async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        async with self._session_lock:  # one client at a time, like the RAPID server
+            self.sessions += 1
+            session = _Session(self, reader, writer)
+            try:
+                await session.run()
+            finally:
+                session.close()
+                if self.state in ("MOVING", "WAITING"):
+                    self.state = "IDLE"  # the run stops with the link
+
+    # -- state ---------------------------------------------------------------------------------
+    def stat(self, seq: int) -> StatReply:
+        return StatReply(seq, self.state, self.mode, self.list_name, self.idx, self.count,
+                         self.last_seq)  # type: ignore[arg-type]
+
+    def check_limits(self, q_deg: np.ndarray) -> str | None:
+        lim = self.world.nominal.limits_deg
+        bad = np.flatnonzero((q_deg < lim[:, 0]) | (q_deg > lim[:, 1]))
+        if bad.size:
+            j = int(bad[0])
+            return f"joint {j + 1} {q_deg[j]:.4f} outside [{lim[j, 0]:g}, {lim[j, 1]:g}]"
+        return None
+
+    def joints_for_pose(self, pose: tuple[float, ...], near_deg: np.ndarray) -> np.ndarray | None:
+        """The controller's own IK for a task-space target: the valid branch nearest `near`."""
+        try:
+            sol = closed_form_ik(self.world.nominal, transform_from_pose(np.array([pose])))
+            return np.degrees(sol.nearest(np.radians(near_deg))[0])
+        except ScrewcalError:
+            return None
+
+    def motion_time_s(self, target_deg: np.ndarray) -> float:
+        travel = float(np.max(np.abs(target_deg - self.world.q_deg.astype(float))))
+        return travel / self.settings.speed_deg_s * self.settings.time_scale
+
+
+class _Session:
+    """One client connection: decoded requests are queued, handled one at a time."""
+
+    def __init__(self, emu: IRC5Emulator, reader: asyncio.StreamReader,
+                 writer: asyncio.StreamWriter):
+        self.emu, self.reader, self.writer = emu, reader, writer
+        self.inbox: asyncio.Queue[Message | Exception] = asyncio.Queue()
+        self.faults = emu.settings.faults
+        self._reader_task = asyncio.create_task(self._read())
+
+    async def _read(self) -> None:
+        decoder = Decoder()
+        try:
+            while data := await self.reader.read(4096):
+                while True:
+                    try:
+                        for msg in decoder.feed(data):
+                            self.inbox.put_nowait(msg)
+                        break
+                    except PayloadError as err:
+                        self.inbox.put_nowait(err)
+                        data = b""
+        except (FramingError, ConnectionError) as err:
+            self.inbox.put_nowait(err if isinstance(err, FramingError) else _SessionEndedError())
+            return
+        self.inbox.put_nowait(_SessionEndedError())
+
+    def close(self) -> None:
+        self._reader_task.cancel()
+        with contextlib.suppress(Exception):
+            self.writer.close()
+
+    async def send(self, *messages: Message, garble_first: bool = False) -> None:
+        frames = [codec.encode(m) for m in messages]
+        if garble_first:
+            frames[0] = frames[0].replace(b"#", b" ")
+        if self.faults.merge_frames:
+            frames = [b"".join(frames)]
+        for f in frames:
+            if self.faults.split_frames:
+                self.writer.write(f[:33])
+                await self.writer.drain()
+                await asyncio.sleep(0)
+                self.writer.write(f[33:])
+            else:
+                self.writer.write(f)
+        try:
+            await self.writer.drain()
+        except ConnectionError:
+            raise _SessionEndedError() from None
+
+    async def next_request(self) -> Message:
+        item = await self.inbox.get()
+        if isinstance(item, _SessionEndedError | FramingError):
+            raise _SessionEndedError()
+        if isinstance(item, PayloadError):
+            if item.seq is None:  # no SEQ to answer to: the frame cannot be trusted
+                raise _SessionEndedError()
+            await self.send(Err(item.seq, item.code, "bad request"))
+            return await self.next_request()
+        return item
+
+    async def run(self) -> None:
+        try:
+            while True:
+                await self.handle(await self.next_request())
+        except _SessionEndedError:
+            return
+
+    # -- requests --------------------------------------------------------------------------------
+    async def handle(self, msg: Message) -> None:
+        emu = self.emu
+        match msg:
+            case Helo():
+                if msg.version != codec.PROTOCOL_VERSION:
+                    await self.send(Err(msg.seq, VERSION, "version"))
+                else:
+                    await self.send(Ack(msg.seq, "HELO", (str(codec.PROTOCOL_VERSION),)))
+            case Stat():
+                await self.send(emu.stat(msg.seq))
+            case Load():
+                await self.load(msg)
+            case Run():
+                await self.run_list(msg)
+            case MovJ() | Home():
+                target = np.zeros(6) if isinstance(msg, Home) else np.array(msg.joints_deg)
+                await self.move_request(msg.seq, "MOVJ" if isinstance(msg, MovJ) else "HOME",
+                                        target)
+            case Zero():
+                await self.zero(msg)
+            case Abrt():
+                await self.send(Ack(msg.seq, "ABRT"))  # nothing running
+            case Bye():
+                await self.send(Ack(msg.seq, "BYE"))
+                raise _SessionEndedError()
+            case Go():
+                await self.send(Err(msg.seq, WRONG_STATE, "no step waiting"))
+            case Joints() | Pose():
+                await self.send(Err(msg.seq, WRONG_STATE, "data packet outside LOAD"))
+            case _:
+                await self.send(Err(msg.seq, NOT_ALLOWED, "controller-side verb"))
+        if not isinstance(msg, Joints | Pose | Go | Stat):
+            emu.last_seq = msg.seq
+
+    async def load(self, msg: Load) -> None:
+        emu = self.emu
+        if msg.count > codec.MAX_LIST or msg.count < 1:
+            code = LIST_TOO_LONG if msg.count > codec.MAX_LIST else BAD_ARGUMENTS
+            await self.send(Err(msg.seq, code, f"list of {msg.count} poses"))
+            return
+        targets: list[np.ndarray] = []
+        problem: tuple[int, str] | None = None
+        near = emu.world.q_deg.astype(float)
+        for k in range(msg.count):
+            try:
+                item = await asyncio.wait_for(self.next_request(), LOAD_TIMEOUT_S)
+            except TimeoutError:
+                await self.send(Err(msg.seq, BAD_ARGUMENTS, f"list incomplete at {k}"))
+                return
+            expected_flag = 2 if k == msg.count - 1 else (0 if k == 0 else 1)
+            if not isinstance(item, Joints | Pose) or item.seq != msg.seq or item.idx != k \
+                    or item.flag != expected_flag:
+                problem = problem or (BAD_ARGUMENTS, f"packet {k} out of order")
+                if not isinstance(item, Joints | Pose):
+                    await self.handle(item)
+                continue
+            q = np.array(item.values) if isinstance(item, Joints) else \
+                emu.joints_for_pose(item.values, near)
+            if q is None:
+                problem = problem or (OUT_OF_LIMITS, f"pose {k} unreachable")
+                continue
+            reason = emu.check_limits(q)
+            if reason:
+                problem = problem or (OUT_OF_LIMITS, f"pose {k} {reason}")
+            targets.append(q)
+            near = q
+        if problem:
+            await self.send(Err(msg.seq, problem[0], problem[1][:60]))
+            return
+        emu.lists[msg.list] = targets
+        await self.send(Ack(msg.seq, "LOAD"))
+
+    async def move(self, target: np.ndarray) -> None:
+        emu = self.emu
+        emu.state = "MOVING"
+        emu.world.moving = True
+        t = emu.motion_time_s(target)
+        if t > 0:
+            await asyncio.sleep(t)  # a single RAPID task: nothing is read meanwhile
+        await emu.world.set_joints(target)
+        emu.state = "IDLE"
+
+    def packets(self, seq: int, flag: int, idx: int) -> tuple[Joints, Pose]:
+        q = tuple(float(v) for v in self.emu.world.q_deg)
+        pose = pose_from_transform(self.emu.world.nominal_tool0()).astype(np.float32)
+        return (Joints(seq, flag, idx, q),  # type: ignore[arg-type]
+                Pose(seq, flag, idx, tuple(float(v) for v in pose)))  # type: ignore[arg-type]
+
+    async def move_request(self, seq: int, verb: str, target: np.ndarray) -> None:
+        reason = self.emu.check_limits(target)
+        if reason:
+            await self.send(Err(seq, OUT_OF_LIMITS, reason[:60]))
+            return
+        await self.send(Ack(seq, verb))
+        await self.move(target)
+        await self.send(*self.packets(seq, 2, 0))
+        await self.send(Done(seq, verb))
+
+    async def zero(self, msg: Zero) -> None:
+        target = np.array(msg.joints_deg)
+        reason = self.emu.check_limits(target)
+        if reason:
+            await self.send(Err(msg.seq, OUT_OF_LIMITS, reason[:60]))
+            return
+        await self.send(Ack(msg.seq, "ZERO"))
+        await self.move(target)
+        if self.emu.mode == "STEP":  # the operator updates the offsets, then GO 0
+            self.emu.state = "WAITING"
+            await self.send(Wait(msg.seq, 0))
+            if not await self.wait_go(0, msg.seq):
+                return
+        self.emu.world.set_zero(target)
+        self.emu.state = "IDLE"
+        await self.send(Done(msg.seq, "ZERO"))
+
+    async def wait_go(self, idx: int, run_seq: int) -> bool:
+        """Wait for GO idx; False when aborted (ERR 22 sent)."""
+        while True:
+            req = await self.next_request()
+            if isinstance(req, Go) and req.idx == idx:
+                return True
+            if isinstance(req, Abrt):
+                await self.send(Err(run_seq, ABORTED, "aborted"), Ack(req.seq, "ABRT"))
+                self.emu.state = "IDLE"
+                return False
+            if isinstance(req, Stat):
+                await self.send(self.emu.stat(req.seq))
+            else:
+                await self.send(Err(req.seq, WRONG_STATE, f"waiting for GO {idx}"))
+
+    async def between_moves(self, run_seq: int) -> bool:
+        """Requests that arrived during the move: STAT is answered, ABRT stops the run."""
+        while not self.inbox.empty():
+            req = self.inbox.get_nowait()
+            if isinstance(req, _SessionEndedError | FramingError):
+                raise _SessionEndedError()
+            if isinstance(req, PayloadError):
+                if req.seq is None:
+                    raise _SessionEndedError()
+                await self.send(Err(req.seq, req.code, "bad request"))
+            elif isinstance(req, Abrt):
+                await self.send(Err(run_seq, ABORTED, "aborted"), Ack(req.seq, "ABRT"))
+                return False
+            elif isinstance(req, Stat):
+                await self.send(self.emu.stat(req.seq))
+            else:
+                await self.send(Err(req.seq, WRONG_STATE, "a run is active"))
+        return True
+
+    async def run_list(self, msg: Run) -> None:
+        emu = self.emu
+        targets = emu.lists[msg.list]
+        if not targets:
+            await self.send(Err(msg.seq, WRONG_STATE, f"no {msg.list} list loaded"))
+            return
+        emu.mode, emu.list_name, emu.idx, emu.count = msg.mode, msg.list, 0, len(targets)
+        await self.send(Ack(msg.seq, "RUN"))
+        n = len(targets)
+        for k, target in enumerate(targets):
+            if not await self.between_moves(msg.seq):
+                emu.state = "IDLE"
+                return
+            if msg.mode == "STEP":
+                emu.state = "WAITING"
+                await self.send(Wait(msg.seq, k))
+                if not await self.wait_go(k, msg.seq):
+                    return
+            if self.faults.take("stall_at_pose", k):
+                await asyncio.sleep(self.faults.stall_s)
+            await self.move(target)
+            if self.faults.take("drop_at_pose", k):
+                self.writer.transport.abort()
+                raise _SessionEndedError()
+            flag = 2 if k == n - 1 else (0 if k == 0 else 1)
+            await self.send(*self.packets(msg.seq, flag, k),
+                            garble_first=self.faults.take("garble_at_pose", k))
+            emu.idx = k + 1
+        emu.state = "IDLE"
+        await self.send(Done(msg.seq, "RUN"))
