@@ -158,14 +158,15 @@ class ControllerClient:
         assert self._reader is not None
         try:
             while data := await self._reader.read(4096):
-                while True:
+                while True:  # until every whole frame is handled (errors come one call late)
                     try:
                         for msg in decoder.feed(data):
                             self._route(msg)
-                        break
                     except PayloadError as err:  # the controller sent nonsense: not fatal
                         self.unexpected.append(Err(err.seq or 1, err.code, str(err)[:40]))
-                        data = b""
+                    data = b""
+                    if decoder.pending_bytes < codec.FRAME_LEN:
+                        break
             self._fail(LinkLostError("the controller closed the connection"))
         except FramingError as err:
             self._fail(LinkLostError(f"bad frame from the controller ({err}); link dropped"))

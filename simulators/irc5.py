@@ -141,14 +141,15 @@ class _Session:
         decoder = Decoder()
         try:
             while data := await self.reader.read(4096):
-                while True:
+                while True:  # until every whole frame is handled (errors come one call late)
                     try:
                         for msg in decoder.feed(data):
                             self.inbox.put_nowait(msg)
-                        break
                     except PayloadError as err:
                         self.inbox.put_nowait(err)
-                        data = b""
+                    data = b""
+                    if decoder.pending_bytes < codec.FRAME_LEN:
+                        break
         except (FramingError, ConnectionError) as err:
             self.inbox.put_nowait(err if isinstance(err, FramingError) else _SessionEndedError())
             return
