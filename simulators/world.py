@@ -8,6 +8,7 @@ plus the true model's joint zero; a ZERO correction moves that zero.
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -29,6 +30,7 @@ class World:
     moving: bool = False
     arrivals: int = 0  # counts completed moves
     arrived: asyncio.Condition | None = None
+    observers: list[Callable[[World], None]] = field(default_factory=list)  # after each arrival
 
     def __post_init__(self) -> None:
         self.q_deg = np.asarray(self.q_deg, dtype=np.float32)
@@ -43,6 +45,8 @@ class World:
         self.q_deg = np.asarray(q_deg, dtype=np.float32)
         self.moving = False
         self.arrivals += 1
+        for observer in self.observers:
+            observer(self)
         async with self._condition():
             self._condition().notify_all()
 

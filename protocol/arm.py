@@ -1,0 +1,199 @@
+"""The measuring arm's serial line (../shared/spec/protocol.md): one probed point per line,
+
+    $PT,SEQ,LABEL,X,Y,Z*CS\\r\\n
+
+SEQ counts lines from 1; LABEL names the feature (P1, P2, P3 for the flange holes); X, Y, Z in mm
+with 4 decimals in the arm's frame; CS is the XOR of every byte between `$` and `*` as two
+upper-case hex digits (NMEA 0183). A point out of the arm's reach is not measured, and the stream
+says so with the same framing: `$NM,SEQ,LABEL,REASON*CS`.
+
+`ArmLineDecoder` is the codec (bytes in, items out, no I/O): good lines become `ArmPoint` or
+`ArmNotMeasured`; a line with a bad checksum, a bad field or a gap in SEQ becomes an `ArmProblem`
+that is reported and never used as a measurement. `ArmReader` reads it through
+`serial.serial_for_url` (a real port, `socket://host:port`, `loop://`).
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from dataclasses import dataclass
+from typing import Union
+
+import serial
+
+from protocol.errors import ArmLineError, LinkTimeoutError
+
+HOLE_LABELS = ("P1", "P2", "P3")
+_NUMBER = re.compile(r"-?[0-9]+\.[0-9]{1,6}\Z")
+_LABEL = re.compile(r"[A-Za-z0-9_]{1,16}\Z")
+MAX_LINE = 200
+
+
+@dataclass(frozen=True)
+class ArmPoint:
+    seq: int
+    label: str
+    xyz_mm: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class ArmNotMeasured:
+    seq: int
+    label: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class ArmProblem:
+    """A line that must not be used: what was wrong and the raw text."""
+
+    reason: str
+    raw: bytes
+
+
+ArmItem = Union[ArmPoint, ArmNotMeasured, ArmProblem]  # noqa: UP007
+
+
+def checksum(body: str) -> str:
+    cs = 0
+    for b in body.encode("ascii"):
+        cs ^= b
+    return f"{cs:02X}"
+
+
+def encode_point(seq: int, label: str, xyz_mm: tuple[float, float, float] | list[float]) -> bytes:
+    body = f"PT,{seq},{label}," + ",".join(f"{v:.4f}" for v in xyz_mm)
+    return f"${body}*{checksum(body)}\r\n".encode("ascii")
+
+
+def encode_not_measured(seq: int, label: str, reason: str) -> bytes:
+    body = f"NM,{seq},{label},{reason}"
+    return f"${body}*{checksum(body)}\r\n".encode("ascii")
+
+
+def parse_line(raw: bytes) -> ArmPoint | ArmNotMeasured:
+    """One line (with or without CRLF) -> an item, or ArmLineError saying what is wrong."""
+    try:
+        text = raw.decode("ascii").rstrip("\r\n")
+    except UnicodeDecodeError:
+        raise ArmLineError("not ASCII") from None
+    if not text.startswith("$") or "*" not in text:
+        raise ArmLineError("not a $...*CS line")
+    body, _, cs = text[1:].rpartition("*")
+    if len(cs) != 2 or checksum(body) != cs:
+        raise ArmLineError(f"bad checksum {cs!r} (expected {checksum(body)})")
+    fields = body.split(",")
+    if fields[0] == "PT" and len(fields) == 6:
+        _, seq, label, *xyz = fields
+        if not all(_NUMBER.match(v) for v in xyz):
+            raise ArmLineError(f"bad coordinate in {xyz}")
+        point = (float(xyz[0]), float(xyz[1]), float(xyz[2]))
+    elif fields[0] == "NM" and len(fields) == 4:
+        _, seq, label, reason = fields
+        point = None
+    else:
+        raise ArmLineError(f"unknown sentence or field count: {fields[0]!r}, {len(fields)} fields")
+    if not seq.isdigit() or int(seq) < 1:
+        raise ArmLineError(f"bad SEQ {seq!r}")
+    if not _LABEL.match(label):
+        raise ArmLineError(f"bad LABEL {label!r}")
+    if point is None:
+        return ArmNotMeasured(int(seq), label, reason)
+    return ArmPoint(int(seq), label, point)
+
+
+class ArmLineDecoder:
+    """Incremental: feed bytes, get items; checks the SEQ sequence across lines."""
+
+    def __init__(self) -> None:
+        self._buffer = bytearray()
+        self.last_seq = 0
+
+    def feed(self, data: bytes) -> list[ArmItem]:
+        self._buffer += data
+        out: list[ArmItem] = []
+        while True:
+            end = self._buffer.find(b"\n")
+            if end < 0:
+                if len(self._buffer) > MAX_LINE:
+                    out.append(ArmProblem("line too long, no end", bytes(self._buffer)))
+                    self._buffer.clear()
+                return out
+            raw = bytes(self._buffer[:end + 1])
+            del self._buffer[:end + 1]
+            try:
+                item = parse_line(raw)
+            except ArmLineError as err:
+                out.append(ArmProblem(str(err), raw))
+                continue
+            if self.last_seq and item.seq != self.last_seq + 1:
+                out.append(ArmProblem(f"SEQ gap: expected {self.last_seq + 1}, got {item.seq}",
+                                      raw))
+                self.last_seq = item.seq
+                continue  # the line after a gap is not trusted either
+            self.last_seq = item.seq
+            out.append(item)
+
+
+@dataclass(frozen=True)
+class HoleSet:
+    """The three flange holes of one pose, mm in the arm's frame."""
+
+    points_mm: tuple[tuple[float, float, float], ...]  # P1, P2, P3
+    seqs: tuple[int, ...]
+
+
+class ArmReader:
+    """Reads probed points from the arm through pyserial (`serial_for_url`)."""
+
+    def __init__(self, url: str, read_timeout_s: float = 0.1):
+        self.url = url
+        self.port = serial.serial_for_url(url, timeout=read_timeout_s)
+        self.decoder = ArmLineDecoder()
+        self.problems: list[ArmProblem] = []
+
+    def close(self) -> None:
+        self.port.close()
+
+    def __enter__(self) -> ArmReader:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def read_items(self, timeout_s: float) -> list[ArmItem]:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            data = self.port.read(self.port.in_waiting or 1)
+            if data:
+                items = self.decoder.feed(data)
+                if items:
+                    return items
+        return []
+
+    def request(self) -> None:
+        """Ask an automated arm (the emulator) to probe now."""
+        self.port.write(b"MEASURE\r\n")
+
+    def read_holes(self, timeout_s: float = 5.0) -> HoleSet:
+        """The next complete P1, P2, P3 triple. Problems are kept in `problems` and restart
+        the triple; a not-measured hole raises ArmLineError; silence raises LinkTimeoutError."""
+        deadline = time.monotonic() + timeout_s
+        got: dict[str, ArmPoint] = {}
+        while time.monotonic() < deadline:
+            for item in self.read_items(max(0.0, deadline - time.monotonic())):
+                if isinstance(item, ArmProblem):
+                    self.problems.append(item)
+                    got.clear()
+                elif isinstance(item, ArmNotMeasured):
+                    raise ArmLineError(f"hole {item.label} not measured: {item.reason}")
+                elif item.label in HOLE_LABELS:
+                    if item.label == "P1":
+                        got.clear()
+                    got[item.label] = item
+                    if len(got) == 3 and list(got) == list(HOLE_LABELS):
+                        return HoleSet(tuple(got[k].xyz_mm for k in HOLE_LABELS),
+                                       tuple(got[k].seq for k in HOLE_LABELS))
+        raise LinkTimeoutError(f"no complete P1-P3 set from the arm at {self.url} within "
+                               f"{timeout_s:g} s")

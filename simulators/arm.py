@@ -1,0 +1,167 @@
+"""A measuring-arm emulator (thesis 4.1: FARO arm, 1200 mm reach, 0.013 mm): it probes the three
+flange holes of the true robot each time the robot arrives at a pose (or when a client sends a
+line such as `MEASURE`), and streams them as `$PT` lines over TCP (open it as
+`socket://host:port`) and over a pty (a real serial device path). Holes beyond the reach are not
+measured: the stream says so with a `$NM` line.
+
+The robot's state comes from a `HoleSource`: the shared `World` in one process, or the world
+file that `screwcal emulator irc5 --world FILE` keeps up to date, from another.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import os
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from protocol.arm import HOLE_LABELS, encode_not_measured, encode_point
+from screwcal.se3 import Array
+from simulators.world import World
+
+REACH_MM = 1200.0
+NOISE_MM = 0.013
+
+
+class HoleSource(Protocol):
+    async def wait_arrival(self, after: int) -> int: ...
+
+    def true_holes_mm(self) -> Array: ...
+
+
+class WorldFileWriter:
+    """Keeps a JSON file with the true holes up to date (for an arm emulator in another
+    process); call it after every arrival."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+
+    def __call__(self, world: World) -> None:
+        doc = {"arrivals": world.arrivals, "holes_mm": world.true_holes_mm().tolist()}
+        tmp = self.path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(doc))
+        os.replace(tmp, self.path)
+
+
+class WorldFileSource:
+    """A HoleSource reading the file a `WorldFileWriter` keeps."""
+
+    def __init__(self, path: str | Path, poll_s: float = 0.02):
+        self.path, self.poll_s = Path(path), poll_s
+        self._doc: dict = {"arrivals": 0, "holes_mm": [[0.0, 0.0, 0.0]] * 3}
+
+    def _read(self) -> None:
+        with contextlib.suppress(FileNotFoundError, json.JSONDecodeError):
+            self._doc = json.loads(self.path.read_text())
+
+    async def wait_arrival(self, after: int) -> int:
+        while True:
+            self._read()
+            if self._doc["arrivals"] > after:
+                return int(self._doc["arrivals"])
+            await asyncio.sleep(self.poll_s)
+
+    def true_holes_mm(self) -> Array:
+        self._read()
+        return np.asarray(self._doc["holes_mm"], dtype=float)
+
+
+class ArmEmulator:
+    def __init__(self, source: HoleSource, *, noise_mm: float = NOISE_MM,
+                 reach_mm: float = REACH_MM, seed: int | None = None):
+        self.source = source
+        self.noise_mm, self.reach_mm = noise_mm, reach_mm
+        self.rng = np.random.default_rng(seed)
+        self._clients: dict[asyncio.StreamWriter, int] = {}  # writer -> last SEQ sent
+        self._pty_seq = 0
+        self._pty_master: int | None = None
+        self.pty_path: str | None = None
+        self._server: asyncio.base_events.Server | None = None
+        self._watch: asyncio.Task[None] | None = None
+
+    def probe(self) -> list[tuple[str, Array | None]]:
+        """The three holes as the arm sees them now: noisy points, or None out of reach."""
+        out: list[tuple[str, Array | None]] = []
+        for label, p in zip(HOLE_LABELS, self.source.true_holes_mm(), strict=True):
+            if np.linalg.norm(p) > self.reach_mm:
+                out.append((label, None))
+            else:
+                out.append((label, p + self.rng.normal(0.0, self.noise_mm, 3)))
+        return out
+
+    @staticmethod
+    def lines(probe: list[tuple[str, Array | None]], first_seq: int) -> bytes:
+        out = b""
+        for k, (label, p) in enumerate(probe):
+            seq = first_seq + k
+            out += encode_not_measured(seq, label, "OUT_OF_REACH") if p is None else \
+                encode_point(seq, label, [float(v) for v in p])
+        return out
+
+    # -- serving -----------------------------------------------------------------------------
+    async def start(self, host: str = "127.0.0.1", port: int = 0, pty: bool = False
+                    ) -> tuple[str, int]:
+        self._server = await asyncio.start_server(self._serve, host, port)
+        if pty:
+            master, slave = os.openpty()
+            os.set_blocking(master, False)
+            self._pty_master, self.pty_path = master, os.ttyname(slave)
+            asyncio.get_running_loop().add_reader(master, self._pty_request)
+        self._watch = asyncio.create_task(self._follow())
+        addr = self._server.sockets[0].getsockname()
+        return addr[0], addr[1]
+
+    async def stop(self) -> None:
+        if self._watch is not None:
+            self._watch.cancel()
+        if self._server is not None:
+            self._server.close()
+            await self._server.wait_closed()
+        if self._pty_master is not None:
+            asyncio.get_running_loop().remove_reader(self._pty_master)
+            os.close(self._pty_master)
+
+    async def _follow(self) -> None:
+        """Probe and stream every time the robot arrives somewhere."""
+        seen = 0
+        while True:
+            seen = await self.source.wait_arrival(seen)
+            probe = self.probe()
+            for writer in list(self._clients):
+                self._send(writer, probe)
+            self._send_pty(probe)
+
+    def _send(self, writer: asyncio.StreamWriter, probe: list[tuple[str, Array | None]]) -> None:
+        first = self._clients[writer] + 1
+        self._clients[writer] = first + len(probe) - 1
+        with contextlib.suppress(ConnectionError):
+            writer.write(self.lines(probe, first))
+
+    def _send_pty(self, probe: list[tuple[str, Array | None]]) -> None:
+        if self._pty_master is None:
+            return
+        data = self.lines(probe, self._pty_seq + 1)
+        self._pty_seq += len(probe)
+        with contextlib.suppress(BlockingIOError, OSError):
+            os.write(self._pty_master, data)
+
+    def _pty_request(self) -> None:
+        with contextlib.suppress(BlockingIOError, OSError):
+            if b"\n" in os.read(self._pty_master, 1024):  # type: ignore[arg-type]
+                self._send_pty(self.probe())
+
+    async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        self._clients[writer] = 0
+        try:
+            while await reader.readline():  # any line asks for a probe now
+                self._send(writer, self.probe())
+                await writer.drain()
+        except ConnectionError:
+            pass
+        finally:
+            self._clients.pop(writer, None)
+            writer.close()

@@ -1,0 +1,76 @@
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from protocol.arm import (
+    ArmLineDecoder,
+    ArmNotMeasured,
+    ArmPoint,
+    ArmProblem,
+    ArmReader,
+    checksum,
+    encode_not_measured,
+    encode_point,
+)
+from protocol.errors import ArmLineError, LinkTimeoutError
+
+
+def test_checksum_is_the_nmea_xor():
+    body = "PT,1,P1,100.0000,-20.5000,3.2500"
+    cs = 0
+    for c in body:
+        cs ^= ord(c)
+    assert checksum(body) == f"{cs:02X}"
+    line = encode_point(1, "P1", (100.0, -20.5, 3.25))
+    assert line == f"${body}*{cs:02X}\r\n".encode()
+
+
+def test_lines_split_anywhere_decode_in_order():
+    data = b"".join(encode_point(k, f"P{k}", (k, -k, 0.5)) for k in (1, 2, 3))
+    data += encode_not_measured(4, "P1", "OUT_OF_REACH")
+    d = ArmLineDecoder()
+    items = [i for k in range(len(data)) for i in d.feed(data[k:k + 1])]
+    assert [type(i) for i in items] == [ArmPoint, ArmPoint, ArmPoint, ArmNotMeasured]
+    assert items[1] == ArmPoint(2, "P2", (2.0, -2.0, 0.5))
+
+
+@pytest.mark.parametrize(("line", "reason"), [
+    (encode_point(1, "P1", (1, 2, 3)).replace(b"*", b"*0"), "bad checksum"),
+    (encode_point(1, "P1", (1, 2, 3)).replace(b"1.0000", b"1.0001"), "bad checksum"),
+    (b"$PT,1,P1,1,2*" + checksum("PT,1,P1,1,2").encode() + b"\r\n", "field count"),
+    (b"hello\r\n", "not a"),
+])
+def test_bad_lines_are_reported_never_used(line, reason):
+    items = ArmLineDecoder().feed(line)
+    assert len(items) == 1 and isinstance(items[0], ArmProblem) and reason in items[0].reason
+
+
+def test_a_seq_gap_is_reported():
+    d = ArmLineDecoder()
+    items = d.feed(encode_point(1, "P1", (0, 0, 0)) + encode_point(3, "P2", (0, 0, 0))
+                   + encode_point(4, "P3", (0, 0, 0)))
+    assert isinstance(items[1], ArmProblem) and "SEQ gap" in items[1].reason
+    assert isinstance(items[2], ArmPoint)
+
+
+@given(st.lists(st.binary(max_size=120), max_size=10))
+def test_any_bytes_give_items_never_exceptions(chunks):
+    d = ArmLineDecoder()
+    for c in chunks:
+        for item in d.feed(c):
+            assert isinstance(item, ArmPoint | ArmNotMeasured | ArmProblem)
+
+
+def test_reader_over_loop_url():
+    with ArmReader("loop://") as arm:
+        arm.port.write(encode_point(1, "P3", (9, 9, 9)) + b"$junk*00\r\n"
+                       + b"".join(encode_point(k + 2, f"P{k + 1}", (k, 0, 0)) for k in range(3)))
+        holes = arm.read_holes(timeout_s=2)
+        np.testing.assert_allclose(holes.points_mm, [[0, 0, 0], [1, 0, 0], [2, 0, 0]])
+        assert len(arm.problems) == 1
+        with pytest.raises(LinkTimeoutError):
+            arm.read_holes(timeout_s=0.2)
+        arm.port.write(encode_not_measured(5, "P1", "OUT_OF_REACH"))
+        with pytest.raises(ArmLineError, match="P1 not measured"):
+            arm.read_holes(timeout_s=2)

@@ -1,0 +1,82 @@
+"""The arm emulator measures the true robot that the IRC5 emulator moves."""
+
+import asyncio
+
+import numpy as np
+import pytest
+
+from protocol.arm import ArmReader
+from protocol.errors import ArmLineError
+from screwcal.flange import frame_from_holes
+from screwcal.kinematics import forward_kinematics
+from screwcal.se3 import exp_twist
+from simulators.arm import ArmEmulator, WorldFileSource, WorldFileWriter
+from tests.simulators.conftest import targets
+
+
+@pytest.fixture
+async def arm(emulator):
+    a = ArmEmulator(emulator.world, seed=1)
+    host, port = await a.start("127.0.0.1", 0, pty=True)
+    a.url = f"socket://{host}:{port}"
+    yield a
+    await a.stop()
+
+
+async def test_holes_give_the_true_flange_within_the_arm_noise(client, emulator, arm):
+    reader = await asyncio.to_thread(ArmReader, arm.url)
+    world = emulator.world
+    await client.movj([20, 30, -20, 40, 50, 60])
+    holes = await asyncio.to_thread(reader.read_holes, 2.0)
+    np.testing.assert_allclose(holes.points_mm, world.true_holes_mm(), atol=6 * 0.013)
+    # The holes' Gram-Schmidt frame (Eqs. 4.1-4.4) turns with the TRUE flange, not the nominal.
+    T_true = forward_kinematics(world.truth, np.radians(world.q_deg.astype(float))[None])[0]
+    layout = frame_from_holes(world.holes_mm)[0]
+    measured = frame_from_holes(np.array(holes.points_mm))[0]
+    np.testing.assert_allclose(measured[:3, :3], T_true[:3, :3] @ layout[:3, :3], atol=2e-3)
+    reader.close()
+
+
+async def test_one_triple_per_pose_while_a_list_runs(client, emulator, arm):
+    emulator.settings.time_scale = 0.05
+    reader = await asyncio.to_thread(ArmReader, arm.url)
+    await client.load("CAL", targets(4, seed=5))
+    sets = []
+    async for _ in client.run("CAL", "AUTO"):
+        sets.append(await asyncio.to_thread(reader.read_holes, 2.0))
+        expected = emulator.world.true_holes_mm()
+        np.testing.assert_allclose(sets[-1].points_mm, expected, atol=6 * 0.013)
+    assert [s.seqs for s in sets] == [(1, 2, 3), (4, 5, 6), (7, 8, 9), (10, 11, 12)]
+    assert reader.problems == []
+    reader.close()
+
+
+async def test_the_pty_serves_the_same_stream(client, arm):
+    reader = await asyncio.to_thread(ArmReader, arm.pty_path)
+    await client.movj([5, 10, -10, 0, 20, 0])
+    holes = await asyncio.to_thread(reader.read_holes, 2.0)
+    assert holes.seqs == (1, 2, 3)
+    reader.close()
+
+
+async def test_out_of_reach_holes_are_not_measured(client, emulator, arm):
+    world = emulator.world
+    world.truth = world.truth.with_frames(base=exp_twist([0, 0, 0, 3000.0, 0, 0]))  # arm far
+    reader = await asyncio.to_thread(ArmReader, arm.url)
+    await client.home()
+    with pytest.raises(ArmLineError, match="not measured: OUT_OF_REACH"):
+        await asyncio.to_thread(reader.read_holes, 2.0)
+    reader.close()
+
+
+async def test_an_arm_in_another_process_follows_the_world_file(tmp_path, client, emulator):
+    path = tmp_path / "world.json"
+    emulator.world.observers.append(WorldFileWriter(path))
+    arm = ArmEmulator(WorldFileSource(path), seed=2)
+    host, port = await arm.start("127.0.0.1", 0)
+    reader = await asyncio.to_thread(ArmReader, f"socket://{host}:{port}")
+    await client.movj([0, 20, -20, 0, 30, 0])
+    holes = await asyncio.to_thread(reader.read_holes, 2.0)
+    np.testing.assert_allclose(holes.points_mm, emulator.world.true_holes_mm(), atol=0.08)
+    reader.close()
+    await arm.stop()
