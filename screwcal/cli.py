@@ -1,4 +1,8 @@
-"""The `screwcal` console script: a thin face that only dispatches to each command's module."""
+"""The `screwcal` console script: a thin face that only dispatches to each command's module.
+
+It is the one place that imports across packages (ARCHITECTURE.md): the core owns calibrate,
+predict, evaluate, ...; the simulators own `emulator`.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +12,7 @@ from collections.abc import Sequence
 
 from screwcal import __version__, calibrate, demo, evaluate, predict, testcube
 from screwcal.errors import ScrewcalError
+from simulators import cli as simulators_cli
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -16,7 +21,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Screw-theory calibration of 6-axis industrial robots (mm and degrees).")
     parser.add_argument("--version", action="version", version=f"screwcal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for module in (demo, calibrate, predict, evaluate, testcube):
+    for module in (demo, calibrate, predict, evaluate, testcube, simulators_cli):
         module.add_parser(sub)
     return parser
 

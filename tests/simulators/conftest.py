@@ -7,24 +7,16 @@ import pytest
 
 from protocol.client import ControllerClient, Timeouts
 from screwcal.demo import REGION_DEG
-from screwcal.robots import irb1600
-from screwcal.se3 import exp_twist
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from simulators.cli import make_world as cli_make_world
 from simulators.faults import FaultPlan
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
 from simulators.world import World
 
-# The arm stands at (500, 0, 600) mm in the robot frame, turned 0.3 rad about z: every test
-# target is within its 1200 mm reach. ARM_BASE maps the robot base into the arm's frame.
-_R = exp_twist([0.0, 0.0, 0.3, 0.0, 0.0, 0.0])
-ARM_BASE = _R.copy()
-ARM_BASE[:3, 3] = -_R[:3, :3] @ np.array([500.0, 0.0, 600.0])
-
 
 def make_world() -> World:
-    nominal = irb1600()
-    truth = apply_virtual_joints(nominal, THESIS_TABLE11).with_frames(base=ARM_BASE)
-    return World(nominal=nominal, truth=truth)
+    """The emulator command's default world: Table 11's errors, the arm at (500, 0, 600) mm in
+    the robot frame (every test target within its reach)."""
+    return cli_make_world(None, None)
 
 
 @pytest.fixture

@@ -1,0 +1,64 @@
+"""The emulators as the commands a user runs: real processes, real ports, interrupted at the end."""
+
+import asyncio
+import os
+import re
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from protocol.arm import ArmReader
+from protocol.client import ControllerClient
+
+EXE = [sys.executable, "-m", "screwcal.cli", "emulator"]
+
+
+def start(args):
+    proc = subprocess.Popen([*EXE, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    line = proc.stdout.readline()
+    assert line, proc.stderr.read()
+    return proc, line
+
+
+def stop(proc):
+    proc.send_signal(signal.SIGINT)
+    proc.communicate(timeout=10)  # also closes the pipes
+    assert proc.returncode == 0
+
+
+@pytest.mark.slow
+async def test_emulator_processes_serve_the_robot_and_the_arm(tmp_path):
+    world = tmp_path / "world.json"
+    irc5, line = start(["irc5", "--port", "0", "--time-scale", "0", "--world", str(world),
+                        "--arm-port", "0"])
+    arm_proc = None
+    try:
+        m = re.match(r"irc5 emulator on ([\d.]+):(\d+); measuring arm on (socket://\S+)", line)
+        assert m, line
+        arm_proc, arm_line = start(["arm", "--port", "0", "--world", str(world)])
+        other = re.match(r"measuring arm on (socket://\S+)", arm_line).group(1)
+        readers = [await asyncio.to_thread(ArmReader, url) for url in (m.group(3), other)]
+        async with ControllerClient(m.group(1), int(m.group(2))) as robot:
+            pose = await robot.movj([10, 20, -20, 30, 40, 50])
+            assert pose.joints_deg == pytest.approx((10, 20, -20, 30, 40, 50), abs=1e-4)
+        sets = [await asyncio.to_thread(r.read_holes, 5.0) for r in readers]
+        np.testing.assert_allclose(sets[0].points_mm, sets[1].points_mm, atol=0.1)
+        for r in readers:
+            r.close()
+    finally:
+        stop(irc5)
+        if arm_proc is not None:
+            stop(arm_proc)
+
+
+def test_bad_errors_file_is_refused(tmp_path):
+    bad = tmp_path / "errors.json"
+    bad.write_text('{"J1rz": "two"}')
+    out = subprocess.run([*EXE, "irc5", "--port", "0", "--errors", str(bad)],
+                         capture_output=True, text=True, timeout=30,
+                         env={**os.environ})
+    assert out.returncode == 2 and "expected {\"J1rz\": 2.0" in out.stderr
