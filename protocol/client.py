@@ -312,6 +312,20 @@ class ControllerClient:
         if msg.flag != want:
             raise SequenceError(f"pose {msg.idx} has FLAG {msg.flag}, expected {want}")
 
+    async def heartbeat(self, interval_s: float = 5.0) -> None:
+        """Send STAT whenever the link has been idle for `interval_s` (the spec's heartbeat);
+        run it as a task. It returns (and the link is marked lost) when a STAT fails."""
+        while self.lost is None:
+            await asyncio.sleep(interval_s)
+            if self._routes:  # a request is pending: the link is not idle
+                continue
+            try:
+                await self.stat()
+            except ProtocolError as err:
+                if self.lost is None:
+                    self._fail(LinkLostError(f"heartbeat failed: {err}"))
+                return
+
     async def go(self, idx: int) -> None:
         await self._send(Go(self._next_seq(), idx))
 

@@ -31,16 +31,45 @@ async def test_auto_run_delivers_every_pose_once_in_order(client, emulator, list
     assert (stat.state, stat.list, stat.idx, stat.count) == ("IDLE", list_name, 40, 40)
 
 
-async def test_step_mode_waits_for_every_go_ahead(client):
+@pytest.mark.parametrize("list_name", ["CAL", "PERF"])
+async def test_step_mode_waits_for_every_go_ahead(client, emulator, list_name):
     q = targets(5)
-    await client.load("CAL", q)
+    await client.load(list_name, q)
     asked = []
 
     async def operator(idx: int) -> None:
+        # The robot has not moved to this pose before the go-ahead.
+        assert emulator.world.arrivals == idx
         asked.append(idx)
 
-    got = [p.idx async for p in client.run("CAL", "STEP", on_wait=operator, count=5)]
+    got = [p.idx async for p in client.run(list_name, "STEP", on_wait=operator, count=5)]
     assert asked == got == [0, 1, 2, 3, 4]
+
+
+async def test_a_refused_go_ahead_never_moves_the_robot(client, emulator):
+    await client.load("CAL", targets(3))
+
+    async def operator(idx: int) -> None:
+        if idx == 1:
+            raise KeyboardInterrupt  # the operator says no
+
+    before = emulator.world.arrivals
+    with pytest.raises(KeyboardInterrupt):
+        async for _ in client.run("CAL", "STEP", on_wait=operator):
+            pass
+    assert emulator.world.arrivals == before + 1  # pose 0 only
+    await client.abort()  # the waiting run is ended cleanly
+    assert (await client.stat()).state == "IDLE"
+
+
+async def test_heartbeat_keeps_asking_while_idle_and_notices_a_drop(client, emulator):
+    beat = asyncio.create_task(client.heartbeat(0.02))
+    await asyncio.sleep(0.1)
+    assert emulator.last_seq == 1  # STAT does not count as a completed request...
+    await emulator.stop()
+    client._writer.transport.abort()
+    await asyncio.wait_for(beat, 2)
+    assert client.lost is not None
 
 
 async def test_task_space_list_is_solved_by_the_controller(client):
