@@ -30,7 +30,7 @@ NOISE_MM = 0.013
 class HoleSource(Protocol):
     async def wait_arrival(self, after: int) -> int: ...
 
-    def true_holes_mm(self) -> Array: ...
+    def true_holes_mm(self) -> Array | None: ...  # None: no robot known yet
 
 
 class WorldFileWriter:
@@ -52,7 +52,7 @@ class WorldFileSource:
 
     def __init__(self, path: str | Path, poll_s: float = 0.02):
         self.path, self.poll_s = Path(path), poll_s
-        self._doc: dict = {"arrivals": 0, "holes_mm": [[0.0, 0.0, 0.0]] * 3}
+        self._doc: dict = {"arrivals": 0, "holes_mm": None}
 
     def _read(self) -> None:
         with contextlib.suppress(FileNotFoundError, json.JSONDecodeError):
@@ -65,9 +65,10 @@ class WorldFileSource:
                 return int(self._doc["arrivals"])
             await asyncio.sleep(self.poll_s)
 
-    def true_holes_mm(self) -> Array:
+    def true_holes_mm(self) -> Array | None:
         self._read()
-        return np.asarray(self._doc["holes_mm"], dtype=float)
+        holes = self._doc["holes_mm"]
+        return None if holes is None else np.asarray(holes, dtype=float)
 
 
 class ArmEmulator:
@@ -85,20 +86,23 @@ class ArmEmulator:
 
     def probe(self) -> list[tuple[str, Array | None]]:
         """The three holes as the arm sees them now: noisy points, or None out of reach."""
+        holes = self.source.true_holes_mm()
+        if holes is None:
+            return [(label, None) for label in HOLE_LABELS]
         out: list[tuple[str, Array | None]] = []
-        for label, p in zip(HOLE_LABELS, self.source.true_holes_mm(), strict=True):
+        for label, p in zip(HOLE_LABELS, holes, strict=True):
             if np.linalg.norm(p) > self.reach_mm:
                 out.append((label, None))
             else:
                 out.append((label, p + self.rng.normal(0.0, self.noise_mm, 3)))
         return out
 
-    @staticmethod
-    def lines(probe: list[tuple[str, Array | None]], first_seq: int) -> bytes:
+    def lines(self, probe: list[tuple[str, Array | None]], first_seq: int) -> bytes:
+        reason = "OUT_OF_REACH" if self.source.true_holes_mm() is not None else "NO_ROBOT"
         out = b""
         for k, (label, p) in enumerate(probe):
             seq = first_seq + k
-            out += encode_not_measured(seq, label, "OUT_OF_REACH") if p is None else \
+            out += encode_not_measured(seq, label, reason) if p is None else \
                 encode_point(seq, label, [float(v) for v in p])
         return out
 

@@ -8,7 +8,8 @@ Each prints its bound address on one line (`--port 0` picks a free port). The tr
 nominal IRB 1600 with the thesis's Table 11 errors, or the virtual-joint errors of a JSON file
 ({"J1rz": 2.0, ...}), or a whole model file (any full-model errors), or random errors from a
 seed. The arm runs in the IRC5 process (`--arm-port`) or in its own, following the world file
-the IRC5 process writes (`--world`).
+the IRC5 process writes (`--world FILE`, by default screwcal-world.json in the temp folder); until
+a robot is known it answers `$NM ... NO_ROBOT`.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import tempfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -33,6 +35,8 @@ from simulators.world import World
 
 # Where the measuring arm stands by default: (500, 0, 600) mm in the robot frame.
 DEFAULT_ARM_POSITION_MM = (500.0, 0.0, 600.0)
+# Where an irc5 emulator process publishes its world for an arm process, unless --world says.
+DEFAULT_WORLD_FILE = Path(tempfile.gettempdir()) / "screwcal-world.json"
 
 
 def arm_base(arm_position_mm: tuple[float, float, float]) -> np.ndarray:
@@ -82,10 +86,9 @@ def make_world(errors_file: str | None, seed: int | None,
 
 async def _serve_irc5(args: argparse.Namespace) -> None:
     world = make_world(args.errors, args.seed)
-    if args.world:
-        writer = WorldFileWriter(args.world)
-        world.observers.append(writer)
-        writer(world)
+    writer = WorldFileWriter(args.world or DEFAULT_WORLD_FILE)
+    world.observers.append(writer)
+    writer(world)
     emu = IRC5Emulator(world, EmulatorSettings(speed_deg_s=args.speed_deg_s,
                                                time_scale=args.time_scale))
     host, port = await emu.start(args.host, args.port)
@@ -105,10 +108,7 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
 
 
 async def _serve_arm(args: argparse.Namespace) -> None:
-    if not args.world:
-        raise ModelError("the arm emulator needs --world FILE (from `screwcal emulator irc5 "
-                         "--world FILE`), or run it inside the irc5 emulator with --arm-port")
-    arm = ArmEmulator(WorldFileSource(args.world), seed=args.seed)
+    arm = ArmEmulator(WorldFileSource(args.world or DEFAULT_WORLD_FILE), seed=args.seed)
     host, port = await arm.start(args.host, args.port, pty=args.pty)
     line = f"measuring arm on socket://{host}:{port}"
     if arm.pty_path:
@@ -143,7 +143,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     irc5.add_argument("--time-scale", type=float, default=1.0,
                       help="motion time factor (0: instant)")
     irc5.add_argument("--speed-deg-s", type=float, default=60.0, help="joint speed")
-    irc5.add_argument("--world", help="keep this world file up to date for an arm process")
+    irc5.add_argument("--world", help="keep this world file up to date for an arm process "
+                      f"(default {DEFAULT_WORLD_FILE})")
     irc5.add_argument("--arm-port", type=int, default=None,
                       help="also serve the measuring arm on this TCP port")
     irc5.set_defaults(func=run)
@@ -151,7 +152,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                            formatter_class=argparse.RawDescriptionHelpFormatter)
     arm.add_argument("--host", default="127.0.0.1")
     arm.add_argument("--port", type=int, required=True)
-    arm.add_argument("--world", help="the world file of a running irc5 emulator")
+    arm.add_argument("--world", help="the world file of a running irc5 emulator "
+                     f"(default {DEFAULT_WORLD_FILE})")
     arm.add_argument("--pty", action="store_true", help="also serve a pty (a serial device)")
     arm.add_argument("--seed", type=int, default=None, help="noise seed")
     arm.set_defaults(func=run)

@@ -69,6 +69,17 @@ async def test_out_of_reach_holes_are_not_measured(client, emulator, arm):
     reader.close()
 
 
+async def test_before_any_robot_the_arm_says_so(tmp_path):
+    arm = ArmEmulator(WorldFileSource(tmp_path / "absent.json"), seed=2)
+    host, port = await arm.start("127.0.0.1", 0)
+    reader = await asyncio.to_thread(ArmReader, f"socket://{host}:{port}")
+    reader.request()
+    with pytest.raises(ArmLineError, match="not measured: NO_ROBOT"):
+        await asyncio.to_thread(reader.read_holes, 2.0)
+    reader.close()
+    await arm.stop()
+
+
 async def test_an_arm_in_another_process_follows_the_world_file(tmp_path, client, emulator):
     path = tmp_path / "world.json"
     emulator.world.observers.append(WorldFileWriter(path))

@@ -62,3 +62,13 @@ def test_bad_errors_file_is_refused(tmp_path):
                          capture_output=True, text=True, timeout=30,
                          env={**os.environ})
     assert out.returncode == 2 and "expected {\"J1rz\": 2.0" in out.stderr
+
+
+@pytest.mark.slow
+def test_the_commands_as_named_start_and_stop():
+    for args in (["arm", "--port", "0"], ["irc5", "--host", "127.0.0.1", "--port", "0",
+                                          "--seed", "3", "--time-scale", "0.5"]):
+        proc, line = start(args)
+        assert re.match(r"(measuring arm on socket://127\.0\.0\.1:\d+|"
+                        r"irc5 emulator on 127\.0\.0\.1:\d+)$", line.strip()), line
+        stop(proc)
