@@ -24,7 +24,7 @@ def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: A
     the thesis's alignment, `base_alignment`) is kept and only the tool is fitted."""
     F = flange_kinematics(model, q)
     R_f, p_f = F[:, :3, :3], F[:, :3, 3]
-    t_tool = np.zeros(3)
+    t_tool = np.zeros(3) if fit_tool else model.tool[:3, 3].copy()
     R_b, t_b = np.eye(3), np.zeros(3)
     if base is not None:
         R_b, t_b = base[:3, :3], base[:3, 3]
@@ -44,8 +44,10 @@ def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: A
             t_tool = new
             break
         t_tool = new
+    if not fit_tool:
+        return transform_from_rotation_translation(R_b, t_b), model.tool
     R_tool = np.eye(3)
-    if rotations is not None and fit_tool:
+    if rotations is not None:
         # R_meas = R_b R_f R_tool: average R_tool over poses.
         R_tool = Rotation.from_matrix(np.swapaxes(R_f, 1, 2) @ R_b.T @ rotations).mean().as_matrix()
     return (transform_from_rotation_translation(R_b, t_b),

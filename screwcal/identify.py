@@ -47,7 +47,7 @@ from screwcal.measurements import MeasurementSet
 from screwcal.model import SerialModel
 from screwcal.se3 import Array, rotvec_from_rotation
 
-Frames = Literal["unknown", "known"]
+Frames = Literal["unknown", "known", "base"]  # base: only the measuring frame is unknown
 class IdentificationError(ScrewcalError):
     """The identification cannot run on these data (too few poses, nothing identifiable)."""
 
@@ -239,13 +239,13 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     if weighting not in ("statistical", "eq2.4"):
         raise IdentificationError(f"weighting is 'statistical' or 'eq2.4', not '{weighting}'")
     start = nominal
-    if frames == "unknown":
+    if frames != "known":
         base, tool = align_frames(nominal, data.q, data.positions_mm,
                                   data.rotations if residual == "pose" else None,
-                                  base=base_guess)
+                                  base=base_guess, fit_tool=frames == "unknown")
         start = nominal.with_frames(base, tool)
     unknown = frames == "unknown"
-    cands = candidate_params(start, kind, base=unknown and residual != "distance",
+    cands = candidate_params(start, kind, base=frames != "known" and residual != "distance",
                              tool_rotation=unknown and residual == "pose",
                              tool_position=unknown)
     errors_all = ErrorModel(start, tuple(cands))

@@ -140,3 +140,13 @@ def test_lm_is_statistically_efficient():
     for r in offsets:
         assert r.ratio <= 1.2, f"{r.name}: RMS {r.rms_error:.4f} vs bound {r.bound:.4f}"
         assert r.ratio >= 0.8, f"{r.name}: better than the bound means the bound is wrong"
+
+
+def test_base_only_frames_identify_j6_with_a_known_tool(rng):
+    """With the flange known (Eq. 4.6) and only the measuring frame unknown, J6's offset is
+    identifiable; J1's stays inseparable from the base's rotation about z."""
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11).with_frames(base=BASE)
+    data = simulate_measurements(truth, random_configurations(40, rng), rng)
+    r = identify(irb1600(), data, kind="thesis", frames="base")
+    assert "J6rx" in r.names and abs(r.value("J6rx") + 4.6) < 0.05
+    assert "J1rz" in dict(r.removed) and not any(p.group == "tool" for p in r.params)
