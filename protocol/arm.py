@@ -162,15 +162,30 @@ class ArmReader:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def _available(self) -> bytes:
+        """Everything already received, without waiting. (`in_waiting` is a byte count on a
+        real port but only 0 or 1 on socket://, so read non-blocking instead.)"""
+        old = self.port.timeout
+        self.port.timeout = 0
+        try:
+            return self.port.read(65536)
+        finally:
+            self.port.timeout = old
+
     def read_items(self, timeout_s: float) -> list[ArmItem]:
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
-            data = self.port.read(self.port.in_waiting or 1)
+            data = self.port.read(1)  # waits up to the port's read time-out for something
             if data:
-                items = self.decoder.feed(data)
+                items = self.decoder.feed(data + self._available())
                 if items:
                     return items
         return []
+
+    def drain(self) -> int:
+        """Discard whatever the arm sent so far (before a move: the next triple is then the new
+        pose's); returns the number of items dropped."""
+        return len(self.decoder.feed(self._available()))
 
     def request(self) -> None:
         """Ask an automated arm (the emulator) to probe now."""

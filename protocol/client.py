@@ -98,6 +98,7 @@ class ControllerClient:
         except (TimeoutError, OSError) as err:
             raise LinkLostError(f"cannot connect to the controller at {self.host}:{self.port}: "
                                 f"{err or 'timed out'}") from None
+        self._routes.clear()
         sock = self._writer.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
@@ -108,6 +109,9 @@ class ControllerClient:
         self._expect_ack(reply, "HELO")
 
     async def close(self) -> None:
+        """Close the link; every pending wait fails with LinkLostError."""
+        if self.lost is None:
+            self._fail(LinkLostError("the link was closed"))
         if self._reader_task is not None:
             self._reader_task.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):

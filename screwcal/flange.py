@@ -22,6 +22,9 @@ from numpy.typing import ArrayLike
 from screwcal.errors import ScrewcalError
 from screwcal.se3 import Array, invert_transform
 
+# A measuring flange's three holes in the robot flange (tool0) frame, mm: the default layout of
+# the emulator and of a robot registered without its own bench data.
+DEFAULT_HOLES_IN_FLANGE_MM = ((0.0, -30.0, 20.0), (40.0, 0.0, 20.0), (0.0, 30.0, 20.0))
 MIN_SEPARATION_MM = 1.0
 MIN_ANGLE_DEG = 5.0  # smallest angle at P1 between P1->P2 and P1->P3 for a usable frame
 _PAIRS = ((0, 1), (0, 2), (1, 2))
@@ -123,6 +126,14 @@ class MeasuringFlange:
         ef[:3, 0], ef[:3, 1], ef[:3, 2], ef[:3, 3] = x, np.cross(z, x), z, o
         tcp = frame_from_holes(holes)[0]
         return cls(invert_transform(ef) @ tcp, hole_distances(holes)[0])
+
+    @classmethod
+    def from_holes_in_flange(cls, holes_mm: ArrayLike) -> MeasuringFlange:
+        """When the holes' positions in the robot flange (tool0) frame are known (a drawing, or
+        a bench measurement already expressed in that frame)."""
+        holes = _as_points(holes_mm)
+        check_holes(holes)
+        return cls(frame_from_holes(holes)[0], hole_distances(holes)[0])
 
     def flange_poses(self, holes_mm: ArrayLike, tol_mm: float = 0.5) -> Array:
         """T_ef^b (N, 4, 4) from probed holes (N, 3, 3) in the measuring frame, Eq. 4.6."""

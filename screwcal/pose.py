@@ -37,6 +37,26 @@ def euler_zyx_deg_from_rotation(R: ArrayLike) -> Array:
     return zyx[:, ::-1].reshape((*R.shape[:-2], 3))
 
 
+def euler_zyx_deg_near(R: ArrayLike, reference_deg: ArrayLike) -> Array:
+    """(rx, ry, rz) of rotations (..., 3, 3) on the ZYX triple nearest `reference_deg`.
+
+    Every rotation has two triples, (rx, ry, rz) and (rx + 180, 180 - ry, rz + 180): e.g.
+    flange-down is both (180, 0, 180) and (0, 180, 0). Angle by angle comparisons (ISO 9283's
+    APa/b/c) need the one nearest the commanded triple, each angle unwrapped to within 180 deg.
+    """
+    ref = np.asarray(reference_deg, dtype=float)
+    a = euler_zyx_deg_from_rotation(R)
+    b = a + np.array([180.0, 0.0, 180.0])
+    b[..., 1] = 180.0 - a[..., 1]
+
+    def near(t: Array) -> Array:
+        return ref + (t - ref + 180.0) % 360.0 - 180.0
+
+    a, b = near(a), near(b)
+    pick_b = np.sum(np.abs(b - ref), axis=-1) < np.sum(np.abs(a - ref), axis=-1)
+    return np.where(pick_b[..., None], b, a)
+
+
 def transform_from_pose(pose: ArrayLike) -> Array:
     """4x4 transforms from poses (..., 6) = (x, y, z [mm], rx, ry, rz [deg])."""
     pose = np.asarray(pose, dtype=float)

@@ -67,9 +67,10 @@ class Store:
     def _migrate(self) -> None:
         version = self._db.execute("PRAGMA user_version").fetchone()[0]
         for v in range(version + 1, SCHEMA_VERSION + 1):
-            with self._tx():
-                self._db.executescript(_MIGRATIONS[v])
-                self._db.execute(f"PRAGMA user_version={v}")
+            # executescript commits by itself: the script carries its own transaction.
+            with self._lock:
+                self._db.executescript(f"BEGIN IMMEDIATE; {_MIGRATIONS[v]} "
+                                       f"PRAGMA user_version={v}; COMMIT;")
 
     @contextmanager
     def _tx(self) -> Iterator[sqlite3.Connection]:

@@ -13,12 +13,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from screwcal.flange import DEFAULT_HOLES_IN_FLANGE_MM
 from screwcal.kinematics import flange_kinematics, forward_kinematics
 from screwcal.model import SerialModel
 from screwcal.se3 import Array
 
-# The measuring flange's holes in the flange (tool0) frame, mm: P1, P2, P3 (thesis 4.2).
-DEFAULT_HOLES_MM = np.array([[0.0, -30.0, 20.0], [40.0, 0.0, 20.0], [0.0, 30.0, 20.0]])
+DEFAULT_HOLES_MM = np.array(DEFAULT_HOLES_IN_FLANGE_MM)  # P1, P2, P3 in tool0 (thesis 4.2)
 
 
 @dataclass

@@ -62,6 +62,14 @@ def test_any_bytes_give_items_never_exceptions(chunks):
             assert isinstance(item, ArmPoint | ArmNotMeasured | ArmProblem)
 
 
+def test_drain_drops_everything_already_received():
+    with ArmReader("loop://") as arm:
+        arm.port.write(b"".join(encode_point(k + 1, f"P{k + 1}", (k, 0, 0)) for k in range(3)))
+        assert arm.drain() == 3
+        arm.port.write(b"".join(encode_point(k + 4, f"P{k + 1}", (9, k, 0)) for k in range(3)))
+        assert arm.read_holes(2.0).seqs == (4, 5, 6)
+
+
 def test_reader_over_loop_url():
     with ArmReader("loop://") as arm:
         arm.port.write(encode_point(1, "P3", (9, 9, 9)) + b"$junk*00\r\n"

@@ -67,3 +67,15 @@ def test_rodrigues_exp_and_log_match_scipy(rng):
     np.testing.assert_allclose(R, Rotation.from_rotvec(phi).as_matrix(), atol=1e-12)
     np.testing.assert_allclose(rotvec_from_rotation(R), Rotation.from_matrix(R).as_rotvec(),
                                atol=1e-9)
+
+
+def test_euler_triple_nearest_the_reference():
+    from screwcal.pose import euler_zyx_deg_near
+
+    R = rotation_from_euler_zyx_deg([179.9, 0.2, -179.5])  # near flange-down (180, 0, 180)
+    np.testing.assert_allclose(euler_zyx_deg_near(R, [180, 0, 180]), [179.9, 0.2, 180.5],
+                               atol=1e-9)
+    np.testing.assert_allclose(rotation_from_euler_zyx_deg(euler_zyx_deg_near(R, [0, 180, 0])),
+                               R, atol=1e-12)
+    np.testing.assert_allclose(euler_zyx_deg_near(R, [0, 180, 0]), [-0.1, 179.8, 0.5],
+                               atol=1e-9)

@@ -91,3 +91,16 @@ async def test_an_arm_in_another_process_follows_the_world_file(tmp_path, client
     np.testing.assert_allclose(holes.points_mm, emulator.world.true_holes_mm(), atol=0.08)
     reader.close()
     await arm.stop()
+
+
+async def test_drain_over_socket_then_each_pose_gets_its_own_holes(client, emulator, arm):
+    """socket:// reports in_waiting as 0/1: a drain must still drop every stale line."""
+    reader = await asyncio.to_thread(ArmReader, arm.url)
+    for q in ([0, 10, 0, 0, 20, 0], [10, 20, -10, 0, 30, 0]):
+        await client.movj(q)  # an arrival whose holes nobody reads
+    await asyncio.sleep(0.05)
+    await asyncio.to_thread(reader.drain)
+    await client.movj([20, 30, -20, 0, 40, 0])
+    holes = await asyncio.to_thread(reader.read_holes, 2.0)
+    np.testing.assert_allclose(holes.points_mm, emulator.world.true_holes_mm(), atol=6 * 0.013)
+    reader.close()

@@ -94,6 +94,14 @@ async def test_every_pending_wait_fails_when_the_link_drops(client, emulator):
         await client.stat()
 
 
+async def test_closing_the_client_fails_its_pending_waits(client):
+    waiting = asyncio.create_task(client.stat())
+    await asyncio.sleep(0)
+    await client.close()
+    with pytest.raises(LinkLostError, match="closed"):
+        await asyncio.wait_for(waiting, 2)
+
+
 async def test_reconnect_gives_up_with_a_clear_error(emulator):
     c = ControllerClient(*emulator.address, Timeouts(connect_s=0.2))
     await c.connect()

@@ -1,0 +1,174 @@
+"""The job service (FastAPI): robots, jobs, progress as server-sent events, the operator's
+go-ahead, abort, measurements, results and a report page.
+
+`create_app(settings)` builds the app; nothing is created at import. Requests that can move a
+robot or change data need `Authorization: Bearer <token>` (401 without, 403 with a wrong one,
+and 403 always when no token is configured).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import secrets
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Depends, FastAPI, Header, HTTPException, Request, status
+from fastapi.responses import HTMLResponse, JSONResponse, StreamingResponse
+
+from screwcal.errors import ScrewcalError
+from screwcal.modelfile import model_file_from_model, parse_model, resolve_model
+from service.errors import ConflictError, NotFoundError, SafetyError
+from service.manager import JobManager
+from service.report import report_html
+from service.schemas import GoAhead, JobCreate, JobPublic, RobotCreate, RobotPublic
+from service.settings import ServiceSettings
+from service.store import Store
+
+TERMINAL = ("done", "failed", "aborted")
+
+
+def authorised(request: Request, authorization: Annotated[str | None, Header()] = None) -> None:
+    """Requests that move a robot or change data carry the settings' bearer token."""
+    if not authorization or not authorization.startswith("Bearer "):
+        raise HTTPException(status.HTTP_401_UNAUTHORIZED, "bearer token required",
+                            headers={"WWW-Authenticate": "Bearer"})
+    token = request.app.state.settings.token
+    given = authorization.removeprefix("Bearer ")
+    if not token or not secrets.compare_digest(given, token):
+        raise HTTPException(status.HTTP_403_FORBIDDEN, "token refused")
+
+
+def store_of(request: Request) -> Store:
+    return request.app.state.store
+
+
+def manager_of(request: Request) -> JobManager:
+    return request.app.state.manager
+
+
+Auth = Annotated[None, Depends(authorised)]
+StoreDep = Annotated[Store, Depends(store_of)]
+ManagerDep = Annotated[JobManager, Depends(manager_of)]
+
+
+def create_app(settings: ServiceSettings) -> FastAPI:
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        store = Store(settings.db_path)
+        manager = JobManager(store, settings)
+        app.state.store, app.state.manager, app.state.settings = store, manager, settings
+        manager.resume_unfinished()
+        yield
+        await manager.stop()
+        store.close()
+
+    app = FastAPI(title="screwcal job service", version="1", lifespan=lifespan,
+                  description="Sequences performance and calibration pose lists, persists every "
+                              "measurement, runs the estimation per job (mm and degrees).")
+
+    @app.exception_handler(NotFoundError)
+    async def not_found(_: Request, err: NotFoundError) -> JSONResponse:
+        return JSONResponse({"detail": str(err)}, status_code=404)
+
+    @app.exception_handler(ConflictError)
+    async def conflict(_: Request, err: ConflictError) -> JSONResponse:
+        return JSONResponse({"detail": str(err)}, status_code=409)
+
+    @app.exception_handler(SafetyError)
+    async def unsafe(_: Request, err: SafetyError) -> JSONResponse:
+        return JSONResponse({"detail": str(err)}, status_code=422)
+
+    robots = APIRouter(prefix="/robots", tags=["robots"])
+
+    @robots.post("", status_code=201, response_model=RobotPublic)
+    def create_robot(body: RobotCreate, _: Auth, store: StoreDep) -> dict:
+        try:
+            model = resolve_model(body.model) if isinstance(body.model, str) else \
+                parse_model(body.model, "model")
+        except ScrewcalError as err:
+            raise HTTPException(422, f"model: {err}") from None
+        doc = json.loads(model_file_from_model(model).model_dump_json())
+        return store.add_robot(body.name, body.controller_host, body.controller_port,
+                               body.arm_url, doc, body.holes_mm)
+
+    @robots.get("", response_model=list[RobotPublic])
+    def list_robots(store: StoreDep) -> list[dict]:
+        return store.robots()
+
+    @robots.get("/{robot_id}", response_model=RobotPublic)
+    def get_robot(robot_id: int, store: StoreDep) -> dict:
+        return store.robot(robot_id)
+
+    jobs = APIRouter(prefix="/jobs", tags=["jobs"])
+
+    def public(job: dict, manager: JobManager) -> dict:
+        runner = manager.runners.get(job["id"])
+        waiting = runner.waiting_for if runner is not None else None
+        return {**job, "waiting_for": {"phase": waiting[0], "index": waiting[1]}
+                if waiting else None}
+
+    @jobs.post("", status_code=202, response_model=JobPublic)
+    async def create_job(body: JobCreate, _: Auth, store: StoreDep, manager: ManagerDep) -> dict:
+        store.robot(body.robot_id)
+        job = store.add_job(body.robot_id, body.kind, body.mode, body.options.model_dump())
+        manager.start(job["id"])
+        return public(job, manager)
+
+    @jobs.get("", response_model=list[JobPublic])
+    def list_jobs(store: StoreDep, manager: ManagerDep) -> list[dict]:
+        return [public(j, manager) for j in store.jobs()]
+
+    @jobs.get("/{job_id}", response_model=JobPublic)
+    def get_job(job_id: int, store: StoreDep, manager: ManagerDep) -> dict:
+        return public(store.job(job_id), manager)
+
+    @jobs.post("/{job_id}/go", status_code=204)
+    async def go_ahead(job_id: int, body: GoAhead, _: Auth, manager: ManagerDep) -> None:
+        await manager.go(job_id, body.index)
+
+    @jobs.post("/{job_id}/abort", status_code=204)
+    async def abort(job_id: int, _: Auth, manager: ManagerDep) -> None:
+        await manager.abort(job_id)
+
+    @jobs.get("/{job_id}/measurements")
+    def measurements(job_id: int, store: StoreDep, phase: str | None = None) -> list[dict]:
+        store.job(job_id)
+        return store.measurements(job_id, phase)
+
+    @jobs.get("/{job_id}/result")
+    def result(job_id: int, store: StoreDep) -> dict[str, Any]:
+        job = store.job(job_id)
+        return {"id": job_id, "state": job["state"], "reason": job["reason"],
+                "phases": job["phases"], **(job["result"] or {})}
+
+    @jobs.get("/{job_id}/report", response_class=HTMLResponse)
+    async def report(job_id: int, store: StoreDep) -> str:
+        job = store.job(job_id)
+        return await asyncio.to_thread(report_html, job, store.robot(job["robot_id"]))
+
+    @jobs.get("/{job_id}/events")
+    async def events(job_id: int, store: StoreDep, manager: ManagerDep) -> StreamingResponse:
+        store.job(job_id)
+        bus = manager.events.of(job_id)
+
+        async def stream() -> AsyncIterator[str]:
+            sent = 0
+            while True:
+                while sent < len(bus.items):
+                    yield f"data: {json.dumps(bus.items[sent])}\n\n"
+                    sent += 1
+                state = store.job(job_id)["state"]
+                if state in TERMINAL and sent >= len(bus.items):
+                    yield f"data: {json.dumps({'kind': 'end', 'state': state})}\n\n"
+                    return
+                if not await bus.wait_beyond(sent, 1.0):
+                    yield ": keep-alive\n\n"
+
+        return StreamingResponse(stream(), media_type="text/event-stream")
+
+    app.include_router(robots)
+    app.include_router(jobs)
+    return app

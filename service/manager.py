@@ -1,0 +1,62 @@
+"""The running jobs: one runner task per job, resumed after a restart."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+
+from service.errors import ConflictError
+from service.events import EventBus
+from service.runner import JobRunner
+from service.settings import ServiceSettings
+from service.store import Store
+
+UNFINISHED = ("queued", "running", "paused")
+
+
+class JobManager:
+    def __init__(self, store: Store, settings: ServiceSettings):
+        self.store, self.settings = store, settings
+        self.events = EventBus()
+        self.runners: dict[int, JobRunner] = {}
+        self.tasks: dict[int, asyncio.Task[None]] = {}
+
+    def start(self, job_id: int) -> None:
+        runner = JobRunner(self.store, self.settings, self.events.of(job_id), job_id)
+        self.runners[job_id] = runner
+        self.tasks[job_id] = asyncio.create_task(runner.run(), name=f"job {job_id}")
+
+    def resume_unfinished(self) -> list[int]:
+        """After a restart (or a crash): every unfinished job goes on where its store says."""
+        ids = [j["id"] for j in self.store.jobs(UNFINISHED)]
+        for job_id in ids:
+            self.start(job_id)
+        return ids
+
+    def runner(self, job_id: int) -> JobRunner:
+        runner = self.runners.get(job_id)
+        if runner is None or self.tasks[job_id].done():
+            raise ConflictError(f"job {job_id} is not running")
+        return runner
+
+    async def go(self, job_id: int, index: int) -> None:
+        runner = self.runner(job_id)
+        if runner.waiting_for is None or runner.waiting_for[1] != index:
+            raise ConflictError(f"job {job_id} is not waiting for pose {index} "
+                                f"(waiting for {runner.waiting_for})")
+        await runner.go_ahead.put(index)
+
+    async def abort(self, job_id: int) -> None:
+        await self.runner(job_id).abort()
+
+    async def wait(self, job_id: int) -> None:
+        task = self.tasks.get(job_id)
+        if task is not None:
+            await task
+
+    async def stop(self) -> None:
+        for task in self.tasks.values():
+            task.cancel()
+        for task in self.tasks.values():
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task

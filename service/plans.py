@@ -1,0 +1,60 @@
+"""The pose lists a job runs: a calibration set and the ISO 9283 performance list.
+
+Calibration: by default 40 poses spread over one quadrant-like region well inside the joint
+limits (the thesis's choice of 40 configurations, Table 7), drawn from a fixed seed so that a job
+is repeatable; a job may give its own. Performance: the ISO 9283 cube's P1-P5 with return points
+(`screwcal.testcube`) for n cycles, then a straight line of points from P2 to P4 for the
+straightness (thesis 2.3.2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from screwcal.ik import closed_form_ik
+from screwcal.model import SerialModel
+from screwcal.pose import transform_from_pose
+from screwcal.testcube import ArmSphere, find_test_cube, performance_pose_list
+
+CAL_REGION_DEG = np.array([[-60, 60], [-30, 70], [-70, 30], [-150, 150], [-100, 100],
+                           [-170, 170]])
+
+
+@dataclass(frozen=True)
+class PlannedPose:
+    idx: int
+    joints_deg: tuple[float, ...]
+    role: str  # "cal", "approach", "target", "line"
+    point: str = ""  # ISO point label (P1..P5) for performance targets
+    cycle: int = 0
+    commanded: tuple[float, ...] = ()  # x, y, z (mm), rx, ry, rz (deg) of tool0, base frame
+
+
+def calibration_plan(model: SerialModel, n: int = 40, seed: int = 2018) -> list[PlannedPose]:
+    rng = np.random.default_rng(seed)
+    q = np.round(rng.uniform(CAL_REGION_DEG[:, 0], CAL_REGION_DEG[:, 1], (n, 6)), 4)
+    model.check_limits(np.radians(q), "calibration pose")
+    return [PlannedPose(k, tuple(float(v) for v in q[k]), "cal") for k in range(n)]
+
+
+def performance_plan(model: SerialModel, cycles: int = 30, edge_mm: float = 300.0,
+                     arm_position_mm: tuple[float, float, float] | None = None,
+                     line_points: int = 11) -> list[PlannedPose]:
+    arm = ArmSphere(arm_position_mm, 1150.0) if arm_position_mm is not None else None
+    cube = find_test_cube(model, edge_mm, arm=arm)
+    plans = [PlannedPose(p.index, p.q_deg, p.role, p.point, p.cycle, p.pose_cmd)
+             for p in performance_pose_list(model, cube, cycles)]
+    pts = cube.points_mm
+    t = np.linspace(0.0, 1.0, line_points)[:, None]
+    line = pts["P2"] + t * (pts["P4"] - pts["P2"])
+    poses = cube.poses(line)
+    sol = closed_form_ik(model, transform_from_pose(poses))
+    q = np.degrees(sol.nearest(np.radians(plans[-1].joints_deg)))
+    model.check_limits(np.radians(q), "straightness pose")
+    start = len(plans)
+    plans += [PlannedPose(start + k, tuple(float(v) for v in q[k]), "line",
+                          commanded=tuple(float(v) for v in poses[k]))
+              for k in range(line_points)]
+    return plans

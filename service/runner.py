@@ -1,0 +1,341 @@
+"""Runs one job: the thesis's flow (Fig. 41) against a real (or emulated) controller and arm.
+
+Kinds: `performance` (the ISO 9283 list), `calibration` (the calibration list and the
+estimation), `procedure` (performance before, calibration, estimation, correction by ZERO,
+performance after). Every list runs in STEP mode on the wire: the go-ahead for a pose is sent
+only once the previous pose is committed to the store, so no measurement is ever lost to a crash;
+an AUTO job gives the go-ahead itself, a STEP job waits for the operator's.
+
+A lost controller or arm link pauses the job (its state says why); it resumes from the next
+unmeasured pose when the link is back. A correction outside plausible bounds, or a target outside
+the joint limits, fails the job before anything is sent.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from typing import Any
+
+import numpy as np
+import serial
+
+from protocol.arm import ArmReader
+from protocol.client import ControllerClient, Timeouts
+from protocol.errors import (
+    ArmLineError,
+    ControllerError,
+    LinkLostError,
+    LinkTimeoutError,
+    ProtocolError,
+)
+from screwcal.correction import CorrectionRefusedError, joint_correction
+from screwcal.errors import ScrewcalError
+from screwcal.flange import MeasuringFlange
+from screwcal.identify import CalibrationResult, identify
+from screwcal.iso9283 import pose_metrics
+from screwcal.measurements import MeasurementSet
+from screwcal.modelfile import parse_model
+from screwcal.pose import euler_zyx_deg_near, pose_from_transform, transform_from_pose
+from screwcal.se3 import invert_transform
+from screwcal.straightness import straightness
+from service.errors import SafetyError
+from service.events import JobEvents
+from service.plans import PlannedPose, calibration_plan, performance_plan
+from service.settings import ServiceSettings
+from service.store import Store
+
+MAX_LIST = 200
+STEPS = {
+    "performance": ("perf_before", "evaluation"),
+    "calibration": ("cal", "estimation"),
+    "procedure": ("perf_before", "cal", "estimation", "correction", "perf_after", "evaluation"),
+}
+LINK_ERRORS = (LinkLostError, LinkTimeoutError, ArmLineError, serial.SerialException, OSError)
+
+
+class JobAborted(Exception):  # noqa: N818 (control flow, not an error)
+    """The operator aborted the job."""
+
+
+class JobRunner:
+    def __init__(self, store: Store, settings: ServiceSettings, events: JobEvents, job_id: int):
+        self.store, self.settings, self.events, self.job_id = store, settings, events, job_id
+        self.job = store.job(job_id)
+        self.robot = store.robot(self.job["robot_id"])
+        self.model = parse_model(self.robot["model"], f"robot {self.robot['id']}")
+        self.flange = MeasuringFlange.from_holes_in_flange(self.robot["holes_mm"])
+        self.options: dict[str, Any] = self.job["options"]
+        self.client: ControllerClient | None = None
+        self.arm: ArmReader | None = None
+        self.aborted = asyncio.Event()
+        self.go_ahead: asyncio.Queue[int] = asyncio.Queue()
+        self.waiting_for: tuple[str, int] | None = None
+
+    # -- plans ---------------------------------------------------------------------------------
+    def plan(self, phase: str) -> list[PlannedPose]:
+        if phase == "cal":
+            return calibration_plan(self.model, int(self.options.get("calibration_poses", 40)))
+        return performance_plan(self.model, int(self.options.get("cycles", 30)),
+                                float(self.options.get("cube_edge_mm", 300.0)),
+                                self.options.get("arm_position_mm"))
+
+    # -- the job -------------------------------------------------------------------------------
+    async def run(self) -> None:
+        phases: dict[str, Any] = dict(self.job["phases"])
+        try:
+            self._set("running", "")
+            t0 = time.perf_counter()
+            await self._connect()
+            phases.setdefault("setup", {"seconds": time.perf_counter() - t0})
+            for step in STEPS[self.job["kind"]]:
+                if phases.get(step, {}).get("done"):
+                    continue
+                if step == "correction" and phases.get(step, {}).get("started"):
+                    raise SafetyError("the job stopped during the correction: whether ZERO took "
+                                      "effect is unknown; check the controller, then start anew")
+                phases[step] = {"started": True}
+                self.store.set_job(self.job_id, phases=phases)
+                start = time.perf_counter()
+                await self._with_links(step)
+                phases[step] = {"done": True, "seconds": time.perf_counter() - start}
+                self.store.set_job(self.job_id, phases=phases)
+                await self.events.publish("phase", phase=step, seconds=phases[step]["seconds"])
+            self._set("done", "")
+            await self.events.publish("done")
+        except JobAborted:
+            self._set("aborted", "aborted by the operator")
+            await self.events.publish("aborted")
+        except (SafetyError, CorrectionRefusedError, ScrewcalError, ControllerError) as err:
+            self._set("failed", str(err))
+            await self.events.publish("failed", reason=str(err))
+        finally:
+            await self._disconnect()
+
+    def _set(self, state: str, reason: str) -> None:
+        self.job = self.store.set_job(self.job_id, state=state, reason=reason)
+
+    async def _with_links(self, step: str) -> None:
+        """Run a step; a lost link pauses the job until it is back, then the step goes on."""
+        while True:
+            try:
+                await self._step(step)
+                return
+            except LINK_ERRORS as err:
+                if self.aborted.is_set():
+                    raise JobAborted() from None
+                self._set("paused", f"{type(err).__name__}: {err}")
+                await self.events.publish("paused", reason=str(err))
+                await self._reconnect()
+                self._set("running", "")
+                await self.events.publish("resumed", phase=step)
+
+    async def _step(self, step: str) -> None:
+        if step in ("perf_before", "cal", "perf_after"):
+            await self.measure(step, self.plan("cal" if step == "cal" else "perf"))
+        elif step == "estimation":
+            await asyncio.to_thread(self.estimate)
+        elif step == "correction":
+            await self.correct()
+        elif step == "evaluation":
+            await asyncio.to_thread(self.evaluate)
+
+    # -- links ---------------------------------------------------------------------------------
+    async def _connect(self) -> None:
+        if self.client is None or self.client.lost is not None:
+            self.client = ControllerClient(self.robot["controller_host"],
+                                           self.robot["controller_port"],
+                                           Timeouts(pose_s=self.settings.pose_timeout_s))
+            await self.client.connect()
+        if self.arm is None:
+            self.arm = await asyncio.to_thread(ArmReader, self.robot["arm_url"])
+
+    async def _disconnect(self) -> None:
+        if self.client is not None:
+            await self.client.close()
+            self.client = None
+        if self.arm is not None:
+            self.arm.close()
+            self.arm = None
+
+    async def _reconnect(self) -> None:
+        while True:
+            if self.aborted.is_set():
+                raise JobAborted()
+            await self._disconnect()
+            try:
+                await self._connect()
+                return
+            except LINK_ERRORS:
+                await asyncio.sleep(self.settings.reconnect_interval_s)
+
+    # -- measuring -----------------------------------------------------------------------------
+    async def measure(self, phase: str, plan: list[PlannedPose]) -> None:
+        assert self.client is not None and self.arm is not None
+        for p in plan:  # the service refuses targets outside the limits before sending
+            if not self.model.within_limits(np.radians(p.joints_deg)):
+                raise SafetyError(f"{phase} pose {p.idx} is outside the joint limits")
+        list_name = "CAL" if phase == "cal" else "PERF"
+        while todo := [p for p in plan if p.idx not in
+                       self.store.measured_indices(self.job_id, phase)]:
+            chunk = todo[:MAX_LIST]
+            await self.client.load(list_name, [p.joints_deg for p in chunk])
+
+            async def gate(k: int, chunk: list[PlannedPose] = chunk) -> None:
+                await self._gate(phase, chunk[k])
+
+            async for got in self.client.run(list_name, "STEP", on_wait=gate, count=len(chunk)):
+                planned = chunk[got.idx]
+                holes = await asyncio.to_thread(self.arm.read_holes, self.settings.arm_timeout_s)
+                flange = self.flange.flange_poses(np.array(holes.points_mm))[0]
+                self.store.add_measurement(self.job_id, phase, planned.idx, list(got.joints_deg),
+                                           list(got.tool0), [list(h) for h in holes.points_mm],
+                                           pose_from_transform(flange).tolist())
+                done = len(self.store.measured_indices(self.job_id, phase))
+                await self.events.publish("measured", phase=phase, index=planned.idx,
+                                          done=done, total=len(plan))
+
+    async def _gate(self, phase: str, planned: PlannedPose) -> None:
+        """Before the robot moves to `planned`: the previous pose is committed; drop stale arm
+        lines; in a STEP job wait for the operator's go-ahead."""
+        if self.aborted.is_set():
+            raise JobAborted()
+        assert self.arm is not None
+        await asyncio.to_thread(self.arm.drain)
+        if self.job["mode"] != "STEP":
+            return
+        self.waiting_for = (phase, planned.idx)
+        await self.events.publish("waiting", phase=phase, index=planned.idx,
+                                  joints_deg=list(planned.joints_deg))
+        try:
+            while True:
+                getter = asyncio.create_task(self.go_ahead.get())
+                stopper = asyncio.create_task(self.aborted.wait())
+                finished, _ = await asyncio.wait({getter, stopper},
+                                                 return_when=asyncio.FIRST_COMPLETED)
+                getter.cancel()
+                stopper.cancel()
+                if self.aborted.is_set():
+                    raise JobAborted()
+                if getter in finished and getter.result() == planned.idx:
+                    return
+        finally:
+            self.waiting_for = None
+
+    async def abort(self) -> None:
+        self.aborted.set()
+        if self.client is not None and self.client.lost is None:
+            try:
+                await self.client.abort()
+            except ProtocolError:
+                pass
+
+    # -- estimation, correction, evaluation ---------------------------------------------------
+    def measurement_set(self, phase: str) -> MeasurementSet:
+        rows = self.store.measurements(self.job_id, phase)
+        T = transform_from_pose(np.array([r["flange_pose"] for r in rows]))
+        return MeasurementSet(np.radians([r["joints_deg"] for r in rows]), T[:, :3, 3].copy(),
+                              T[:, :3, :3].copy(), tuple(str(r["idx"]) for r in rows))
+
+    def estimate(self) -> None:
+        data = self.measurement_set("cal")
+        result = identify(self.model, data, kind=self.options.get("model", "thesis"),
+                          frames="base")
+        correction = None
+        try:
+            correction = joint_correction(result.params, result.values, result.std_errors,
+                                          self.model.n_joints)
+        except CorrectionRefusedError as err:
+            refused = str(err)
+        else:
+            refused = None
+        job_result = dict(self.job["result"] or {})
+        job_result["estimation"] = _estimation_summary(result)
+        job_result["base"] = result.model.base.tolist()
+        job_result["correction"] = correction.to_dict() if correction else {"refused": refused}
+        self.job = self.store.set_job(self.job_id, result=job_result)
+        if refused:
+            raise CorrectionRefusedError(refused)
+
+    async def correct(self) -> None:
+        assert self.client is not None
+        correction = (self.job["result"] or {}).get("correction", {})
+        zero = np.array(correction.get("zero_command_deg", []), dtype=float)
+        if zero.size != self.model.n_joints:
+            raise SafetyError("no correction to send")
+        if not self.model.within_limits(np.radians(zero)):
+            raise SafetyError(f"correction target {zero.round(4).tolist()} outside the limits")
+
+        async def gate(idx: int) -> None:
+            await self._gate("correction", PlannedPose(idx, tuple(zero.tolist()), "zero"))
+
+        await self.client.zero(zero.tolist(), on_wait=gate)
+        await self.events.publish("corrected", zero_command_deg=zero.tolist())
+
+    def evaluate(self) -> None:
+        job_result = dict(self.job["result"] or {})
+        base = job_result.get("base")
+        if base is None:  # a performance job alone: the measuring frame from its own data
+            fit = identify(self.model, self.measurement_set("perf_before"), kind="frames",
+                           frames="base")
+            base = fit.model.base.tolist()
+            job_result["base"] = base
+            job_result["base_note"] = "measuring frame fitted to the performance data itself"
+        plan = {p.idx: p for p in self.plan("perf")}
+        performance = {}
+        for phase in ("perf_before", "perf_after"):
+            rows = self.store.measurements(self.job_id, phase)
+            if rows:
+                performance[phase] = _performance(rows, plan, np.array(base))
+        job_result["performance"] = performance
+        self.job = self.store.set_job(self.job_id, result=job_result)
+
+
+def _estimation_summary(result: CalibrationResult) -> dict:
+    return {
+        "parameters": [{"name": p.name, "unit": p.unit, "value": float(v),
+                        "std_error": float(s)}
+                       for p, v, s in zip(result.params, result.values, result.std_errors,
+                                          strict=True)],
+        "removed": [{"name": n, "reason": why} for n, why in result.removed],
+        "rank": result.rank, "condition_number": result.condition_number,
+        "chi2_reduced": result.chi2_reduced, "converged": result.converged,
+        "residual_before_mm": float(result.residuals_before.mean()),
+        "residual_after_mm": float(result.residuals_after.mean()),
+    }
+
+
+def _performance(rows: list[dict], plan: dict[int, PlannedPose], base: np.ndarray) -> dict:
+    """ISO 9283 per point and straightness, attained poses in the robot base frame."""
+    to_robot = invert_transform(base)
+    by_point: dict[str, list[tuple[np.ndarray, tuple]]] = {}
+    line = []
+    for r in rows:
+        p = plan[r["idx"]]
+        T = to_robot @ transform_from_pose(np.array(r["flange_pose"]))
+        attained = np.concatenate([T[:3, 3], euler_zyx_deg_near(T[:3, :3], p.commanded[3:])]) \
+            if p.commanded else pose_from_transform(T)
+        if p.role == "target":
+            by_point.setdefault(p.point, []).append((attained, p.commanded))
+        elif p.role == "line":
+            line.append(np.array(r["flange_pose"][:3]))
+    points = {}
+    for label, items in sorted(by_point.items()):
+        if len(items) < 2:
+            continue
+        att = np.array([a for a, _ in items])
+        cmd = np.array(items[0][1])
+        points[label] = pose_metrics(cmd[:3], att[:, :3], cmd[3:], att[:, 3:]).to_dict()
+    out: dict[str, Any] = {"points": points}
+    if points:
+        ap = [m["ap_mm"] for m in points.values()]
+        out["overall"] = {"ap_mm_mean": float(np.mean(ap)), "ap_mm_max": float(np.max(ap)),
+                          "rp_mm_max": float(max(m["rp_mm"] for m in points.values())),
+                          "apc_deg_max": float(max(np.abs(m["ap_abc_deg"]).max()
+                                                   for m in points.values()))}
+    if len(line) >= 3:
+        s = straightness(np.array(line))
+        out["straightness"] = {"peak_to_valley_mm": s.peak_to_valley_mm,
+                               "along_mm": s.along_mm.tolist(),
+                               "deviation_mm": s.deviation_u_mm.tolist()}
+    return out

@@ -1,0 +1,73 @@
+"""The REST API's models (pydantic): what comes in (`...Create`) and what goes out."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from screwcal.flange import DEFAULT_HOLES_IN_FLANGE_MM
+
+
+class RobotCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: str = Field(min_length=1, max_length=80)
+    controller_host: str = Field("127.0.0.1", min_length=1)
+    controller_port: int = Field(4012, ge=1, le=65535)
+    arm_url: str = Field(description="pyserial URL of the measuring arm: a port, socket://...")
+    model: str | dict[str, Any] = Field("irb1600", description="built-in name or a model file")
+    holes_mm: list[list[float]] = Field(
+        default_factory=lambda: [list(h) for h in DEFAULT_HOLES_IN_FLANGE_MM],
+        description="the measuring flange's holes P1, P2, P3 in the tool0 frame, mm")
+
+    @field_validator("holes_mm")
+    @classmethod
+    def _three_points(cls, v: list[list[float]]) -> list[list[float]]:
+        if len(v) != 3 or any(len(p) != 3 for p in v):
+            raise ValueError("holes_mm must be three points of three coordinates")
+        return v
+
+
+class RobotPublic(BaseModel):
+    id: int
+    name: str
+    controller_host: str
+    controller_port: int
+    arm_url: str
+    model: dict[str, Any]
+    holes_mm: list[list[float]]
+
+
+class JobOptions(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    model: Literal["thesis", "full", "joints"] = "thesis"
+    calibration_poses: int = Field(40, ge=10, le=400)
+    cycles: int = Field(30, ge=2, le=60, description="ISO 9283 cycles (30 by the standard)")
+    cube_edge_mm: float = Field(300.0, gt=0, le=2000)
+    arm_position_mm: tuple[float, float, float] | None = Field(
+        None, description="where the arm stands in the robot frame, to keep the cube in reach")
+
+
+class JobCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    robot_id: int
+    kind: Literal["performance", "calibration", "procedure"]
+    mode: Literal["AUTO", "STEP"] = "AUTO"
+    options: JobOptions = Field(default_factory=JobOptions)
+
+
+class JobPublic(BaseModel):
+    id: int
+    robot_id: int
+    kind: str
+    mode: str
+    state: str
+    reason: str
+    options: dict[str, Any]
+    phases: dict[str, Any]
+    waiting_for: dict[str, Any] | None = None
+
+
+class GoAhead(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    index: int = Field(ge=0, description="the pose the operator lets the robot move to")

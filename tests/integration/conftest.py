@@ -1,0 +1,71 @@
+"""Service, client and emulators together: the emulators in-process on port 0 (tests may wire
+them; the service itself never imports them), the service through httpx's ASGI transport."""
+
+from __future__ import annotations
+
+import contextlib
+
+import httpx
+import pytest
+
+from service.app import create_app
+from service.settings import ServiceSettings
+from simulators.arm import ArmEmulator
+from simulators.cli import make_world
+from simulators.irc5 import EmulatorSettings, IRC5Emulator
+
+TOKEN = "test-token"
+AUTH = {"Authorization": f"Bearer {TOKEN}"}
+ARM_POSITION = (500.0, 0.0, 600.0)
+FAST = {"calibration_poses": 30, "cycles": 2, "cube_edge_mm": 250.0,
+        "arm_position_mm": ARM_POSITION}
+
+
+class Rig:
+    """A robot cell: the IRC5 and arm emulators around one true robot."""
+
+    def __init__(self, emu: IRC5Emulator, arm: ArmEmulator):
+        self.emu, self.arm = emu, arm
+
+    async def restart_controller(self) -> None:
+        host, port = self.address
+        await self.emu.stop()
+        await self.emu.start(host, port)
+
+    @property
+    def address(self) -> tuple[str, int]:
+        return self.emu.address
+
+
+@pytest.fixture
+async def rig():
+    world = make_world(None, None)
+    emu = IRC5Emulator(world, EmulatorSettings(time_scale=0.0))
+    emu.address = await emu.start("127.0.0.1", 0)
+    arm = ArmEmulator(world, seed=7)
+    host, port = await arm.start("127.0.0.1", 0)
+    arm.url = f"socket://{host}:{port}"
+    yield Rig(emu, arm)
+    await arm.stop()
+    with contextlib.suppress(Exception):
+        await emu.stop()
+
+
+@pytest.fixture
+async def service(tmp_path):
+    app = create_app(ServiceSettings(db_path=tmp_path / "jobs.db", token=TOKEN,
+                                     reconnect_interval_s=0.05, arm_timeout_s=3.0,
+                                     pose_timeout_s=10.0))
+    async with app.router.lifespan_context(app):
+        async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
+                                     base_url="http://service") as http:
+            yield http
+
+
+async def add_robot(http, rig) -> int:
+    host, port = rig.address
+    r = await http.post("/robots", headers=AUTH, json={
+        "name": "IRB 1600 (emulated)", "controller_host": host, "controller_port": port,
+        "arm_url": rig.arm.url})
+    assert r.status_code == 201, r.text
+    return r.json()["id"]

@@ -1,0 +1,103 @@
+"""Each job kind through the REST API, against the emulators, in AUTO and STEP."""
+
+import asyncio
+
+import pytest
+
+from tests.integration.conftest import AUTH, FAST, add_robot
+
+THESIS_OFFSETS = {"J2ry": 1.1, "J3rz": 3.1, "J4rx": -2.0, "J5ry": 3.7, "J6rx": -4.6}
+
+
+async def wait_state(http, job_id, states=("done", "failed", "aborted"), timeout_s=60):
+    async with asyncio.timeout(timeout_s):
+        while True:
+            job = (await http.get(f"/jobs/{job_id}")).json()
+            if job["state"] in states:
+                return job
+            await asyncio.sleep(0.02)
+
+
+async def test_procedure_in_auto_corrects_the_robot(service, rig):
+    robot = await add_robot(service, rig)
+    r = await service.post("/jobs", headers=AUTH, json={"robot_id": robot, "kind": "procedure",
+                                                       "options": FAST})
+    assert r.status_code == 202
+    job = await wait_state(service, r.json()["id"])
+    assert job["state"] == "done", job["reason"]
+    result = (await service.get(f"/jobs/{job['id']}/result")).json()
+    values = {p["name"]: p["value"] for p in result["estimation"]["parameters"]}
+    for name, imposed in THESIS_OFFSETS.items():  # the thesis model recovers Table 11
+        assert values[name] == pytest.approx(imposed, abs=0.1), name
+    assert "J1rz" in {p["name"] for p in result["estimation"]["removed"]}
+    before = result["performance"]["perf_before"]["overall"]["ap_mm_mean"]
+    after = result["performance"]["perf_after"]["overall"]["ap_mm_mean"]
+    assert before > 5 * after and after < 2.0
+    assert set(job["phases"]) >= {"setup", "perf_before", "cal", "estimation", "correction",
+                                  "perf_after", "evaluation"}
+    measured = (await service.get(f"/jobs/{job['id']}/measurements",
+                                  params={"phase": "cal"})).json()
+    assert [m["idx"] for m in measured] == list(range(30))  # each once
+    page = await service.get(f"/jobs/{job['id']}/report")
+    assert page.status_code == 200 and "ISO 9283" in page.text and "data:image/png" in page.text
+
+
+async def test_calibration_in_step_waits_for_the_operator(service, rig):
+    robot = await add_robot(service, rig)
+    r = await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "calibration", "mode": "STEP",
+        "options": {**FAST, "calibration_poses": 12}})
+    job_id = r.json()["id"]
+    for k in range(12):
+        async with asyncio.timeout(10):
+            while (job := (await service.get(f"/jobs/{job_id}")).json())["waiting_for"] is None:
+                await asyncio.sleep(0.01)
+        assert job["waiting_for"] == {"phase": "cal", "index": k}
+        assert rig.emu.world.arrivals == k  # the robot has not moved there yet
+        wrong = await service.post(f"/jobs/{job_id}/go", headers=AUTH, json={"index": k + 1})
+        assert wrong.status_code == 409
+        assert (await service.post(f"/jobs/{job_id}/go", headers=AUTH,
+                                   json={"index": k})).status_code == 204
+    job = await wait_state(service, job_id)
+    assert job["state"] in ("done", "failed")  # 12 poses: the estimation may refuse to correct
+    assert len((await service.get(f"/jobs/{job_id}/measurements")).json()) == 12
+
+
+async def test_performance_job_alone(service, rig):
+    robot = await add_robot(service, rig)
+    r = await service.post("/jobs", headers=AUTH, json={"robot_id": robot,
+                                                       "kind": "performance", "options": FAST})
+    job = await wait_state(service, r.json()["id"])
+    assert job["state"] == "done", job["reason"]
+    perf = (await service.get(f"/jobs/{job['id']}/result")).json()["performance"]
+    assert set(perf["perf_before"]["points"]) == {"P1", "P2", "P3", "P4", "P5"}
+    assert perf["perf_before"]["straightness"]["peak_to_valley_mm"] < 1.0
+
+
+async def test_abort_stops_a_step_job(service, rig):
+    robot = await add_robot(service, rig)
+    job_id = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "calibration", "mode": "STEP", "options": FAST})).json()["id"]
+    async with asyncio.timeout(10):
+        while (await service.get(f"/jobs/{job_id}")).json()["waiting_for"] is None:
+            await asyncio.sleep(0.01)
+    assert (await service.post(f"/jobs/{job_id}/abort", headers=AUTH)).status_code == 204
+    job = await wait_state(service, job_id)
+    assert job["state"] == "aborted" and rig.emu.world.arrivals == 0
+
+
+async def test_auth_and_bad_requests(service, rig):
+    body = {"name": "x", "arm_url": "loop://"}
+    assert (await service.post("/robots", json=body)).status_code == 401
+    assert (await service.post("/robots", json=body,
+                               headers={"Authorization": "Bearer nope"})).status_code == 403
+    r = await service.post("/robots", headers=AUTH, json={**body, "controller_port": 0})
+    assert r.status_code == 422 and "controller_port" in r.text
+    r = await service.post("/jobs", headers=AUTH, json={"robot_id": 99, "kind": "procedure"})
+    assert r.status_code == 404
+    r = await service.post("/jobs", headers=AUTH, json={"robot_id": 1, "kind": "dance"})
+    assert r.status_code == 422 and "kind" in r.text
+    assert (await service.get("/jobs/12345")).status_code == 404
+    spec = (await service.get("/openapi.json")).json()
+    assert {"/robots", "/jobs", "/jobs/{job_id}/go", "/jobs/{job_id}/events",
+            "/jobs/{job_id}/report"} <= set(spec["paths"])
