@@ -22,13 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
-from screwcal.demo import random_configurations
 from screwcal.identify import identify
 from screwcal.measurements import MeasurementSet
 from screwcal.pose import euler_zyx_deg_from_rotation
 from screwcal.robots import irb1600
 from screwcal.se3 import exp_twist
 from screwcal.simulate import simulate_measurements
+from screwcal.simulated_calibration import random_configurations
 from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 
 

@@ -10,8 +10,11 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from screwcal import __version__, calibrate, demo, evaluate, predict, testcube
+from screwcal import __version__, calibrate, evaluate, predict, simulated_calibration, testcube
 from screwcal.errors import ScrewcalError
+from service import cli as service_cli
+from service import demo as service_demo
+from service.errors import ServiceError
 from simulators import cli as simulators_cli
 
 
@@ -21,7 +24,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Screw-theory calibration of 6-axis industrial robots (mm and degrees).")
     parser.add_argument("--version", action="version", version=f"screwcal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for module in (demo, calibrate, predict, evaluate, testcube, simulators_cli):
+    for module in (simulated_calibration, calibrate, predict, evaluate, testcube, service_demo,
+                   simulators_cli, service_cli):
         module.add_parser(sub)
     return parser
 
@@ -31,7 +35,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.func(args))
-    except ScrewcalError as err:
+    except (ScrewcalError, ServiceError) as err:
         print(f"screwcal {args.command}: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

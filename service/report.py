@@ -23,11 +23,34 @@ table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:
 text-align:right}th{background:#eee}td:first-child{text-align:left}img{max-width:100%}"""
 
 
-def _png(draw: Any, *args: Any) -> str:
+def _png_bytes(draw: Any, *args: Any) -> bytes:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "figure.png"
         draw(*args, path)
-        return base64.b64encode(path.read_bytes()).decode("ascii")
+        return path.read_bytes()
+
+
+def report_figures(job: dict) -> dict[str, bytes]:
+    """The report's figures as PNG files: accuracy per point and straightness, before/after."""
+    perf = (job.get("result") or {}).get("performance") or {}
+    out: dict[str, bytes] = {}
+    results = {name.replace("perf_", ""): {k: PoseMetrics(**v) for k, v in s["points"].items()}
+               for name, s in perf.items() if s.get("points")}
+    if results:
+        out["accuracy_per_point.png"] = _png_bytes(plots.accuracy_per_point, results)
+    lines = {name.replace("perf_", ""): SimpleNamespace(
+        along_mm=np.array(s["straightness"]["along_mm"]),
+        deviation_u_mm=np.array(s["straightness"]["deviation_mm"]),
+        peak_to_valley_mm=s["straightness"]["peak_to_valley_mm"])
+        for name, s in perf.items() if "straightness" in s}
+    if lines:
+        out["straightness.png"] = _png_bytes(plots.straightness_along_path, lines)
+    return out
+
+
+def _img(name: str, png: bytes) -> str:
+    return (f"<img alt='{html.escape(name)}' src='data:image/png;base64,"
+            f"{base64.b64encode(png).decode('ascii')}'>")
 
 
 def _table(header: list[str], rows: list[list[Any]]) -> str:
@@ -77,12 +100,12 @@ def report_html(job: dict, robot: dict) -> str:
                                             corr["identified"], strict=True))]))
     perf = result.get("performance") or {}
     if perf:
-        out.write(performance_section(perf))
+        out.write(performance_section(perf, report_figures(job)))
     out.write("</body></html>")
     return out.getvalue()
 
 
-def performance_section(perf: dict) -> str:
+def performance_section(perf: dict, figures: dict[str, bytes]) -> str:
     out = io.StringIO()
     out.write("<h2>ISO 9283 pose accuracy and repeatability</h2>")
     rows = []
@@ -91,18 +114,9 @@ def performance_section(perf: dict) -> str:
             rows.append([phase, label, m["ap_mm"], m["rp_mm"], *np.round(m["ap_abc_deg"], 4)])
     out.write(_table(["phase", "point", "AP mm", "RP mm", "APa deg", "APb deg", "APc deg"],
                      rows))
-    results = {name.replace("perf_", ""): {k: PoseMetrics(**v) for k, v in s["points"].items()}
-               for name, s in perf.items() if s.get("points")}
-    if results:
-        out.write(f"<img alt='accuracy per point' src='data:image/png;base64,"
-                  f"{_png(plots.accuracy_per_point, results)}'>")
-    lines = {name.replace("perf_", ""): SimpleNamespace(
-        along_mm=np.array(s["straightness"]["along_mm"]),
-        deviation_u_mm=np.array(s["straightness"]["deviation_mm"]),
-        peak_to_valley_mm=s["straightness"]["peak_to_valley_mm"])
-        for name, s in perf.items() if "straightness" in s}
-    if lines:
+    if "accuracy_per_point.png" in figures:
+        out.write(_img("accuracy per point", figures["accuracy_per_point.png"]))
+    if "straightness.png" in figures:
         out.write("<h2>Straightness (ISO 12780-1)</h2>")
-        out.write(f"<img alt='straightness' src='data:image/png;base64,"
-                  f"{_png(plots.straightness_along_path, lines)}'>")
+        out.write(_img("straightness", figures["straightness.png"]))
     return out.getvalue()

@@ -86,7 +86,7 @@ class JobRunner:
         try:
             self._set("running", "")
             t0 = time.perf_counter()
-            await self._connect()
+            await self._with_links("setup")
             phases.setdefault("setup", {"seconds": time.perf_counter() - t0})
             for step in STEPS[self.job["kind"]]:
                 if phases.get(step, {}).get("done"):
@@ -109,6 +109,10 @@ class JobRunner:
         except (SafetyError, CorrectionRefusedError, ScrewcalError, ControllerError) as err:
             self._set("failed", str(err))
             await self.events.publish("failed", reason=str(err))
+        except Exception as err:  # a job never stays "running" after its task ended
+            self._set("failed", f"internal error: {err!r}")
+            await self.events.publish("failed", reason=repr(err))
+            raise
         finally:
             await self._disconnect()
 
@@ -131,7 +135,9 @@ class JobRunner:
                 await self.events.publish("resumed", phase=step)
 
     async def _step(self, step: str) -> None:
-        if step in ("perf_before", "cal", "perf_after"):
+        if step == "setup":
+            await self._connect()
+        elif step in ("perf_before", "cal", "perf_after"):
             await self.measure(step, self.plan("cal" if step == "cal" else "perf"))
         elif step == "estimation":
             await asyncio.to_thread(self.estimate)

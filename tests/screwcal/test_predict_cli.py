@@ -96,7 +96,8 @@ def test_out_of_limit_joints_are_predicted_with_a_warning(tmp_path, capsys):
 def test_console_script_and_every_subcommand_help():
     exe = [sys.executable, "-m", "screwcal.cli"]
     top = subprocess.run([*exe, "--help"], capture_output=True, text=True, check=True).stdout
-    for command in ("demo", "predict"):
+    for command in ("demo", "simulate", "predict", "calibrate", "compensate", "evaluate",
+                    "testcube", "align", "emulator", "serve", "job"):
         assert command in top
         out = subprocess.run([*exe, command, "--help"], capture_output=True, text=True,
                              check=True).stdout

@@ -1,7 +1,7 @@
 import numpy as np
 
 from screwcal.cli import main
-from screwcal.demo import run_demo
+from screwcal.simulated_calibration import run_demo
 from screwcal.virtual_joints import THESIS_TABLE11
 
 
@@ -15,6 +15,6 @@ def test_demo_calibration_recovers_the_robot():
 
 
 def test_demo_with_random_axis_errors_prints_a_table(capsys):
-    assert main(["demo", "--seed", "7"]) == 0
+    assert main(["simulate", "--seed", "7"]) == 0
     out = capsys.readouterr().out
     assert "position, mean" in out and "before" in out and "after" in out

@@ -1,4 +1,4 @@
-"""`screwcal demo`: a simulated offline calibration of an IRB 1600, with a before/after table.
+"""`screwcal simulate`: a simulated offline calibration of an IRB 1600, before/after table.
 
 A "true" robot is the nominal IRB 1600 with the thesis's Table 11 errors (joint and link offsets,
 plus, with --seed, small random tilts and shifts of every axis). It is "measured" at 40 random
@@ -82,7 +82,7 @@ def format_report(r: DemoResult, n_poses: int, n_validation: int) -> str:
         return f"  {label:<28}{b:>10.3f} {unit:<4}{a:>10.3f} {unit}"
 
     lines = [
-        "screwcal demo: simulated offline calibration of an ABB IRB 1600",
+        "screwcal simulate: simulated offline calibration of an ABB IRB 1600",
         f"  true robot: nominal + thesis Table 11 errors; {n_poses} calibration poses, "
         f"{n_validation} unseen validation poses",
         f"  measurement noise {NOISE_MM} mm, random joint error +-{JOINT_NOISE_DEG} deg",
@@ -123,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("demo", help="run a simulated calibration and print before/after",
+    p = sub.add_parser("simulate", help="a simulated offline calibration, before/after",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seed", type=int, default=None,
                    help="also impose random axis errors drawn from this seed")

@@ -1,0 +1,253 @@
+"""`screwcal serve` (the job service) and `screwcal job ...` (the operator's client).
+
+    screwcal serve [--db screwcal.db] [--host 127.0.0.1] [--port 8080] [--token T]
+    screwcal job robot-add --name N --controller HOST:PORT --arm URL [--model irb1600]
+    screwcal job start --robot ID --kind procedure|calibration|performance [--mode STEP]
+    screwcal job watch ID        # progress; in STEP mode asks before every move
+    screwcal job abort ID
+    screwcal job result ID       # the before/after table
+    screwcal job report ID --out report.html
+
+The client finds the service in --service or SCREWCAL_SERVICE (default http://127.0.0.1:8080)
+and its token in --token or SCREWCAL_TOKEN.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import os
+import socket
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import httpx
+
+from service.errors import ServiceError
+from service.settings import ServiceSettings
+
+
+# -- the service --------------------------------------------------------------------------------
+def serve(settings: ServiceSettings, announce: Callable[[str], None] = print) -> None:
+    """Run the service until interrupted; announces its URL once bound (port 0: a free one)."""
+    import uvicorn
+
+    from service.app import create_app
+
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.bind((settings.host, settings.port))
+    host, port = sock.getsockname()[:2]
+    server = uvicorn.Server(uvicorn.Config(create_app(settings), log_level="warning"))
+    announce(f"screwcal service on http://{host}:{port} (database {settings.db_path})")
+    sys.stdout.flush()
+    asyncio.run(server.serve(sockets=[sock]))
+
+
+def run_serve(args: argparse.Namespace) -> int:
+    overrides = {k: v for k, v in (("db_path", args.db), ("host", args.host),
+                                   ("port", args.port), ("token", args.token)) if v is not None}
+    settings = ServiceSettings(**overrides)
+    if not settings.token:
+        print("warning: no token (--token or SCREWCAL_TOKEN): every request that moves a robot "
+              "or changes data will be refused", file=sys.stderr)
+    try:
+        serve(settings)
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+# -- the operator's client ---------------------------------------------------------------------
+class Operator:
+    """A thin httpx client of the REST API (a transport can be passed for tests)."""
+
+    def __init__(self, base_url: str, token: str, transport: httpx.BaseTransport | None = None):
+        self.http = httpx.Client(base_url=base_url, transport=transport, timeout=30.0,
+                                 headers={"Authorization": f"Bearer {token}"})
+
+    def _check(self, r: httpx.Response) -> Any:
+        if r.status_code >= 400:
+            try:
+                detail = r.json().get("detail")
+            except ValueError:
+                detail = r.text
+            raise ServiceError(f"{r.request.method} {r.request.url.path}: {r.status_code} "
+                               f"{detail}")
+        return r.json() if r.content else None
+
+    def add_robot(self, **body: Any) -> dict:
+        return self._check(self.http.post("/robots", json=body))
+
+    def start(self, **body: Any) -> dict:
+        return self._check(self.http.post("/jobs", json=body))
+
+    def job(self, job_id: int) -> dict:
+        return self._check(self.http.get(f"/jobs/{job_id}"))
+
+    def go(self, job_id: int, index: int) -> None:
+        self._check(self.http.post(f"/jobs/{job_id}/go", json={"index": index}))
+
+    def abort(self, job_id: int) -> None:
+        self._check(self.http.post(f"/jobs/{job_id}/abort"))
+
+    def result(self, job_id: int) -> dict:
+        return self._check(self.http.get(f"/jobs/{job_id}/result"))
+
+    def report(self, job_id: int) -> str:
+        r = self.http.get(f"/jobs/{job_id}/report")
+        if r.status_code >= 400:
+            self._check(r)
+        return r.text
+
+    def watch(self, job_id: int, ask: Callable[[str], str] = input,
+              out: Callable[[str], None] = print) -> str:
+        """Follow the job's events to its end; in STEP mode ask before every move. Returns the
+        final state (or 'waiting' when the operator declined a move: the job waits)."""
+        with self.http.stream("GET", f"/jobs/{job_id}/events", timeout=None) as r:
+            for line in r.iter_lines():
+                if not line.startswith("data: "):
+                    continue
+                event = json.loads(line[len("data: "):])
+                kind = event["kind"]
+                if kind == "measured":
+                    bar = "#" * int(30 * event["done"] / event["total"])
+                    out(f"{event['phase']:<12} [{bar:<30}] pose {event['done']} of "
+                        f"{event['total']}")
+                elif kind == "waiting":
+                    answer = ask(f"robot will move to {event['phase']} pose {event['index']} "
+                                 f"(joints {event['joints_deg']}): go? [y/N] ")
+                    if answer.strip().lower() != "y":
+                        out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
+                        return "waiting"
+                    self.go(job_id, event["index"])
+                elif kind in ("phase", "paused", "resumed", "corrected", "failed"):
+                    out(f"{kind}: " + ", ".join(f"{k}={v}" for k, v in event.items()
+                                               if k not in ("kind", "seq", "time")))
+                elif kind == "end":
+                    return event["state"]
+        return self.job(job_id)["state"]
+
+
+def result_table(result: dict) -> str:
+    """The before/after table a person reads."""
+    lines = [f"job {result['id']}: {result['state']} {result.get('reason', '')}".rstrip()]
+    perf = result.get("performance") or {}
+    if perf:
+        lines.append(f"  {'ISO 9283':<34}{'before':>12}{'after':>12}")
+
+        def row(label: str, key: str, unit: str, section: str = "overall") -> None:
+            vals = [perf.get(p, {}).get(section, {}).get(key) for p in ("perf_before",
+                                                                         "perf_after")]
+            cells = "".join(f"{v:>9.3f} {unit:<2}" if v is not None else f"{'-':>12}"
+                            for v in vals)
+            lines.append(f"  {label:<34}{cells}")
+
+        row("position accuracy AP, mean", "ap_mm_mean", "mm")
+        row("position accuracy AP, max", "ap_mm_max", "mm")
+        row("position repeatability RP, max", "rp_mm_max", "mm")
+        row("orientation accuracy, max |APa,b,c|", "apc_deg_max", "°")
+        row("straightness, peak + valley", "peak_to_valley_mm", "mm", "straightness")
+    est = result.get("estimation")
+    if est:
+        lines.append(f"  identified ({est['rank']} parameters, chi2/dof "
+                     f"{est['chi2_reduced']:.2f}):")
+        for p in est["parameters"]:
+            if p["name"].startswith("J"):
+                lines.append(f"    {p['name']:<8}{p['value']:>10.4f} {p['unit']:<3} "
+                             f"± {p['std_error']:.4f}")
+        if est.get("removed"):
+            lines.append("    not separable from these data (not corrected): " + ", ".join(
+                r["name"] for r in est["removed"]))
+    corr = result.get("correction") or {}
+    if "zero_command_deg" in corr:
+        lines.append("  correction sent (ZERO, deg): "
+                     + " ".join(f"{v:.4f}" for v in corr["zero_command_deg"]))
+    phases = result.get("phases") or {}
+    if phases:
+        lines.append("  time per phase (s): " + ", ".join(
+            f"{k} {v.get('seconds', 0):.2f}" for k, v in phases.items()))
+    return "\n".join(lines)
+
+
+def _operator(args: argparse.Namespace) -> Operator:
+    return Operator(args.service or os.environ.get("SCREWCAL_SERVICE", "http://127.0.0.1:8080"),
+                    args.token or os.environ.get("SCREWCAL_TOKEN", ""))
+
+
+def run_job(args: argparse.Namespace) -> int:
+    op = _operator(args)
+    try:
+        if args.action == "robot-add":
+            host, _, port = args.controller.rpartition(":")
+            robot = op.add_robot(name=args.name, controller_host=host,
+                                 controller_port=int(port), arm_url=args.arm, model=args.model)
+            print(f"robot {robot['id']}: {robot['name']}")
+        elif args.action == "start":
+            options: dict[str, Any] = {"cycles": args.cycles,
+                                       "calibration_poses": args.poses, "model": args.model}
+            if args.arm_position:
+                options["arm_position_mm"] = args.arm_position
+            job = op.start(robot_id=args.robot, kind=args.kind, mode=args.mode, options=options)
+            print(f"job {job['id']} started ({job['kind']}, {job['mode']})")
+            if not args.no_watch:
+                state = op.watch(job["id"])
+                print(result_table(op.result(job["id"])))
+                return 0 if state in ("done", "waiting") else 1
+        elif args.action == "watch":
+            state = op.watch(args.id)
+            return 0 if state in ("done", "waiting") else 1
+        elif args.action == "abort":
+            op.abort(args.id)
+            print(f"job {args.id}: abort requested")
+        elif args.action == "result":
+            print(result_table(op.result(args.id)))
+        elif args.action == "report":
+            Path(args.out).write_text(op.report(args.id), encoding="utf-8")
+            print(f"report -> {args.out}")
+    except httpx.HTTPError as err:
+        raise ServiceError(f"cannot reach the service: {err}") from None
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    s = sub.add_parser("serve", help="run the job service (REST, SQLite)", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    s.add_argument("--db", type=Path, default=None, help="SQLite file (default screwcal.db)")
+    s.add_argument("--host", default=None, help="bind address (default 127.0.0.1)")
+    s.add_argument("--port", type=int, default=None, help="port (default 8080; 0: free one)")
+    s.add_argument("--token", default=None, help="bearer token (or SCREWCAL_TOKEN)")
+    s.set_defaults(func=run_serve)
+
+    j = sub.add_parser("job", help="operate jobs on a running service", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    j.add_argument("--service", default=None, help="service URL (or SCREWCAL_SERVICE)")
+    j.add_argument("--token", default=None, help="bearer token (or SCREWCAL_TOKEN)")
+    actions = j.add_subparsers(dest="action", metavar="ACTION", required=True)
+    r = actions.add_parser("robot-add", help="register a robot cell")
+    r.add_argument("--name", required=True)
+    r.add_argument("--controller", required=True, help="HOST:PORT of the controller")
+    r.add_argument("--arm", required=True, help="pyserial URL of the measuring arm")
+    r.add_argument("--model", default="irb1600", help="built-in robot or model file")
+    st = actions.add_parser("start", help="start a job and watch it")
+    st.add_argument("--robot", type=int, required=True)
+    st.add_argument("--kind", choices=["procedure", "calibration", "performance"],
+                    default="procedure")
+    st.add_argument("--mode", choices=["AUTO", "STEP"], default="AUTO")
+    st.add_argument("--cycles", type=int, default=30, help="ISO 9283 cycles")
+    st.add_argument("--poses", type=int, default=40, help="calibration poses")
+    st.add_argument("--model", choices=["thesis", "full", "joints"], default="thesis")
+    st.add_argument("--arm-position", type=float, nargs=3, metavar=("X", "Y", "Z"))
+    st.add_argument("--no-watch", action="store_true")
+    for name, text in (("watch", "follow a job (STEP: answer the prompts)"),
+                       ("abort", "abort a job"), ("result", "print a job's result table")):
+        a = actions.add_parser(name, help=text)
+        a.add_argument("id", type=int)
+    rep = actions.add_parser("report", help="save a job's report page")
+    rep.add_argument("id", type=int)
+    rep.add_argument("--out", required=True)
+    for a in actions.choices.values():
+        a.set_defaults(func=run_job)

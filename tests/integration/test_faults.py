@@ -1,0 +1,41 @@
+"""A lost link pauses the job and it resumes from the next unmeasured pose."""
+
+import asyncio
+
+from tests.integration.conftest import AUTH, FAST, add_robot
+from tests.integration.test_jobs import wait_state
+
+
+async def test_a_dropped_controller_link_pauses_and_resumes_without_loss(service, rig):
+    rig.emu.settings.faults.drop_at_pose = 9  # once, while the calibration list runs
+    robot = await add_robot(service, rig)
+    job_id = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "calibration", "options": FAST})).json()["id"]
+    states = set()
+    async with asyncio.timeout(30):
+        while (job := (await service.get(f"/jobs/{job_id}")).json())["state"] not in (
+                "done", "failed"):
+            states.add(job["state"])
+            if job["state"] == "paused":
+                assert "LinkLostError" in job["reason"]
+            await asyncio.sleep(0.005)
+    assert job["state"] == "done", job["reason"]
+    measured = (await service.get(f"/jobs/{job_id}/measurements")).json()
+    assert sorted(m["idx"] for m in measured) == list(range(30))  # none lost, none twice
+    assert rig.emu.sessions >= 2  # it did reconnect
+
+
+async def test_a_dead_arm_pauses_the_job_until_it_is_back(service, rig):
+    robot = await add_robot(service, rig)
+    host, port = rig.arm.url.removeprefix("socket://").split(":")
+    await rig.arm.stop()
+    job_id = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "calibration", "options": FAST})).json()["id"]
+    async with asyncio.timeout(10):
+        while (job := (await service.get(f"/jobs/{job_id}")).json())["state"] != "paused":
+            await asyncio.sleep(0.01)
+    assert job["reason"]  # says why
+    await rig.arm.start(host, int(port))
+    job = await wait_state(service, job_id, timeout_s=30)
+    assert job["state"] == "done", job["reason"]
+    assert len((await service.get(f"/jobs/{job_id}/measurements")).json()) == 30
