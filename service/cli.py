@@ -69,6 +69,15 @@ class Operator:
         self.http = httpx.Client(base_url=base_url, transport=transport, timeout=30.0,
                                  headers={"Authorization": f"Bearer {token}"})
 
+    def close(self) -> None:
+        self.http.close()
+
+    def __enter__(self) -> Operator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
     def _check(self, r: httpx.Response) -> Any:
         if r.status_code >= 400:
             try:
@@ -179,7 +188,11 @@ def _operator(args: argparse.Namespace) -> Operator:
 
 
 def run_job(args: argparse.Namespace) -> int:
-    op = _operator(args)
+    with _operator(args) as op:
+        return _run_job(op, args)
+
+
+def _run_job(op: Operator, args: argparse.Namespace) -> int:
     try:
         if args.action == "robot-add":
             host, _, port = args.controller.rpartition(":")

@@ -22,13 +22,9 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-import uvicorn
-
 from screwcal.virtual_joints import THESIS_TABLE11
-from service.app import create_app
 from service.cli import Operator, result_table
 from service.errors import ServiceError
-from service.report import report_figures
 from service.settings import ServiceSettings
 
 ARM_POSITION_MM = (500.0, 0.0, 600.0)  # the emulator's default arm stand (robot frame)
@@ -56,6 +52,11 @@ def emulators(time_scale: float, seed: int | None, world: Path) -> Iterator[tupl
 
 @contextlib.contextmanager
 def service(settings: ServiceSettings) -> Iterator[str]:
+    """The service in a thread of this process, on a free port; yields its URL."""
+    import uvicorn  # here, not at import: every `screwcal` command would pay for it
+
+    from service.app import create_app
+
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     sock.bind((settings.host, 0))
     host, port = sock.getsockname()[:2]
@@ -77,6 +78,8 @@ def service(settings: ServiceSettings) -> Iterator[str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from service.report import report_figures
+
     started = time.perf_counter()
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -85,8 +88,7 @@ def run(args: argparse.Namespace) -> int:
         settings = ServiceSettings(db_path=Path(tmp) / "screwcal.db", token=token,
                                    port=0, reconnect_interval_s=0.2)
         with emulators(args.time_scale, args.seed, Path(tmp) / "world.json") as (host, port, arm):
-            with service(settings) as url:
-                op = Operator(url, token)
+            with service(settings) as url, Operator(url, token) as op:
                 robot = op.add_robot(name="ABB IRB 1600 (emulated)", controller_host=host,
                                      controller_port=port, arm_url=arm, model="irb1600")
                 job = op.start(robot_id=robot["id"], kind="procedure", mode="AUTO",
@@ -111,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _quiet_progress() -> object:
-    """Print phase changes and every tenth progress line, not every pose."""
+    """Print phase changes and a progress line per quarter of a list, not every pose."""
     last: dict[str, int] = {}
 
     def out(line: str) -> None:

@@ -81,6 +81,11 @@ def report_html(job: dict, robot: dict) -> str:
         out.write("<h2>Identified parameters</h2>" + _table(
             ["parameter", "unit", "value", "std error"],
             [[p["name"], p["unit"], p["value"], p["std_error"]] for p in est["parameters"]]))
+        f = est.get("measuring_frame")
+        if f:
+            out.write("<p>Robot base in the measuring system's frame: "
+                      f"x {f['x']:.3f}, y {f['y']:.3f}, z {f['z']:.3f} mm; rx {f['rx']:.4f}, "
+                      f"ry {f['ry']:.4f}, rz {f['rz']:.4f} deg.</p>")
         if est["removed"]:
             out.write("<p>Not separable from these data (held at nominal): " + ", ".join(
                 html.escape(f"{r['name']} ({r['reason']})") for r in est["removed"]) + "</p>")

@@ -298,11 +298,16 @@ class JobRunner:
 
 
 def _estimation_summary(result: CalibrationResult) -> dict:
+    """The robot's identified parameters; the measuring frame as the pose it came out as (its
+    parameters are increments from the starting alignment, meaningless alone)."""
+    x, y, z, rx, ry, rz = (float(v) for v in pose_from_transform(result.model.base))
     return {
         "parameters": [{"name": p.name, "unit": p.unit, "value": float(v),
                         "std_error": float(s)}
                        for p, v, s in zip(result.params, result.values, result.std_errors,
-                                          strict=True)],
+                                          strict=True) if p.group == "robot"],
+        "measuring_frame": {"x": x, "y": y, "z": z, "rx": rx, "ry": ry, "rz": rz,
+                            "meaning": "robot base in the measuring system's frame, mm/deg"},
         "removed": [{"name": n, "reason": why} for n, why in result.removed],
         "rank": result.rank, "condition_number": result.condition_number,
         "chi2_reduced": result.chi2_reduced, "converged": result.converged,
