@@ -161,7 +161,8 @@ class JobRunner:
             await self.client.close()
             self.client = None
         if self.arm is not None:
-            self.arm.close()
+            # pyserial's socket:// close() sleeps 0.3 s: never on the event loop.
+            await asyncio.to_thread(self.arm.close)
             self.arm = None
 
     async def _reconnect(self) -> None:
