@@ -149,12 +149,15 @@ def result_table(result: dict) -> str:
         lines.append(f"  {'ISO 9283':<34}{'before':>12}{'after':>12}")
 
         def row(label: str, key: str, unit: str, section: str = "overall") -> None:
-            vals = [perf.get(p, {}).get(section, {}).get(key) for p in ("perf_before",
-                                                                         "perf_after")]
+            phases = ("perf_before", "perf_after") + (("perf_after_2",) if "perf_after_2" in perf
+                                                       else ())
+            vals = [perf.get(p, {}).get(section, {}).get(key) for p in phases]
             cells = "".join(f"{v:>9.3f} {unit:<2}" if v is not None else f"{'-':>12}"
                             for v in vals)
             lines.append(f"  {label:<34}{cells}")
 
+        if "perf_after_2" in perf:
+            lines[-1] += f"{'round 2':>12}"
         row("position accuracy AP, mean", "ap_mm_mean", "mm")
         row("position accuracy AP, max", "ap_mm_max", "mm")
         row("position repeatability RP, max", "rp_mm_max", "mm")

@@ -51,6 +51,9 @@ STEPS = {
     "calibration": ("cal", "estimation"),
     "procedure": ("perf_before", "cal", "estimation", "correction", "perf_after", "evaluation"),
 }
+# The thesis's "Calibracao 2" (4.7): acquire again, estimate, correct, evaluate.
+SECOND_ROUND = ("cal_2", "estimation_2", "correction_2", "perf_after_2")
+PERF_PHASES = ("perf_before", "perf_after", "perf_after_2")
 LINK_ERRORS = (LinkLostError, LinkTimeoutError, ArmLineError, serial.SerialException, OSError)
 
 
@@ -80,6 +83,12 @@ class JobRunner:
                                 float(self.options.get("cube_edge_mm", 300.0)),
                                 self.options.get("arm_position_mm"))
 
+    def steps(self) -> tuple[str, ...]:
+        steps = STEPS[self.job["kind"]]
+        if self.job["kind"] == "procedure" and int(self.options.get("rounds", 1)) == 2:
+            steps = (*steps[:-1], *SECOND_ROUND, steps[-1])
+        return steps
+
     # -- the job -------------------------------------------------------------------------------
     async def run(self) -> None:
         phases: dict[str, Any] = dict(self.job["phases"])
@@ -88,10 +97,10 @@ class JobRunner:
             t0 = time.perf_counter()
             await self._with_links("setup")
             phases.setdefault("setup", {"seconds": time.perf_counter() - t0})
-            for step in STEPS[self.job["kind"]]:
+            for step in self.steps():
                 if phases.get(step, {}).get("done"):
                     continue
-                if step == "correction" and phases.get(step, {}).get("started"):
+                if step.startswith("correction") and phases.get(step, {}).get("started"):
                     raise SafetyError("the job stopped during the correction: whether ZERO took "
                                       "effect is unknown; check the controller, then start anew")
                 phases[step] = {"started": True}
@@ -135,14 +144,15 @@ class JobRunner:
                 await self.events.publish("resumed", phase=step)
 
     async def _step(self, step: str) -> None:
+        suffix = "_2" if step.endswith("_2") else ""  # the second round's steps
         if step == "setup":
             await self._connect()
-        elif step in ("perf_before", "cal", "perf_after"):
-            await self.measure(step, self.plan("cal" if step == "cal" else "perf"))
-        elif step == "estimation":
-            await asyncio.to_thread(self.estimate)
-        elif step == "correction":
-            await self.correct()
+        elif step.startswith(("perf", "cal")):
+            await self.measure(step, self.plan("cal" if step.startswith("cal") else "perf"))
+        elif step.startswith("estimation"):
+            await asyncio.to_thread(self.estimate, suffix)
+        elif step.startswith("correction"):
+            await self.correct(suffix)
         elif step == "evaluation":
             await asyncio.to_thread(self.evaluate)
 
@@ -182,7 +192,7 @@ class JobRunner:
         for p in plan:  # the service refuses targets outside the limits before sending
             if not self.model.within_limits(np.radians(p.joints_deg)):
                 raise SafetyError(f"{phase} pose {p.idx} is outside the joint limits")
-        list_name = "CAL" if phase == "cal" else "PERF"
+        list_name = "CAL" if phase.startswith("cal") else "PERF"
         while todo := [p for p in plan if p.idx not in
                        self.store.measured_indices(self.job_id, phase)]:
             chunk = todo[:MAX_LIST]
@@ -244,8 +254,8 @@ class JobRunner:
         return MeasurementSet(np.radians([r["joints_deg"] for r in rows]), T[:, :3, 3].copy(),
                               T[:, :3, :3].copy(), tuple(str(r["idx"]) for r in rows))
 
-    def estimate(self) -> None:
-        data = self.measurement_set("cal")
+    def estimate(self, suffix: str = "") -> None:
+        data = self.measurement_set("cal" + suffix)
         result = identify(self.model, data, kind=self.options.get("model", "thesis"),
                           frames="base")
         correction = None
@@ -257,16 +267,17 @@ class JobRunner:
         else:
             refused = None
         job_result = dict(self.job["result"] or {})
-        job_result["estimation"] = _estimation_summary(result)
+        job_result["estimation" + suffix] = _estimation_summary(result)
         job_result["base"] = result.model.base.tolist()
-        job_result["correction"] = correction.to_dict() if correction else {"refused": refused}
+        job_result["correction" + suffix] = correction.to_dict() if correction else \
+            {"refused": refused}
         self.job = self.store.set_job(self.job_id, result=job_result)
         if refused:
             raise CorrectionRefusedError(refused)
 
-    async def correct(self) -> None:
+    async def correct(self, suffix: str = "") -> None:
         assert self.client is not None
-        correction = (self.job["result"] or {}).get("correction", {})
+        correction = (self.job["result"] or {}).get("correction" + suffix, {})
         zero = np.array(correction.get("zero_command_deg", []), dtype=float)
         if zero.size != self.model.n_joints:
             raise SafetyError("no correction to send")
@@ -274,7 +285,8 @@ class JobRunner:
             raise SafetyError(f"correction target {zero.round(4).tolist()} outside the limits")
 
         async def gate(idx: int) -> None:
-            await self._gate("correction", PlannedPose(idx, tuple(zero.tolist()), "zero"))
+            await self._gate("correction" + suffix, PlannedPose(idx, tuple(zero.tolist()),
+                                                                "zero"))
 
         await self.client.zero(zero.tolist(), on_wait=gate)
         await self.events.publish("corrected", zero_command_deg=zero.tolist())
@@ -290,7 +302,7 @@ class JobRunner:
             job_result["base_note"] = "measuring frame fitted to the performance data itself"
         plan = {p.idx: p for p in self.plan("perf")}
         performance = {}
-        for phase in ("perf_before", "perf_after"):
+        for phase in PERF_PHASES:
             rows = self.store.measurements(self.job_id, phase)
             if rows:
                 performance[phase] = _performance(rows, plan, np.array(base))

@@ -41,6 +41,8 @@ class RobotPublic(BaseModel):
 class JobOptions(BaseModel):
     model_config = ConfigDict(extra="forbid")
     model: Literal["thesis", "full", "joints"] = "thesis"
+    rounds: int = Field(1, ge=1, le=2, description="procedure: 2 adds the thesis's second "
+                                                  "calibration round (4.7)")
     calibration_poses: int = Field(40, ge=10, le=400)
     cycles: int = Field(30, ge=2, le=60, description="ISO 9283 cycles (30 by the standard)")
     cube_edge_mm: float = Field(300.0, gt=0, le=2000)

@@ -101,3 +101,44 @@ async def test_auth_and_bad_requests(service, rig):
     spec = (await service.get("/openapi.json")).json()
     assert {"/robots", "/jobs", "/jobs/{job_id}/go", "/jobs/{job_id}/events",
             "/jobs/{job_id}/report"} <= set(spec["paths"])
+
+
+async def operate(http, job_id, timeout_s=60):
+    """An operator who says go to every pose the job asks about, until the job ends."""
+    asked = 0
+    async with asyncio.timeout(timeout_s):
+        while (job := (await http.get(f"/jobs/{job_id}")).json())["state"] not in (
+                "done", "failed", "aborted"):
+            if job["waiting_for"] is not None:
+                r = await http.post(f"/jobs/{job_id}/go", headers=AUTH,
+                                    json={"index": job["waiting_for"]["index"]})
+                asked += r.status_code == 204
+            await asyncio.sleep(0.002)
+    return job, asked
+
+
+@pytest.mark.parametrize("kind", ["performance", "calibration", "procedure"])
+@pytest.mark.parametrize("mode", ["AUTO", "STEP"])
+async def test_every_kind_in_every_mode(service, rig, kind, mode):
+    robot = await add_robot(service, rig)
+    job_id = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": kind, "mode": mode, "options": FAST})).json()["id"]
+    job, asked = await operate(service, job_id)
+    assert job["state"] == "done", job["reason"]
+    moves = {"performance": 31, "calibration": 30, "procedure": 31 + 30 + 1 + 31}[kind]
+    assert asked == (moves if mode == "STEP" else 0)  # STEP: one go-ahead per move
+    assert rig.emu.world.arrivals == moves
+
+
+async def test_a_second_round_refines_the_correction(service, rig):
+    robot = await add_robot(service, rig)
+    job_id = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "procedure", "options": {**FAST, "rounds": 2}})).json()["id"]
+    job = await wait_state(service, job_id)
+    assert job["state"] == "done", job["reason"]
+    result = (await service.get(f"/jobs/{job_id}/result")).json()
+    second = {p["name"]: p["value"] for p in result["estimation_2"]["parameters"]}
+    assert all(abs(second[n]) < 0.05 for n in THESIS_OFFSETS)  # little left after round 1
+    perf = result["performance"]
+    assert perf["perf_after_2"]["overall"]["ap_mm_mean"] < 2.0
+    assert {"cal_2", "estimation_2", "correction_2", "perf_after_2"} <= set(job["phases"])
