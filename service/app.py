@@ -23,7 +23,15 @@ from screwcal.modelfile import model_file_from_model, parse_model, resolve_model
 from service.errors import ConflictError, NotFoundError, SafetyError
 from service.manager import JobManager
 from service.report import report_html
-from service.schemas import GoAhead, JobCreate, JobPublic, RobotCreate, RobotPublic
+from service.schemas import (
+    GoAhead,
+    JobCreate,
+    JobPublic,
+    JobResult,
+    MeasurementPublic,
+    RobotCreate,
+    RobotPublic,
+)
 from service.settings import ServiceSettings
 from service.store import Store
 
@@ -133,12 +141,12 @@ def create_app(settings: ServiceSettings) -> FastAPI:
     async def abort(job_id: int, _: Auth, manager: ManagerDep) -> None:
         await manager.abort(job_id)
 
-    @jobs.get("/{job_id}/measurements")
+    @jobs.get("/{job_id}/measurements", response_model=list[MeasurementPublic])
     def measurements(job_id: int, store: StoreDep, phase: str | None = None) -> list[dict]:
         store.job(job_id)
         return store.measurements(job_id, phase)
 
-    @jobs.get("/{job_id}/result")
+    @jobs.get("/{job_id}/result", response_model=JobResult)
     def result(job_id: int, store: StoreDep) -> dict[str, Any]:
         job = store.job(job_id)
         return {"id": job_id, "state": job["state"], "reason": job["reason"],
@@ -149,7 +157,10 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         job = store.job(job_id)
         return await asyncio.to_thread(report_html, job, store.robot(job["robot_id"]))
 
-    @jobs.get("/{job_id}/events")
+    @jobs.get("/{job_id}/events", response_class=StreamingResponse, responses={200: {
+        "content": {"text/event-stream": {}},
+        "description": "server-sent events: measured, waiting, phase, paused, resumed, "
+                       "corrected, done/failed/aborted, then end"}})
     async def events(job_id: int, store: StoreDep, manager: ManagerDep) -> StreamingResponse:
         store.job(job_id)
         bus = manager.events.of(job_id)

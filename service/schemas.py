@@ -73,3 +73,34 @@ class JobPublic(BaseModel):
 class GoAhead(BaseModel):
     model_config = ConfigDict(extra="forbid")
     index: int = Field(ge=0, description="the pose the operator lets the robot move to")
+
+
+class MeasurementPublic(BaseModel):
+    """One measured pose, as committed."""
+
+    id: int
+    job_id: int
+    phase: str = Field(description="perf_before, cal, perf_after, cal_2, perf_after_2")
+    idx: int = Field(description="the pose's index in its list")
+    joints_deg: list[float] = Field(description="what the encoders read (j packet)")
+    tool0: list[float] = Field(description="nominal tool0 x, y, z mm, rx, ry, rz deg (p packet)")
+    holes_mm: list[list[float]] = Field(description="P1, P2, P3 as the arm measured them")
+    flange_pose: list[float] = Field(description="measured tool0 (Eq. 4.6) in the arm's frame")
+    created: float
+
+
+class JobResult(BaseModel):
+    """What a job found. Sections appear as its phases complete."""
+
+    model_config = ConfigDict(extra="allow")
+    id: int
+    state: str
+    reason: str
+    phases: dict[str, Any] = Field(description="seconds per phase (set-up, measuring, ...)")
+    estimation: dict[str, Any] | None = Field(
+        None, description="identified parameters with unit, value, std error; removed ones")
+    correction: dict[str, Any] | None = Field(
+        None, description="joint offsets, the ZERO targets sent (deg), or why refused")
+    performance: dict[str, Any] | None = Field(
+        None, description="ISO 9283 per point and overall, straightness, per phase")
+    base: list[list[float]] | None = Field(None, description="arm frame <- robot base (4x4)")

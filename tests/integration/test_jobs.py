@@ -100,7 +100,13 @@ async def test_auth_and_bad_requests(service, rig):
     assert (await service.get("/jobs/12345")).status_code == 404
     spec = (await service.get("/openapi.json")).json()
     assert {"/robots", "/jobs", "/jobs/{job_id}/go", "/jobs/{job_id}/events",
-            "/jobs/{job_id}/report"} <= set(spec["paths"])
+            "/jobs/{job_id}/report", "/jobs/{job_id}/measurements",
+            "/jobs/{job_id}/result"} <= set(spec["paths"])
+    schemas = spec["components"]["schemas"]
+    assert {"estimation", "correction", "performance"} <= set(schemas["JobResult"]["properties"])
+    assert "flange_pose" in schemas["MeasurementPublic"]["properties"]
+    assert "text/event-stream" in spec["paths"]["/jobs/{job_id}/events"]["get"]["responses"][
+        "200"]["content"]
 
 
 async def operate(http, job_id, timeout_s=60):
