@@ -74,14 +74,21 @@ class JobRunner:
         self.aborted = asyncio.Event()
         self.go_ahead: asyncio.Queue[int] = asyncio.Queue()
         self.waiting_for: tuple[str, int] | None = None
+        self._plans: dict[str, list[PlannedPose]] = {}
 
     # -- plans ---------------------------------------------------------------------------------
-    def plan(self, phase: str) -> list[PlannedPose]:
-        if phase == "cal":
-            return calibration_plan(self.model, int(self.options.get("calibration_poses", 40)))
-        return performance_plan(self.model, int(self.options.get("cycles", 30)),
-                                float(self.options.get("cube_edge_mm", 300.0)),
-                                self.options.get("arm_position_mm"))
+    def plan(self, kind: str) -> list[PlannedPose]:
+        """The job's "cal" or "perf" list (deterministic from its options; built once)."""
+        if kind not in self._plans:
+            if kind == "cal":
+                self._plans[kind] = calibration_plan(
+                    self.model, int(self.options.get("calibration_poses", 40)))
+            else:
+                self._plans[kind] = performance_plan(
+                    self.model, int(self.options.get("cycles", 30)),
+                    float(self.options.get("cube_edge_mm", 300.0)),
+                    self.options.get("arm_position_mm"))
+        return self._plans[kind]
 
     def steps(self) -> tuple[str, ...]:
         steps = STEPS[self.job["kind"]]
