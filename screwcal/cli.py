@@ -10,7 +10,15 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from screwcal import __version__, calibrate, evaluate, predict, simulated_calibration, testcube
+from screwcal import (
+    __version__,
+    calibrate,
+    evaluate,
+    predict,
+    simulated_calibration,
+    study,
+    testcube,
+)
 from screwcal.errors import ScrewcalError
 from service import cli as service_cli
 from service import demo as service_demo
@@ -24,7 +32,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Screw-theory calibration of 6-axis industrial robots (mm and degrees).")
     parser.add_argument("--version", action="version", version=f"screwcal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for module in (simulated_calibration, calibrate, predict, evaluate, testcube, service_demo,
+    for module in (simulated_calibration, calibrate, predict, evaluate, testcube, study,
+                   service_demo,
                    simulators_cli, service_cli):
         module.add_parser(sub)
     return parser

@@ -93,24 +93,27 @@ def _frame_params(frame: str, rotation: bool, position: bool) -> list[Param]:
 
 
 def candidate_params(model: SerialModel, kind: ModelKind, *, base: bool, tool_rotation: bool,
-                     tool_position: bool) -> list[Param]:
-    """Every candidate parameter of an error model, frames first (they are always needed)."""
+                     tool_position: bool, link_offsets: Sequence[str] | None = None
+                     ) -> list[Param]:
+    """Every candidate parameter of an error model, frames first (they are always needed).
+    `link_offsets` names the thesis model's virtual prismatic joints (default: the 6R's
+    J1pz, J1px, J2pz, J4px; the planar 3R'2P'3R of 3.1 uses J1px, J2px)."""
     params = _frame_params("base", base, base)
     params += _frame_params("tool", tool_rotation, tool_position)
     n = model.n_joints
     zeros = [Param(f"J{i + 1}", "deg" if model.joint_types[i] == "R" else "mm", "zero", joint=i)
              for i in range(n)]
-    if kind == "thesis":  # named as the thesis names them (Table 11)
-        zeros = [replace(z, name=THESIS_JOINT_OFFSETS[z.joint]) for z in zeros]
+    if kind == "thesis":  # named as the thesis names them (Tables 2, 11)
+        zeros = [replace(z, name=_thesis_offset_name(model, z.joint)) for z in zeros]
     if kind == "frames":
         return params
     if kind == "joints":
         return params + zeros
     if kind == "thesis":
-        if n != 6:
-            raise ModelError("the thesis error model is defined for 6-joint arms")
+        if link_offsets is None and n != 6:
+            raise ModelError("name the link offsets of the thesis model for a non-6R arm")
         links = []
-        for name in THESIS_LINK_OFFSETS:
+        for name in (THESIS_LINK_OFFSETS if link_offsets is None else link_offsets):
             j, _, axis = parse_name(name)
             links.append(Param(name, "mm", "link", joint=j, axis=axis))
         return params + zeros + links
@@ -124,6 +127,14 @@ def candidate_params(model: SerialModel, kind: ModelKind, *, base: bool, tool_ro
         robot.append(zeros[i])
     robot += _frame_params("home", True, True)
     return params + robot
+
+
+def _thesis_offset_name(model: SerialModel, joint: int) -> str:
+    """Table 11's names for a 6R arm; otherwise J<i>r<axis of the joint at home>."""
+    if model.n_joints == 6:
+        return THESIS_JOINT_OFFSETS[joint]
+    axis = "xyz"[int(np.argmax(np.abs(model.axis_dirs[joint])))]
+    return f"J{joint + 1}r{axis}"
 
 
 def _rot_jacobian_left(phi: Array) -> Array:

@@ -23,6 +23,7 @@ parameters they cannot be told from. Nothing is "solved" that the data cannot de
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -228,7 +229,8 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
              solver: Literal["lm", "de"] = "lm", weighting: str = "statistical",
              weight_mm: float = 1.0, noise: NoiseModel | None = None,
              de_link_bounds_mm: tuple[float, float] = (0.0, 1.0), seed: int = 0,
-             base_guess: Array | None = None) -> CalibrationResult:
+             base_guess: Array | None = None,
+             link_offsets: Sequence[str] | None = None) -> CalibrationResult:
     """Identify the error model `kind` of `nominal` from measured data. With unknown frames,
     `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there."""
     started = time.perf_counter()
@@ -247,7 +249,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     unknown = frames == "unknown"
     cands = candidate_params(start, kind, base=frames != "known" and residual != "distance",
                              tool_rotation=unknown and residual == "pose",
-                             tool_position=unknown)
+                             tool_position=unknown, link_offsets=link_offsets)
     errors_all = ErrorModel(start, tuple(cands))
     problem_all = _Problem(errors_all, data, residual, weighting, weight_mm, noise)
     r0, J0 = problem_all.weighted(np.zeros(len(cands)))
