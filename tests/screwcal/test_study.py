@@ -45,3 +45,12 @@ def test_d_optimal_design_beats_the_klimchik_style_set_on_information():
     pool = cube_set(m, "Klimchik", 600, seed=2, spread=False)
     designed = d_optimal(m, pool, 40)
     assert designed.log_det > log_det(m, cube_set(m, "Klimchik", 40, seed=2))
+
+
+def test_a_dask_cluster_gives_the_same_samples():
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster:
+        on_cluster = run_samples("quadrants", 5, 2, 1, scheduler=cluster.scheduler_address)
+    assert on_cluster == run_samples("quadrants", 5, 2, 1)
