@@ -44,6 +44,7 @@ class JobManager:
         if runner.waiting_for is None or runner.waiting_for[1] != index:
             raise ConflictError(f"job {job_id} is not waiting for pose {index} "
                                 f"(waiting for {runner.waiting_for})")
+        runner.waiting_for = None  # consumed now: a second go-ahead for this pose is refused
         await runner.go_ahead.put(index)
 
     async def abort(self, job_id: int) -> None:

@@ -1,10 +1,12 @@
 """The pose lists a job runs: a calibration set and the ISO 9283 performance list.
 
-Calibration: by default 40 poses spread over one quadrant-like region well inside the joint
-limits (the thesis's choice of 40 configurations, Table 7), drawn from a fixed seed so that a job
-is repeatable; a job may give its own. Performance: the ISO 9283 cube's P1-P5 with return points
-(`screwcal.testcube`) for n cycles, then a straight line of points from P2 to P4 for the
-straightness (thesis 2.3.2).
+Calibration: by default the Klimchik-style set of 40 configurations (`screwcal.posesets`: one
+quadrant, the TCP in a 600 mm cube within the arm's reach, the thesis's choice of Table 7), drawn
+from a fixed seed so that a job is repeatable; a robot that cannot reach that cube gets 40 poses
+spread over a region well inside its joint limits.
+
+Performance: the ISO 9283 cube's P1-P5 with return points (`screwcal.testcube`) for n cycles,
+then a straight line of points from P2 to P4 for the straightness (thesis 2.3.2).
 """
 
 from __future__ import annotations
@@ -13,9 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from screwcal.errors import ScrewcalError
 from screwcal.ik import closed_form_ik
 from screwcal.model import SerialModel
 from screwcal.pose import transform_from_pose
+from screwcal.posesets import cube_set
 from screwcal.testcube import ArmSphere, find_test_cube, performance_pose_list
 
 CAL_REGION_DEG = np.array([[-60, 60], [-30, 70], [-70, 30], [-150, 150], [-100, 100],
@@ -33,8 +37,11 @@ class PlannedPose:
 
 
 def calibration_plan(model: SerialModel, n: int = 40, seed: int = 2018) -> list[PlannedPose]:
-    rng = np.random.default_rng(seed)
-    q = np.round(rng.uniform(CAL_REGION_DEG[:, 0], CAL_REGION_DEG[:, 1], (n, 6)), 4)
+    try:
+        q = np.round(np.degrees(cube_set(model, "Klimchik", n, seed=seed)), 4)
+    except ScrewcalError:  # this robot does not reach the cube: a spread region instead
+        rng = np.random.default_rng(seed)
+        q = np.round(rng.uniform(CAL_REGION_DEG[:, 0], CAL_REGION_DEG[:, 1], (n, 6)), 4)
     model.check_limits(np.radians(q), "calibration pose")
     return [PlannedPose(k, tuple(float(v) for v in q[k]), "cal") for k in range(n)]
 

@@ -52,12 +52,14 @@ async def test_calibration_in_step_waits_for_the_operator(service, rig):
         async with asyncio.timeout(10):
             while (job := (await service.get(f"/jobs/{job_id}")).json())["waiting_for"] is None:
                 await asyncio.sleep(0.01)
-        assert job["waiting_for"] == {"phase": "cal", "index": k}
+        assert job["waiting_for"] == {"phase": "cal", "index": k}  # never a stale one
         assert rig.emu.world.arrivals == k  # the robot has not moved there yet
         wrong = await service.post(f"/jobs/{job_id}/go", headers=AUTH, json={"index": k + 1})
         assert wrong.status_code == 409
         assert (await service.post(f"/jobs/{job_id}/go", headers=AUTH,
                                    json={"index": k})).status_code == 204
+        again = await service.post(f"/jobs/{job_id}/go", headers=AUTH, json={"index": k})
+        assert again.status_code == 409  # one go-ahead, one move
     job = await wait_state(service, job_id)
     assert job["state"] in ("done", "failed")  # 12 poses: the estimation may refuse to correct
     assert len((await service.get(f"/jobs/{job_id}/measurements")).json()) == 12
