@@ -70,6 +70,16 @@ def calibrate_6r(q: Array, rng: np.random.Generator, **kw: object) -> tuple:
 VALIDATION = random_set(irb1600(), 200, seed=99)
 
 
+def case_row(q: Array, rng: np.random.Generator, scored_at: Array | None = None,
+             **labels: float | str) -> Row:
+    """Calibrate the 6R on configurations q; score at the calibration poses (or `scored_at`)
+    and on the noise-free held-out poses."""
+    truth, r = calibrate_6r(q, rng)
+    at = q if scored_at is None else scored_at
+    return {**labels, **errors_at(r.model, truth, at),
+            "val_mm": errors_at(r.model, truth, VALIDATION)["tpo_mm"]}
+
+
 def sample_sets(seed: int) -> list[Row]:
     """table8 / table9: the three pose sets, all offsets vs joint offsets only corrected."""
     rng = np.random.default_rng(seed)
@@ -121,37 +131,20 @@ def sample_weight(seed: int) -> list[Row]:
 def sample_replications(seed: int) -> list[Row]:
     rng = np.random.default_rng(seed)
     base_set = cube_set(irb1600(), "Klimchik", 40, seed=seed)
-    rows = []
-    for reps in (1, 2, 5, 10, 20, 40):
-        q = np.repeat(base_set, reps, axis=0)
-        truth, r = calibrate_6r(q, rng)
-        rows.append({"replications": reps, "measurements": len(q),
-                     **errors_at(r.model, truth, base_set),
-                     "val_mm": errors_at(r.model, truth, VALIDATION)["tpo_mm"]})
-    return rows
+    return [case_row(np.repeat(base_set, reps, axis=0), rng, base_set, replications=reps,
+                     measurements=reps * len(base_set)) for reps in (1, 2, 5, 10, 20, 40)]
 
 
 def sample_configurations(seed: int) -> list[Row]:
     rng = np.random.default_rng(seed)
-    rows = []
-    for n in (40, 60, 80, 120, 160):
-        q = cube_set(irb1600(), "Klimchik", n, seed=seed)
-        truth, r = calibrate_6r(q, rng)
-        rows.append({"configurations": n, **errors_at(r.model, truth, q),
-                     "val_mm": errors_at(r.model, truth, VALIDATION)["tpo_mm"]})
-    return rows
+    return [case_row(cube_set(irb1600(), "Klimchik", n, seed=seed), rng, configurations=n)
+            for n in (40, 60, 80, 120, 160)]
 
 
 def sample_quadrants(seed: int) -> list[Row]:
     rng = np.random.default_rng(seed)
     base_set = cube_set(irb1600(), "Klimchik", 40, seed=seed)
-    rows = []
-    for quadrants in (1, 2, 4):
-        q = quadrant_variants(base_set, quadrants)
-        truth, r = calibrate_6r(q, rng)
-        rows.append({"quadrants": quadrants, **errors_at(r.model, truth, q),
-                     "val_mm": errors_at(r.model, truth, VALIDATION)["tpo_mm"]})
-    return rows
+    return [case_row(quadrant_variants(base_set, n), rng, quadrants=n) for n in (1, 2, 4)]
 
 
 def sample_design(seed: int) -> list[Row]:
@@ -160,13 +153,8 @@ def sample_design(seed: int) -> list[Row]:
     klimchik = cube_set(irb1600(), "Klimchik", 40, seed=seed)
     pool = cube_set(irb1600(), "Klimchik", 600, seed=seed + 1, spread=False)
     designed = d_optimal(irb1600(), pool, 40).q_rad
-    rows = []
-    for name, q in (("Klimchik-style", klimchik), ("D-optimal", designed)):
-        truth, r = calibrate_6r(q, rng)
-        rows.append({"set": name, "log_det": log_det(irb1600(), q),
-                     **errors_at(r.model, truth, q),
-                     "val_mm": errors_at(r.model, truth, VALIDATION)["tpo_mm"]})
-    return rows
+    return [case_row(q, rng, set=name, log_det=log_det(irb1600(), q))
+            for name, q in (("Klimchik-style", klimchik), ("D-optimal", designed))]
 
 
 def design_conclusion(rows: list[Row]) -> str:
