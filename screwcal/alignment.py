@@ -28,6 +28,7 @@ def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: A
     R_b, t_b = np.eye(3), np.zeros(3)
     if base is not None:
         R_b, t_b = base[:3, :3], base[:3, 3]
+    tool_solver = np.linalg.pinv(R_f.reshape(-1, 3))  # the same system every round
     for _ in range(rounds):
         if base is None:
             pts = p_f + R_f @ t_tool
@@ -39,8 +40,8 @@ def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: A
             break
         # measured = R_b (p_f + R_f t) + t_b  ->  R_f t = R_b^T (measured - t_b) - p_f
         rhs = (positions_mm - t_b) @ R_b - p_f
-        new = np.linalg.lstsq(R_f.reshape(-1, 3), rhs.reshape(-1), rcond=None)[0]
-        if np.linalg.norm(new - t_tool) < 1e-6:  # mm: a starting guess, the solver refines
+        new = tool_solver @ rhs.reshape(-1)
+        if np.linalg.norm(new - t_tool) < 1e-4:  # mm: a starting guess, the solver refines
             t_tool = new
             break
         t_tool = new

@@ -43,7 +43,6 @@ from screwcal.se3 import (
     cross,
     rotation_from_rotvec,
     skew,
-    transform_from_rotation_translation,
 )
 from screwcal.virtual_joints import parse_name
 
@@ -210,8 +209,10 @@ class ErrorModel:
         def framed(T0: Array, rot: Array, pos: Array) -> Array:
             if not rot.any() and not pos.any():
                 return T0
-            R = rotation_from_rotvec(rot) @ T0[:3, :3]
-            return transform_from_rotation_translation(R, T0[:3, 3] + pos)
+            T = T0.copy()
+            T[:3, :3] = rotation_from_rotvec(rot) @ T0[:3, :3]
+            T[:3, 3] += pos
+            return T
 
         return m.derived(axis_dirs=dirs, axis_points_mm=points,
                          joint_zero=m.joint_zero + c["zero"],

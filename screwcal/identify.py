@@ -125,6 +125,14 @@ class _Problem:
         self._whiten = self._weights(weighting, weight_mm, noise, at)
         self._last: tuple[bytes, tuple[Array, Array]] | None = None
 
+    def restricted(self, errors: ErrorModel) -> _Problem:
+        """The same data and weights (taken at the same starting model) for a subset of the
+        parameters: the weights depend on the model at the start, not on which are free."""
+        out = object.__new__(_Problem)
+        out.errors, out.data, out.residual, out.rows = errors, self.data, self.residual, self.rows
+        out._whiten, out._last = self._whiten, None
+        return out
+
     def _weights(self, weighting: str, weight_mm: float, noise: NoiseModel, at: Array) -> Array:
         """Per-pose whitening matrices (N, k, k), or per-pair weights (P,) for distances; the
         joint-noise part is carried through the joint Jacobian of the model at x = `at`."""
@@ -275,7 +283,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
                                                           for k in requested_robot))
 
     errors = errors_all.subset(keep)
-    problem = _Problem(errors, data, residual, weighting, weight_mm, noise)
+    problem = problem_all.restricted(errors)
     p = len(keep)
     x0 = np.zeros(p)
 
