@@ -107,6 +107,7 @@ def summarise(metrics: dict[str, PoseMetrics]) -> dict:
         abc = np.abs(np.array([m.ap_abc_deg for m in metrics.values()]))
         rpabc = np.array([m.rp_abc_deg for m in metrics.values()])
         out |= {"ap_abc_deg_max_abs": abc.max(axis=0).tolist(),
+                "ap_abc_deg_max": float(abc.max()),
                 "rp_abc_deg_max": rpabc.max(axis=0).tolist()}
     return out
 

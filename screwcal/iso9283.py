@@ -11,8 +11,9 @@ For one commanded pose measured n times (n cycles):
 - orientation accuracy   AP_a = mean(a_j) - a_c, AP_b, AP_c about x, y, z         (Eq. 2.9)
 - orientation repeat.    RP_a = +-3 S_a, S_a = sqrt(sum (a_j - mean(a))^2 / (n-1)) (Eq. 2.10)
 
-Angles are (rx, ry, rz) in degrees as elsewhere; differences are wrapped to (-180, 180] around
-the commanded value before averaging, so a pose near rz = 180 deg is not averaged across the cut.
+Angles are (rx, ry, rz) in degrees as elsewhere. Every attained orientation is first written on
+the ZYX triple nearest the commanded one (flange-down is both (180, 0, 180) and (0, 180, 0)), each
+angle within 180 deg of it, so neither the representation nor the +-180 cut distorts the means.
 
 Worked example (position only; 3 cycles, commanded at the origin)::
 
@@ -34,6 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.errors import ScrewcalError
+from screwcal.pose import euler_zyx_deg_near, rotation_from_euler_zyx_deg
 from screwcal.se3 import Array
 
 
@@ -88,6 +90,7 @@ def pose_metrics(p_cmd_mm: ArrayLike, p_mm: ArrayLike, r_cmd_deg: ArrayLike | No
         if r.shape != p.shape or r_cmd.shape != (3,):
             raise ScrewcalError(f"orientations must be (n, 3) and (3,); got {r.shape}, "
                                 f"{r_cmd.shape}")
+        r = euler_zyx_deg_near(rotation_from_euler_zyx_deg(r), r_cmd)
         dev = wrap_deg(r - r_cmd)  # attained - commanded, near 0
         ap_abc = tuple(float(v) for v in dev.mean(axis=0))  # Eq. 2.9
         rp_abc = tuple(float(3.0 * v) for v in np.std(dev, axis=0, ddof=1))  # Eq. 2.10

@@ -161,7 +161,7 @@ def result_table(result: dict) -> str:
         row("position accuracy AP, mean", "ap_mm_mean", "mm")
         row("position accuracy AP, max", "ap_mm_max", "mm")
         row("position repeatability RP, max", "rp_mm_max", "mm")
-        row("orientation accuracy, max |APa,b,c|", "apc_deg_max", "°")
+        row("orientation accuracy, max |APa,b,c|", "ap_abc_deg_max", "°")
         row("straightness, peak + valley", "peak_to_valley_mm", "mm", "straightness")
     est = result.get("estimation")
     if est:

@@ -31,12 +31,12 @@ from protocol.errors import (
 )
 from screwcal.correction import CorrectionRefusedError, joint_correction
 from screwcal.errors import ScrewcalError
+from screwcal.evaluate import PerformanceData, PointData, point_metrics, summarise
 from screwcal.flange import MeasuringFlange
 from screwcal.identify import CalibrationResult, identify
-from screwcal.iso9283 import pose_metrics
 from screwcal.measurements import MeasurementSet
 from screwcal.modelfile import parse_model
-from screwcal.pose import euler_zyx_deg_near, pose_from_transform, transform_from_pose
+from screwcal.pose import pose_from_transform, transform_from_pose
 from screwcal.se3 import invert_transform
 from screwcal.straightness import straightness
 from service.errors import SafetyError
@@ -337,33 +337,25 @@ def _estimation_summary(result: CalibrationResult) -> dict:
 
 
 def _performance(rows: list[dict], plan: dict[int, PlannedPose], base: np.ndarray) -> dict:
-    """ISO 9283 per point and straightness, attained poses in the robot base frame."""
-    to_robot = invert_transform(base)
-    by_point: dict[str, list[tuple[np.ndarray, tuple]]] = {}
+    """ISO 9283 per point (the evaluate command's computation) and straightness, attained poses
+    in the robot base frame."""
+    attained = pose_from_transform(invert_transform(base) @ transform_from_pose(
+        np.array([r["flange_pose"] for r in rows])))
+    by_point: dict[str, list[int]] = {}
     line = []
-    for r in rows:
+    for k, r in enumerate(rows):
         p = plan[r["idx"]]
-        T = to_robot @ transform_from_pose(np.array(r["flange_pose"]))
-        attained = np.concatenate([T[:3, 3], euler_zyx_deg_near(T[:3, :3], p.commanded[3:])]) \
-            if p.commanded else pose_from_transform(T)
         if p.role == "target":
-            by_point.setdefault(p.point, []).append((attained, p.commanded))
+            by_point.setdefault(p.point, []).append(k)
         elif p.role == "line":
-            line.append(np.array(r["flange_pose"][:3]))
-    points = {}
-    for label, items in sorted(by_point.items()):
-        if len(items) < 2:
-            continue
-        att = np.array([a for a, _ in items])
-        cmd = np.array(items[0][1])
-        points[label] = pose_metrics(cmd[:3], att[:, :3], cmd[3:], att[:, 3:]).to_dict()
-    out: dict[str, Any] = {"points": points}
-    if points:
-        ap = [m["ap_mm"] for m in points.values()]
-        out["overall"] = {"ap_mm_mean": float(np.mean(ap)), "ap_mm_max": float(np.max(ap)),
-                          "rp_mm_max": float(max(m["rp_mm"] for m in points.values())),
-                          "apc_deg_max": float(max(np.abs(m["ap_abc_deg"]).max()
-                                                   for m in points.values()))}
+            line.append(r["flange_pose"][:3])
+    data = PerformanceData("measurements", tuple(
+        PointData(label, np.array(plan[rows[ks[0]]["idx"]].commanded), attained[ks])
+        for label, ks in sorted(by_point.items()) if len(ks) >= 2), full_pose=True)
+    metrics = point_metrics(data)
+    out: dict[str, Any] = {"points": {k: m.to_dict() for k, m in metrics.items()}}
+    if metrics:
+        out["overall"] = summarise(metrics)
     if len(line) >= 3:
         s = straightness(np.array(line))
         out["straightness"] = {"peak_to_valley_mm": s.peak_to_valley_mm,

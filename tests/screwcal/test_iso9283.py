@@ -88,3 +88,17 @@ def test_straightness_refuses_degenerate_input():
         straightness(np.zeros((2, 3)))
     with pytest.raises(ScrewcalError, match="coincide"):
         straightness(np.ones((5, 3)))
+
+
+def test_orientation_in_the_other_zyx_representation():
+    """Flange-down commanded as (180, 0, 180), attained written as (0, 180, 0) + small errors:
+    the same rotations, so APa/b/c are the small errors, not 180 deg."""
+    from screwcal.pose import euler_zyx_deg_from_rotation, rotation_from_euler_zyx_deg
+
+    cmd = np.array([180.0, 0.0, 180.0])
+    R = rotation_from_euler_zyx_deg([[180.02, 0.01, 179.97], [179.98, -0.01, 180.01]])
+    other = euler_zyx_deg_from_rotation(R) + np.array([180.0, 0.0, 180.0])
+    other[:, 1] = 180.0 - euler_zyx_deg_from_rotation(R)[:, 1]  # the (0, 180, 0)-like triple
+    np.testing.assert_allclose(rotation_from_euler_zyx_deg(other), R, atol=1e-12)
+    m = pose_metrics(np.zeros(3), np.zeros((2, 3)), cmd, other)
+    np.testing.assert_allclose(m.ap_abc_deg, [0.0, 0.0, -0.01], atol=1e-9)
