@@ -25,10 +25,10 @@ import numpy as np
 from screwcal.identify import identify
 from screwcal.measurements import MeasurementSet
 from screwcal.pose import euler_zyx_deg_from_rotation
+from screwcal.posesets import random_configurations
 from screwcal.robots import irb1600
 from screwcal.se3 import exp_twist
 from screwcal.simulate import simulate_measurements
-from screwcal.simulated_calibration import random_configurations
 from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 
 

@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from protocol.client import ControllerClient
+from screwcal.posesets import random_configurations
 from simulators.cli import make_world
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
 
@@ -27,9 +28,7 @@ from simulators.irc5 import EmulatorSettings, IRC5Emulator
 async def measure(repeat: int) -> tuple[float, float]:
     emu = IRC5Emulator(make_world(None, None), EmulatorSettings(time_scale=0.0))
     host, port = await emu.start("127.0.0.1", 0)
-    rng = np.random.default_rng(0)
-    region = np.array([[-60, 60], [-30, 70], [-70, 30], [-150, 150], [-100, 100], [-170, 170]])
-    targets = np.round(rng.uniform(region[:, 0], region[:, 1], (200, 6)), 4)
+    targets = np.round(np.degrees(random_configurations(200, np.random.default_rng(0))), 4)
     async with ControllerClient(host, port) as robot:
         await robot.stat()
         stat_times, run_times = [], []

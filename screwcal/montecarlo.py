@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from screwcal.identify import NoiseModel, identify
+from screwcal.posesets import random_configurations
 from screwcal.robots import irb1600
 from screwcal.simulate import orientation_noise_rad, simulate_measurements
-from screwcal.simulated_calibration import random_configurations
 from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 
 # Thesis Table 11, "Residuo LM": |estimated - imposed| of its one LM calibration.

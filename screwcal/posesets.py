@@ -28,6 +28,11 @@ PLANAR_SETS_DEG = {
     "C2": [(-60, 30, -60), (0, 60, 30), (-45, 45, 45), (-45, -135, 45)],
 }
 
+# A working region well inside the IRB 1600's limits (deg), like the thesis's one-quadrant sets:
+# the default for simulated calibrations and the fallback calibration list.
+WORKING_REGION_DEG = np.array([[-60, 60], [-30, 70], [-70, 30], [-150, 150], [-100, 100],
+                               [-170, 170]], dtype=float)
+
 # 600 mm cubes in the IRB 1600's workspace (robot base frame, centres in mm): the quadrant of
 # the measuring arm in front of the robot, and two other regions for comparison.
 CUBE_EDGE_MM = 600.0
@@ -82,6 +87,11 @@ def cube_set(model: SerialModel, name: str, n: int = 40, seed: int = 0,
         chosen.append(k)
         dist = np.minimum(dist, np.linalg.norm(pool - pool[k], axis=1))
     return pool[chosen]
+
+
+def random_configurations(n: int, rng: np.random.Generator) -> Array:
+    """n configurations (rad) uniform in the working region."""
+    return np.radians(rng.uniform(WORKING_REGION_DEG[:, 0], WORKING_REGION_DEG[:, 1], (n, 6)))
 
 
 def random_set(model: SerialModel, n: int, seed: int = 0, margin_deg: float = 5.0) -> Array:

@@ -18,13 +18,11 @@ from screwcal.identify import CalibrationResult, identify
 from screwcal.kinematics import forward_kinematics
 from screwcal.model import SerialModel
 from screwcal.pose import rotation_angle_deg
+from screwcal.posesets import random_configurations
 from screwcal.robots import irb1600
 from screwcal.se3 import Array, exp_twist
 from screwcal.simulate import JOINT_NOISE_DEG, NOISE_MM, simulate_measurements
 from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
-
-# A working region well inside the limits (deg), like the thesis's one-quadrant sets.
-REGION_DEG = np.array([[-60, 60], [-30, 70], [-70, 30], [-150, 150], [-100, 100], [-170, 170]])
 
 
 @dataclass(frozen=True)
@@ -49,10 +47,6 @@ def true_robot(seed: int | None) -> SerialModel:
     points = model.axis_points_mm + rng.normal(0, 0.2, model.axis_points_mm.shape)
     flange = exp_twist(np.r_[rng.normal(0, 1e-3, 3), rng.normal(0, 0.2, 3)]) @ model.home_flange
     return replace(model, axis_dirs=dirs, axis_points_mm=points, home_flange=flange)
-
-
-def random_configurations(n: int, rng: np.random.Generator) -> Array:
-    return np.radians(rng.uniform(REGION_DEG[:, 0], REGION_DEG[:, 1], (n, 6)))
 
 
 def run_demo(seed: int | None = None, n_poses: int = 40, n_validation: int = 200) -> DemoResult:

@@ -19,11 +19,8 @@ from screwcal.errors import ScrewcalError
 from screwcal.ik import closed_form_ik
 from screwcal.model import SerialModel
 from screwcal.pose import transform_from_pose
-from screwcal.posesets import cube_set
+from screwcal.posesets import cube_set, random_configurations
 from screwcal.testcube import ArmSphere, find_test_cube, performance_pose_list
-
-CAL_REGION_DEG = np.array([[-60, 60], [-30, 70], [-70, 30], [-150, 150], [-100, 100],
-                           [-170, 170]])
 
 
 @dataclass(frozen=True)
@@ -41,7 +38,7 @@ def calibration_plan(model: SerialModel, n: int = 40, seed: int = 2018) -> list[
         q = np.round(np.degrees(cube_set(model, "Klimchik", n, seed=seed)), 4)
     except ScrewcalError:  # this robot does not reach the cube: a spread region instead
         rng = np.random.default_rng(seed)
-        q = np.round(rng.uniform(CAL_REGION_DEG[:, 0], CAL_REGION_DEG[:, 1], (n, 6)), 4)
+        q = np.round(np.degrees(random_configurations(n, rng)), 4)
     model.check_limits(np.radians(q), "calibration pose")
     return [PlannedPose(k, tuple(float(v) for v in q[k]), "cal") for k in range(n)]
 

@@ -8,10 +8,10 @@ from screwcal.cli import main
 from screwcal.identify import identify
 from screwcal.kinematics import forward_kinematics
 from screwcal.pose import transform_from_pose
+from screwcal.posesets import random_configurations
 from screwcal.robots import irb1600
 from screwcal.se3 import exp_twist, invert_transform
 from screwcal.simulate import simulate_measurements
-from screwcal.simulated_calibration import random_configurations
 
 BASE = exp_twist([0.1, -0.2, 2.0, 1500, -400, -250])
 TOOL = exp_twist([0.0, 0.0, 0.0, 20, 30, 60])

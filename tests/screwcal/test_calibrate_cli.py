@@ -8,9 +8,9 @@ import pytest
 from screwcal.cli import main
 from screwcal.kinematics import forward_kinematics
 from screwcal.pose import euler_zyx_deg_from_rotation, pose_from_transform
+from screwcal.posesets import random_configurations
 from screwcal.robots import irb1600
 from screwcal.simulate import simulate_measurements
-from screwcal.simulated_calibration import random_configurations
 from tests.screwcal.test_identify import BASE, TOOL, full_truth
 
 

@@ -7,10 +7,10 @@ from screwcal.correction import CorrectionRefusedError, joint_correction
 from screwcal.errors_model import Param
 from screwcal.identify import IdentificationError, NoiseModel, identify
 from screwcal.kinematics import forward_kinematics
+from screwcal.posesets import random_configurations
 from screwcal.robots import irb1600
 from screwcal.se3 import exp_twist
 from screwcal.simulate import simulate_measurements
-from screwcal.simulated_calibration import random_configurations
 from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 
 BASE = exp_twist([0.2, -0.1, 2.5, 1400, -600, -300])  # the measuring system's frame

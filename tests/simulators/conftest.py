@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from protocol.client import ControllerClient, Timeouts
-from screwcal.simulated_calibration import REGION_DEG
+from screwcal.posesets import WORKING_REGION_DEG
 from simulators.cli import make_world as cli_make_world
 from simulators.faults import FaultPlan
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
@@ -38,4 +38,4 @@ async def client(emulator):
 
 def targets(n: int, seed: int = 0) -> np.ndarray:
     rng = np.random.default_rng(seed)
-    return np.round(rng.uniform(REGION_DEG[:, 0], REGION_DEG[:, 1], (n, 6)), 4)
+    return np.round(rng.uniform(WORKING_REGION_DEG[:, 0], WORKING_REGION_DEG[:, 1], (n, 6)), 4)
