@@ -179,16 +179,22 @@ class _Session:
         except ConnectionError:
             raise _SessionEndedError() from None
 
-    async def next_request(self) -> Message:
-        item = await self.inbox.get()
+    async def _usable(self, item: Message | Exception) -> Message | None:
+        """A request, or None after answering a bad one; a closed link or an untrustworthy
+        frame ends the session."""
         if isinstance(item, _SessionEndedError | FramingError):
             raise _SessionEndedError()
         if isinstance(item, PayloadError):
             if item.seq is None:  # no SEQ to answer to: the frame cannot be trusted
                 raise _SessionEndedError()
             await self.send(Err(item.seq, item.code, "bad request"))
-            return await self.next_request()
-        return item
+            return None
+        return item  # type: ignore[return-value]
+
+    async def next_request(self) -> Message:
+        while (msg := await self._usable(await self.inbox.get())) is None:
+            pass
+        return msg
 
     async def run(self) -> None:
         try:
@@ -319,32 +325,28 @@ class _Session:
             req = await self.next_request()
             if isinstance(req, Go) and req.idx == idx:
                 return True
-            if isinstance(req, Abrt):
-                await self.send(Err(run_seq, ABORTED, "aborted"), Ack(req.seq, "ABRT"))
-                self.emu.state = "IDLE"
+            if not await self._during_run(req, run_seq, f"waiting for GO {idx}"):
                 return False
-            if isinstance(req, Stat):
-                await self.send(self.emu.stat(req.seq))
-            else:
-                await self.send(Err(req.seq, WRONG_STATE, f"waiting for GO {idx}"))
+
+    async def _during_run(self, req: Message, run_seq: int, busy: str) -> bool:
+        """A request while a list runs: ABRT ends it (False), STAT is answered, the rest
+        refused."""
+        if isinstance(req, Abrt):
+            await self.send(Err(run_seq, ABORTED, "aborted"), Ack(req.seq, "ABRT"))
+            self.emu.state = "IDLE"
+            return False
+        if isinstance(req, Stat):
+            await self.send(self.emu.stat(req.seq))
+        else:
+            await self.send(Err(req.seq, WRONG_STATE, busy))
+        return True
 
     async def between_moves(self, run_seq: int) -> bool:
         """Requests that arrived during the move: STAT is answered, ABRT stops the run."""
         while not self.inbox.empty():
-            req = self.inbox.get_nowait()
-            if isinstance(req, _SessionEndedError | FramingError):
-                raise _SessionEndedError()
-            if isinstance(req, PayloadError):
-                if req.seq is None:
-                    raise _SessionEndedError()
-                await self.send(Err(req.seq, req.code, "bad request"))
-            elif isinstance(req, Abrt):
-                await self.send(Err(run_seq, ABORTED, "aborted"), Ack(req.seq, "ABRT"))
+            req = await self._usable(self.inbox.get_nowait())
+            if req is not None and not await self._during_run(req, run_seq, "a run is active"):
                 return False
-            elif isinstance(req, Stat):
-                await self.send(self.emu.stat(req.seq))
-            else:
-                await self.send(Err(req.seq, WRONG_STATE, "a run is active"))
         return True
 
     async def run_list(self, msg: Run) -> None:
