@@ -200,8 +200,12 @@ class JobRunner:
             if not self.model.within_limits(np.radians(p.joints_deg)):
                 raise SafetyError(f"{phase} pose {p.idx} is outside the joint limits")
         list_name = "CAL" if phase.startswith("cal") else "PERF"
-        while todo := [p for p in plan if p.idx not in
-                       self.store.measured_indices(self.job_id, phase)]:
+        while True:
+            measured = self.store.measured_indices(self.job_id, phase)  # once per chunk
+            todo = [p for p in plan if p.idx not in measured]
+            if not todo:
+                return
+            done = len(measured)
             chunk = todo[:MAX_LIST]
             await self.client.load(list_name, [p.joints_deg for p in chunk])
 
@@ -215,7 +219,7 @@ class JobRunner:
                 self.store.add_measurement(self.job_id, phase, planned.idx, list(got.joints_deg),
                                            list(got.tool0), [list(h) for h in holes.points_mm],
                                            pose_from_transform(flange).tolist())
-                done = len(self.store.measured_indices(self.job_id, phase))
+                done += 1
                 await self.events.publish("measured", phase=phase, index=planned.idx,
                                           done=done, total=len(plan))
 
