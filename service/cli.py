@@ -40,6 +40,7 @@ def serve(settings: ServiceSettings, announce: Callable[[str], None] = print) ->
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     sock.bind((settings.host, settings.port))
+    sock.listen(2048)  # connections wait in the backlog from the moment the address is announced
     host, port = sock.getsockname()[:2]
     server = uvicorn.Server(uvicorn.Config(create_app(settings), log_level="warning"))
     announce(f"screwcal service on http://{host}:{port} (database {settings.db_path})")
