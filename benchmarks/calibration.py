@@ -22,14 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
-from screwcal.identify import identify
-from screwcal.measurements import MeasurementSet
-from screwcal.pose import euler_zyx_deg_from_rotation
-from screwcal.posesets import random_configurations
-from screwcal.robots import irb1600
-from screwcal.se3 import exp_twist
-from screwcal.simulate import simulate_measurements
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.calibration.identify import identify
+from screwcal.calibration.measurements import MeasurementSet
+from screwcal.calibration.posesets import random_configurations
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.pose import euler_zyx_deg_from_rotation
+from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import exp_twist
+from screwcal.studies.simulate import simulate_measurements
 
 
 def write_csv(path: Path, data: MeasurementSet) -> None:
@@ -60,7 +60,7 @@ def main() -> None:
         for n, data in ((40, d40), (1000, d1000)):
             path = Path(tmp) / f"m{n}.csv"
             write_csv(path, data)
-            cmd = [sys.executable, "-m", "screwcal.cli", "calibrate", "--robot", "irb1600",
+            cmd = [sys.executable, "-m", "screwcal", "calibrate", "--robot", "irb1600",
                    "--data", str(path), "--out", str(Path(tmp) / "r.json")]
             rows.append((f"screwcal calibrate process, {n} poses",
                          lambda cmd=cmd: subprocess.run(cmd, check=True, capture_output=True),

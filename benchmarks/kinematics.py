@@ -16,10 +16,10 @@ import argparse
 
 import numpy as np
 
-from screwcal.ik import closed_form_ik, numerical_ik
-from screwcal.kinematics import forward_kinematics, parameter_jacobian
-from screwcal.robots import irb1600
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.forward import forward_kinematics, parameter_jacobian
+from screwcal.kinematics.ik import closed_form_ik, numerical_ik
+from screwcal.kinematics.robots import irb1600
 
 
 def main() -> None:

@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from protocol.client import ControllerClient
-from screwcal.posesets import random_configurations
+from screwcal.calibration.posesets import random_configurations
 from simulators.cli import make_world
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from screwcal.errors import DataFileError
-from screwcal.se3 import Array
+from screwcal.kinematics.se3 import Array
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from fastapi import APIRouter, Depends, FastAPI, Header, HTTPException, Request,
 from fastapi.responses import HTMLResponse, JSONResponse, StreamingResponse
 
 from screwcal.errors import ScrewcalError
-from screwcal.modelfile import model_file_from_model, parse_model, resolve_model
+from screwcal.kinematics.modelfile import model_file_from_model, parse_model, resolve_model
 from service.errors import ConflictError, NotFoundError, SafetyError
 from service.manager import JobManager
 from service.report import report_html

@@ -22,7 +22,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from screwcal.virtual_joints import THESIS_TABLE11
+from screwcal.calibration.virtual_joints import THESIS_TABLE11
 from service.cli import Operator, result_table
 from service.errors import ServiceError
 from service.settings import ServiceSettings
@@ -32,7 +32,7 @@ ARM_POSITION_MM = (500.0, 0.0, 600.0)  # the emulator's default arm stand (robot
 
 @contextlib.contextmanager
 def emulators(time_scale: float, seed: int | None, world: Path) -> Iterator[tuple[str, int, str]]:
-    cmd = [sys.executable, "-m", "screwcal.cli", "emulator", "irc5", "--port", "0",
+    cmd = [sys.executable, "-m", "screwcal", "emulator", "irc5", "--port", "0",
            "--time-scale", str(time_scale), "--arm-port", "0", "--world", str(world)]
     if seed is not None:
         cmd += ["--seed", str(seed)]

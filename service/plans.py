@@ -1,12 +1,12 @@
 """The pose lists a job runs: a calibration set and the ISO 9283 performance list.
 
-Calibration: by default the Klimchik-style set of 40 configurations (`screwcal.posesets`: one
-quadrant, the TCP in a 600 mm cube within the arm's reach, the thesis's choice of Table 7), drawn
-from a fixed seed so that a job is repeatable; a robot that cannot reach that cube gets 40 poses
-spread over a region well inside its joint limits.
+Calibration: by default the Klimchik-style set of 40 configurations
+(`screwcal.calibration.posesets`: one quadrant, the TCP in a 600 mm cube within the arm's reach,
+the thesis's choice of Table 7), drawn from a fixed seed so that a job is repeatable; a robot
+that cannot reach that cube gets 40 poses spread over a region well inside its joint limits.
 
-Performance: the ISO 9283 cube's P1-P5 with return points (`screwcal.testcube`) for n cycles,
-then a straight line of points from P2 to P4 for the straightness (thesis 2.3.2).
+Performance: the ISO 9283 cube's P1-P5 with return points (`screwcal.performance.testcube`)
+for n cycles, then a straight line of points from P2 to P4 for the straightness (thesis 2.3.2).
 """
 
 from __future__ import annotations
@@ -15,12 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from screwcal.calibration.posesets import cube_set, random_configurations
 from screwcal.errors import ScrewcalError
-from screwcal.ik import closed_form_ik
-from screwcal.model import SerialModel
-from screwcal.pose import transform_from_pose
-from screwcal.posesets import cube_set, random_configurations
-from screwcal.testcube import ArmSphere, find_test_cube, performance_pose_list
+from screwcal.kinematics.ik import closed_form_ik
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.pose import transform_from_pose
+from screwcal.performance.testcube import ArmSphere, find_test_cube, performance_pose_list
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from screwcal import plots
-from screwcal.iso9283 import PoseMetrics
+from screwcal.performance import plots
+from screwcal.performance.iso9283 import PoseMetrics
 
 # Thesis Table 13: minutes per activity of a whole calibration.
 THESIS_TABLE13_MIN = {"setup": 60, "measuring": 90, "estimation": 1}

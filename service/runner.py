@@ -29,16 +29,16 @@ from protocol.errors import (
     LinkTimeoutError,
     ProtocolError,
 )
-from screwcal.correction import CorrectionRefusedError, joint_correction
+from screwcal.calibration.correction import CorrectionRefusedError, joint_correction
+from screwcal.calibration.flange import MeasuringFlange
+from screwcal.calibration.identify import CalibrationResult, identify
+from screwcal.calibration.measurements import MeasurementSet
 from screwcal.errors import ScrewcalError
-from screwcal.evaluate import PerformanceData, PointData, point_metrics, summarise
-from screwcal.flange import MeasuringFlange
-from screwcal.identify import CalibrationResult, identify
-from screwcal.measurements import MeasurementSet
-from screwcal.modelfile import parse_model
-from screwcal.pose import pose_from_transform, transform_from_pose
-from screwcal.se3 import invert_transform
-from screwcal.straightness import straightness
+from screwcal.kinematics.modelfile import parse_model
+from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
+from screwcal.kinematics.se3 import invert_transform
+from screwcal.performance.evaluate import PerformanceData, PointData, point_metrics, summarise
+from screwcal.performance.straightness import straightness
 from service.errors import SafetyError
 from service.events import JobEvents
 from service.plans import PlannedPose, calibration_plan, performance_plan

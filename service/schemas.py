@@ -6,7 +6,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from screwcal.flange import DEFAULT_HOLES_IN_FLANGE_MM
+from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM
 
 
 class RobotCreate(BaseModel):

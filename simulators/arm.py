@@ -20,7 +20,7 @@ from typing import Protocol
 import numpy as np
 
 from protocol.arm import HOLE_LABELS, encode_not_measured, encode_point
-from screwcal.se3 import Array
+from screwcal.kinematics.se3 import Array
 from simulators.world import World
 
 REACH_MM = 1200.0

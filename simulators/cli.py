@@ -23,12 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.errors import ModelError
-from screwcal.model import SerialModel
-from screwcal.modelfile import parse_model
-from screwcal.robots import irb1600
-from screwcal.se3 import exp_twist
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.modelfile import parse_model
+from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import exp_twist
 from simulators.arm import ArmEmulator, WorldFileSource, WorldFileWriter
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
 from simulators.world import World

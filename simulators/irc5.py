@@ -48,8 +48,8 @@ from protocol.codec import (
 )
 from protocol.errors import FramingError, PayloadError
 from screwcal.errors import ScrewcalError
-from screwcal.ik import closed_form_ik
-from screwcal.pose import pose_from_transform, transform_from_pose
+from screwcal.kinematics.ik import closed_form_ik
+from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
 from simulators.faults import FaultPlan
 from simulators.world import World
 

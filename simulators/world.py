@@ -13,10 +13,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from screwcal.flange import DEFAULT_HOLES_IN_FLANGE_MM
-from screwcal.kinematics import flange_kinematics, forward_kinematics
-from screwcal.model import SerialModel
-from screwcal.se3 import Array
+from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM
+from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array
 
 DEFAULT_HOLES_MM = np.array(DEFAULT_HOLES_IN_FLANGE_MM)  # P1, P2, P3 in tool0 (thesis 4.2)
 

@@ -1,12 +1,30 @@
-"""Shared fixtures: seeded generators and random serial models for property tests."""
+"""Shared fixtures: seeded generators, random serial models for property tests, and where the
+real laser-tracker data set is (it is not part of the repository)."""
 
 from __future__ import annotations
+
+import os
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from screwcal.model import SerialModel
-from screwcal.se3 import exp_twist
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import exp_twist
+from screwcal.studies.tracker_dataset import DATA_DIR_ENV, DATASET_NAME, WHERE_TO_GET
+
+
+def _tracker_data() -> Path:
+    """$SCREWCAL_DATA_DIR, else the project's shared folder when a checkout has it beside."""
+    root = Path(os.environ.get(DATA_DIR_ENV) or
+                Path(__file__).resolve().parents[2] / "shared" / "datasets")
+    return root if root.name == DATASET_NAME else root / DATASET_NAME
+
+
+TRACKER_DATA = _tracker_data()
+needs_tracker_data = pytest.mark.skipif(
+    not (TRACKER_DATA / "measured_joints.txt").is_file(),
+    reason=f"real data set not found at {TRACKER_DATA}: {WHERE_TO_GET}")
 
 
 def random_model(rng: np.random.Generator, joint_types: str = "RRRRRR",

@@ -1,4 +1,5 @@
-"""Project-level checks: lint, and the one direction of dependence between packages."""
+"""Project-level checks: lint, the one direction of dependence between packages, and the layers
+inside `screwcal` (each subpackage's `__init__` says what it may import)."""
 
 import ast
 import shutil
@@ -18,25 +19,70 @@ ALLOWED = {
 }
 
 
-def _imports(path: Path) -> set[str]:
+# Inside screwcal: what each layer may import of ours (its __init__ docstring says the same).
+# The root modules (errors, tables, _lazy) are the ground floor; commands/ is the top and the
+# only module of screwcal that may import service or simulators.
+_BASE = {"screwcal", "screwcal.errors", "screwcal.tables", "screwcal._lazy"}
+LAYERS = {
+    "kinematics": {*_BASE - {"screwcal.tables"}, "screwcal.kinematics"},
+    "calibration": {*_BASE, "screwcal.kinematics", "screwcal.calibration"},
+    "performance": {*_BASE, "screwcal.kinematics", "screwcal.performance"},
+    "studies": {*_BASE, "screwcal.kinematics", "screwcal.calibration", "screwcal.performance",
+                "screwcal.studies"},
+}
+
+
+def _imports(path: Path, depth: int = 1) -> set[str]:
+    """The modules `path` imports, cut to their first `depth` dotted parts."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
-    out = set()
+    names = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            out |= {a.name.split(".")[0] for a in node.names}
+            names |= {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            out.add(node.module.split(".")[0])
-    return out
+            names.add(node.module)
+    return {".".join(n.split(".")[:depth]) for n in names}
 
 
 @pytest.mark.parametrize("package", sorted(ALLOWED))
 def test_packages_depend_in_one_direction(package):
     ours = set(ALLOWED)
     for path in (ROOT / package).rglob("*.py"):
-        if path.name == "cli.py" and package == "screwcal":
+        if path.is_relative_to(ROOT / "screwcal" / "commands") or path.name == "__main__.py":
             continue  # the console-script face dispatches to every package
         crossing = (_imports(path) & ours) - ALLOWED[package]
         assert not crossing, f"{path.relative_to(ROOT)} imports {sorted(crossing)}"
+
+
+@pytest.mark.parametrize("layer", sorted(LAYERS))
+def test_screwcal_layers_import_only_below(layer):
+    for path in (ROOT / "screwcal" / layer).rglob("*.py"):
+        ours = {n for n in _imports(path, 2) if n.split(".")[0] in ALLOWED}
+        crossing = ours - LAYERS[layer]
+        assert not crossing, f"{path.relative_to(ROOT)} imports {sorted(crossing)}"
+
+
+def test_screwcal_ground_floor_imports_only_kinematics_basics():
+    for name in ("errors.py", "tables.py", "_lazy.py", "__init__.py"):
+        ours = {n for n in _imports(ROOT / "screwcal" / name, 3) if n.startswith("screwcal")}
+        assert ours <= {"screwcal.errors", "screwcal.kinematics.se3", "screwcal._lazy"}, name
+
+
+def test_subpackage_public_names_resolve():
+    """Every name a layer's __init__ exports is importable from the layer."""
+    import importlib
+
+    for layer in LAYERS:
+        module = importlib.import_module(f"screwcal.{layer}")
+        for name in module.__all__:
+            assert getattr(module, name) is not None, f"screwcal.{layer}.{name}"
+
+
+def test_study_names_for_help_match_the_studies():
+    from screwcal.commands.study import STUDY_NAMES
+    from screwcal.studies.study import STUDIES
+
+    assert STUDY_NAMES == tuple(STUDIES)
 
 
 def test_ruff_is_clean():

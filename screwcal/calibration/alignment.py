@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from screwcal.kinematics import flange_kinematics
-from screwcal.model import SerialModel
-from screwcal.se3 import Array, transform_from_rotation_translation
+from screwcal.kinematics.forward import flange_kinematics
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array, transform_from_rotation_translation
 
 
 def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: Array | None = None,

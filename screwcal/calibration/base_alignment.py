@@ -20,8 +20,8 @@ from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 
 from screwcal.errors import ScrewcalError
-from screwcal.model import SerialModel
-from screwcal.se3 import Array, invert_transform
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array, invert_transform
 
 
 class AlignmentError(ScrewcalError):

@@ -19,12 +19,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from screwcal.calibration.errors_model import Param
 from screwcal.errors import ScrewcalError
-from screwcal.errors_model import Param
-from screwcal.ik import numerical_ik
-from screwcal.kinematics import flange_kinematics
-from screwcal.model import SerialModel
-from screwcal.se3 import Array
+from screwcal.kinematics.forward import flange_kinematics
+from screwcal.kinematics.ik import numerical_ik
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array
 
 PLAUSIBLE_OFFSET_DEG = 5.0
 MAX_STD_ERROR_DEG = 0.1

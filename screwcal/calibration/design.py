@@ -10,10 +10,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from screwcal.errors_model import ErrorModel, candidate_params
-from screwcal.kinematics import point_jacobian
-from screwcal.model import SerialModel
-from screwcal.se3 import Array
+from screwcal.calibration.errors_model import ErrorModel, candidate_params
+from screwcal.kinematics.forward import point_jacobian
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array
 
 
 @dataclass(frozen=True)

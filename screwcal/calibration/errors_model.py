@@ -34,17 +34,17 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
+from screwcal.calibration.virtual_joints import parse_name
 from screwcal.errors import ModelError
-from screwcal.kinematics import _chain, _check_q, _to_homogeneous
-from screwcal.model import SerialModel
-from screwcal.se3 import (
+from screwcal.kinematics.forward import _chain, _check_q, _to_homogeneous
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import (
     Array,
     adjoint,
     cross,
     rotation_from_rotvec,
     skew,
 )
-from screwcal.virtual_joints import parse_name
 
 ModelKind = Literal["frames", "joints", "thesis", "full"]
 THESIS_LINK_OFFSETS = ("J1pz", "J1px", "J2pz", "J4px")

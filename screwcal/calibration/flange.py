@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.errors import ScrewcalError
-from screwcal.se3 import Array, invert_transform
+from screwcal.kinematics.se3 import Array, invert_transform
 
 # A measuring flange's three holes in the robot flange (tool0) frame, mm: the default layout of
 # the emulator and of a robot registered without its own bench data.

@@ -10,9 +10,9 @@ from typing import Literal
 import numpy as np
 import scipy.linalg
 
-from screwcal.errors_model import ErrorModel
-from screwcal.kinematics import point_jacobian
-from screwcal.se3 import Array
+from screwcal.calibration.errors_model import ErrorModel
+from screwcal.kinematics.forward import point_jacobian
+from screwcal.kinematics.se3 import Array
 
 Residual = Literal["pose", "position", "distance"]
 

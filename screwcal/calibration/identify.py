@@ -32,10 +32,15 @@ import scipy.linalg
 from scipy.optimize import differential_evolution, least_squares
 from scipy.spatial.transform import Rotation
 
-from screwcal.alignment import align_frames
-from screwcal.errors import ScrewcalError
-from screwcal.errors_model import ErrorModel, ModelKind, Param, candidate_params, forward_batch
-from screwcal.identifiability import (
+from screwcal.calibration.alignment import align_frames
+from screwcal.calibration.errors_model import (
+    ErrorModel,
+    ModelKind,
+    Param,
+    candidate_params,
+    forward_batch,
+)
+from screwcal.calibration.identifiability import (
     Residual,
     explain_removed,
     pairs,
@@ -43,10 +48,11 @@ from screwcal.identifiability import (
     structural_rank,
     svd,
 )
-from screwcal.kinematics import forward_kinematics, point_jacobian, spatial_jacobian
-from screwcal.measurements import MeasurementSet
-from screwcal.model import SerialModel
-from screwcal.se3 import Array, rotvec_from_rotation
+from screwcal.calibration.measurements import MeasurementSet
+from screwcal.errors import ScrewcalError
+from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array, rotvec_from_rotation
 
 Frames = Literal["unknown", "known", "base"]  # base: only the measuring frame is unknown
 class IdentificationError(ScrewcalError):

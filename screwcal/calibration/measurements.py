@@ -14,9 +14,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.errors import DataFileError, ScrewcalError
-from screwcal.model import SerialModel
-from screwcal.pose import rotation_from_euler_zyx_deg
-from screwcal.se3 import Array
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.pose import rotation_from_euler_zyx_deg
+from screwcal.kinematics.se3 import Array
 from screwcal.tables import joint_columns, read_numeric_csv
 
 

@@ -17,9 +17,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.errors import ScrewcalError
-from screwcal.kinematics import flange_kinematics
-from screwcal.model import SerialModel
-from screwcal.se3 import Array
+from screwcal.kinematics.forward import flange_kinematics
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array
 
 # Table 3 (planar 3R, degrees): each set of four configurations.
 PLANAR_SETS_DEG = {

@@ -16,8 +16,8 @@ from dataclasses import replace
 import numpy as np
 
 from screwcal.errors import ModelError
-from screwcal.model import SerialModel
-from screwcal.se3 import transform_from_rotation_translation
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import transform_from_rotation_translation
 
 # Table 11: the errors imposed on the simulated IRB 1600 (degrees for r, mm for p).
 THESIS_TABLE11: dict[str, float] = {

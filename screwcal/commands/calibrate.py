@@ -19,14 +19,14 @@ from pathlib import Path
 
 import numpy as np
 
-from screwcal import base_alignment
-from screwcal.base_alignment import base_from_sweeps, fit_circle, read_sweeps_csv
-from screwcal.correction import CorrectionRefusedError, compensate, joint_correction
+from screwcal.calibration import base_alignment
+from screwcal.calibration.base_alignment import base_from_sweeps, fit_circle, read_sweeps_csv
+from screwcal.calibration.correction import CorrectionRefusedError, compensate, joint_correction
+from screwcal.calibration.identify import CalibrationResult, NoiseModel, identify
+from screwcal.calibration.measurements import read_measurements_csv
 from screwcal.errors import DataFileError, JointLimitError, UnreachableError
-from screwcal.identify import CalibrationResult, NoiseModel, identify
-from screwcal.measurements import read_measurements_csv
-from screwcal.modelfile import PoseIn, load_model, model_file_from_model, resolve_model
-from screwcal.pose import pose_from_transform, transform_from_pose
+from screwcal.kinematics.modelfile import PoseIn, load_model, model_file_from_model, resolve_model
+from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
 from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
 RESULT_FORMAT = "screwcal-calibration"

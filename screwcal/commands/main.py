@@ -10,15 +10,8 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from screwcal import (
-    __version__,
-    calibrate,
-    evaluate,
-    predict,
-    simulated_calibration,
-    study,
-    testcube,
-)
+from screwcal import __version__
+from screwcal.commands import calibrate, evaluate, predict, simulate, study, testcube
 from screwcal.errors import ScrewcalError
 from service import cli as service_cli
 from service import demo as service_demo
@@ -32,7 +25,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Screw-theory calibration of 6-axis industrial robots (mm and degrees).")
     parser.add_argument("--version", action="version", version=f"screwcal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for module in (simulated_calibration, calibrate, predict, evaluate, testcube, study,
+    for module in (simulate, calibrate, predict, evaluate, testcube, study,
                    service_demo,
                    simulators_cli, service_cli):
         module.add_parser(sub)
@@ -50,7 +43,3 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"screwcal {args.command}: interrupted", file=sys.stderr)
         return 130
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -13,11 +13,11 @@ import sys
 
 import numpy as np
 
-from screwcal.kinematics import forward_kinematics
-from screwcal.model import SerialModel
-from screwcal.modelfile import resolve_model
-from screwcal.pose import pose_from_transform
-from screwcal.se3 import Array
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.modelfile import resolve_model
+from screwcal.kinematics.pose import pose_from_transform
+from screwcal.kinematics.se3 import Array
 from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
 OUTPUT_COLUMNS = ("id", "x", "y", "z", "rx", "ry", "rz")

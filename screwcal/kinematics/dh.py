@@ -25,8 +25,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.errors import ModelError
-from screwcal.model import PRISMATIC, SerialModel
-from screwcal.se3 import Array, invert_transform, transform_from_rotation_translation
+from screwcal.kinematics.model import PRISMATIC, SerialModel
+from screwcal.kinematics.se3 import Array, invert_transform, transform_from_rotation_translation
 
 Convention = Literal["dh", "mdh"]
 _PARALLEL_TOL = 1e-9

@@ -16,8 +16,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.model import SerialModel
-from screwcal.se3 import Array, adjoint, cross, exp_twist, skew
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array, adjoint, cross, exp_twist, skew
 
 
 def _joint_generators(model: SerialModel) -> tuple[Array, Array]:

@@ -21,9 +21,9 @@ from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from screwcal.errors import ModelError, UnreachableError
-from screwcal.kinematics import forward_kinematics, point_jacobian, spatial_jacobian
-from screwcal.model import SerialModel
-from screwcal.se3 import Array, invert_transform
+from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array, invert_transform
 
 BRANCHES = tuple((s, e, w) for s in ("front", "back") for e in ("up", "down")
                  for w in ("noflip", "flip"))

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.errors import JointLimitError, ModelError
-from screwcal.se3 import Array
+from screwcal.kinematics.se3 import Array
 
 REVOLUTE = "R"
 PRISMATIC = "P"

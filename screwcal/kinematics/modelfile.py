@@ -22,10 +22,10 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator
 
-from screwcal.dh import DHRow, DHTable, dh_from_model, model_from_dh
 from screwcal.errors import ModelError
-from screwcal.model import SerialModel
-from screwcal.pose import pose_from_transform, transform_from_pose
+from screwcal.kinematics.dh import DHRow, DHTable, dh_from_model, model_from_dh
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
 
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
@@ -206,7 +206,7 @@ def save_model(model: SerialModel, path: str | Path,
 
 def resolve_model(name_or_path: str) -> SerialModel:
     """A built-in model name (`irb1600`, `irb120`) or the path of a model / result file."""
-    from screwcal.robots import BUILTIN_MODELS, builtin_model
+    from screwcal.kinematics.robots import BUILTIN_MODELS, builtin_model
 
     if name_or_path in BUILTIN_MODELS:
         return builtin_model(name_or_path)

@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
-from screwcal.se3 import Array, transform_from_rotation_translation
+from screwcal.kinematics.se3 import Array, transform_from_rotation_translation
 
 
 def rotation_from_euler_zyx_deg(rxyz_deg: ArrayLike) -> Array:

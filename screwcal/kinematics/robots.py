@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from screwcal.errors import ModelError
-from screwcal.model import SerialModel
-from screwcal.pose import transform_from_pose
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.pose import transform_from_pose
 
 _X, _Y, _Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 

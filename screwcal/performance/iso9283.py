@@ -35,8 +35,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.errors import ScrewcalError
-from screwcal.pose import euler_zyx_deg_near, rotation_from_euler_zyx_deg
-from screwcal.se3 import Array
+from screwcal.kinematics.pose import euler_zyx_deg_near, rotation_from_euler_zyx_deg
+from screwcal.kinematics.se3 import Array
 
 
 @dataclass(frozen=True)

@@ -19,11 +19,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.iso9283 import PoseMetrics
-from screwcal.kinematics import joint_positions
-from screwcal.model import SerialModel
-from screwcal.straightness import Straightness
-from screwcal.testcube import ArmSphere, TestCube
+from screwcal.kinematics.forward import joint_positions
+from screwcal.kinematics.model import SerialModel
+from screwcal.performance.iso9283 import PoseMetrics
+from screwcal.performance.straightness import Straightness
+from screwcal.performance.testcube import ArmSphere, TestCube
 
 _COLOURS = {"before": "#d95f02", "after": "#1b9e77"}
 

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.errors import ScrewcalError
-from screwcal.se3 import Array
+from screwcal.kinematics.se3 import Array
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """Statistical efficiency of the identification: a Monte Carlo of simulated calibrations against
 the Cramer-Rao bound.
 
-    python -m screwcal.montecarlo [--samples 200] [--seed 0]
+    python -m screwcal.studies.montecarlo [--samples 200] [--seed 0]
 
 The thesis's set-up (3.2, Table 11): the IRB 1600 with Table 11's errors, 40 poses, full-pose
 measurements with 0.013 mm noise, random joint error uniform +-0.05 deg, frames known (aligned).
@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from screwcal.identify import NoiseModel, identify
-from screwcal.posesets import random_configurations
-from screwcal.robots import irb1600
-from screwcal.simulate import orientation_noise_rad, simulate_measurements
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.calibration.identify import NoiseModel, identify
+from screwcal.calibration.posesets import random_configurations
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.robots import irb1600
+from screwcal.studies.simulate import orientation_noise_rad, simulate_measurements
 
 # Thesis Table 11, "Residuo LM": |estimated - imposed| of its one LM calibration.
 THESIS_RESIDUAL_LM = {"J1rz": 0.028, "J1pz": 0.161, "J1px": 0.184, "J2ry": 0.006,

@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from screwcal.kinematics import forward_kinematics
-from screwcal.measurements import MeasurementSet
-from screwcal.model import SerialModel
-from screwcal.se3 import Array
+from screwcal.calibration.measurements import MeasurementSet
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array
 
 NOISE_MM = 0.013
 JOINT_NOISE_DEG = 0.05

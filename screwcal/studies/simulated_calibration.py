@@ -1,28 +1,21 @@
-"""`screwcal simulate`: a simulated offline calibration of an IRB 1600, before/after table.
-
-A "true" robot is the nominal IRB 1600 with the thesis's Table 11 errors (joint and link offsets,
-plus, with --seed, small random tilts and shifts of every axis). It is "measured" at 40 random
-poses (full flange pose, 0.013 mm position noise, random joint error uniform +-0.05 deg, as
-Table 2), the screw model is fitted, and both models are compared on 200 unseen poses.
-"""
+"""A simulated offline calibration of an IRB 1600 (the `screwcal simulate` command's engine)."""
 
 from __future__ import annotations
 
-import argparse
 import time
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from screwcal.identify import CalibrationResult, identify
-from screwcal.kinematics import forward_kinematics
-from screwcal.model import SerialModel
-from screwcal.pose import rotation_angle_deg
-from screwcal.posesets import random_configurations
-from screwcal.robots import irb1600
-from screwcal.se3 import Array, exp_twist
-from screwcal.simulate import JOINT_NOISE_DEG, NOISE_MM, simulate_measurements
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.calibration.identify import CalibrationResult, identify
+from screwcal.calibration.posesets import random_configurations
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.pose import rotation_angle_deg
+from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import Array, exp_twist
+from screwcal.studies.simulate import JOINT_NOISE_DEG, NOISE_MM, simulate_measurements
 
 
 @dataclass(frozen=True)
@@ -107,21 +100,3 @@ def format_report(r: DemoResult, n_poses: int, n_validation: int) -> str:
               "   the validation errors on unseen poses are the measure of the calibration)",
               f"  done in {r.seconds:.2f} s"]
     return "\n".join(lines)
-
-
-def run(args: argparse.Namespace) -> int:
-    result = run_demo(args.seed, args.poses, args.validation)
-    print(format_report(result, args.poses, args.validation))
-    return 0 if result.fit.converged else 1
-
-
-
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("simulate", help="a simulated offline calibration, before/after",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--seed", type=int, default=None,
-                   help="also impose random axis errors drawn from this seed")
-    p.add_argument("--poses", type=int, default=40, help="calibration poses (default 40)")
-    p.add_argument("--validation", type=int, default=200,
-                   help="unseen validation poses (default 200)")
-    p.set_defaults(func=run)

@@ -9,7 +9,6 @@ the error on 200 noise-free held-out configurations (`val_mm`), which is what a 
 
 from __future__ import annotations
 
-import argparse
 import csv
 import time
 from collections.abc import Callable
@@ -19,16 +18,16 @@ from pathlib import Path
 
 import numpy as np
 
-from screwcal.design import d_optimal, log_det
-from screwcal.identify import NoiseModel, identify
-from screwcal.kinematics import forward_kinematics
-from screwcal.model import SerialModel
-from screwcal.pose import transform_from_pose
-from screwcal.posesets import PLANAR_SETS_DEG, cube_set, quadrant_variants, random_set
-from screwcal.robots import irb1600
-from screwcal.se3 import Array, rotvec_from_rotation
-from screwcal.simulate import orientation_noise_rad, simulate_measurements
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.calibration.design import d_optimal, log_det
+from screwcal.calibration.identify import NoiseModel, identify
+from screwcal.calibration.posesets import PLANAR_SETS_DEG, cube_set, quadrant_variants, random_set
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.pose import transform_from_pose
+from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import Array, rotvec_from_rotation
+from screwcal.studies.simulate import orientation_noise_rad, simulate_measurements
 
 Row = dict[str, float | str]
 FLOOR_NOTE = (" Why ours is lower after correction: we compare the corrected model with the true"
@@ -336,7 +335,7 @@ def summarise(name: str, rows: list[Row]) -> str:
 def plot(name: str, rows: list[Row], path: Path) -> None:
     import matplotlib.pyplot as plt
 
-    from screwcal import plots  # noqa: F401  (matplotlib's Agg backend, set there)
+    from screwcal.performance import plots  # noqa: F401  (matplotlib's Agg backend, set there)
 
     study = STUDIES[name]
     cases = list(dict.fromkeys(r[study.group] for r in rows))
@@ -365,26 +364,3 @@ def run_study(name: str, seed: int, samples: int, workers: int, out: Path,
     (out / f"{name}.md").write_text(text, encoding="utf-8")
     plot(name, rows, out / f"{name}.png")
     return text
-
-
-def run(args: argparse.Namespace) -> int:
-    names = list(STUDIES) if args.name == "all" else [args.name]
-    start = time.perf_counter()
-    for name in names:
-        print(run_study(name, args.seed, args.samples, args.workers, Path(args.out),
-                        args.scheduler))
-    print(f"{len(names)} studies in {time.perf_counter() - start:.1f} s -> {args.out}")
-    return 0
-
-
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("study", help="simulated calibration studies (thesis Chapter 3)",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("name", choices=[*STUDIES, "all"])
-    p.add_argument("--seed", type=int, default=2018)
-    p.add_argument("--samples", type=int, default=20)
-    p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--out", default="studies")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="run the samples on a Dask distributed cluster (tcp://host:port)")
-    p.set_defaults(func=run)

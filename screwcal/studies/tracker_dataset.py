@@ -1,4 +1,10 @@
-"""Importer for the laser-tracker data set format of ../shared/datasets/irb120-laser-tracker/.
+"""Importer for the IRB 120 laser-tracker data set (`irb120-laser-tracker/`).
+
+The data set is not shipped with the package: it is real data of a real robot, public in the
+repository icelinker/Robot-Calibration-LaserTracker (commit 188abd2, folder
+`4-DataProcess/Input/`, plus `commanded_joints.txt` from `3-Full Measurement/Input/
+generated_joints.txt`). `locate_dataset` finds it from an explicit folder or the
+`SCREWCAL_DATA_DIR` environment variable, and says where to get it when it is missing.
 
 Files of 1000 whitespace-separated rows: `measured_joints.txt` (6 joint angles, deg), three tool
 reflectors `measured_SMR_{1,2,3}.txt` and three base reflectors `measured_base_{1,2,3}.txt`
@@ -20,18 +26,42 @@ and identified with the tracker frame.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from screwcal.calibration.flange import frame_from_holes, hole_distances
+from screwcal.calibration.measurements import MeasurementSet
 from screwcal.errors import DataFileError
-from screwcal.flange import frame_from_holes, hole_distances
-from screwcal.measurements import MeasurementSet
-from screwcal.se3 import Array
+from screwcal.kinematics.se3 import Array
 
+DATASET_NAME = "irb120-laser-tracker"
+DATA_DIR_ENV = "SCREWCAL_DATA_DIR"
+WHERE_TO_GET = (f"the {DATASET_NAME} data set is public in the repository "
+                "icelinker/Robot-Calibration-LaserTracker (commit 188abd2, folder "
+                f"4-DataProcess/Input/); put its files in a folder named {DATASET_NAME} and pass "
+                f"--data DIR or set {DATA_DIR_ENV}=DIR (DIR: that folder or the one holding it)")
 DRIFT_TOL_MM = 0.25  # the good rows stay within 0.07 mm
 RIGIDITY_TOL_MM = 0.1  # the reflector triangle's sides vary by 0.02 mm in good rows
+
+
+class DatasetMissingError(DataFileError):
+    """The real data set is not where it was looked for; the message says where to get it."""
+
+
+def locate_dataset(data_dir: str | Path | None = None) -> Path:
+    """The data set's folder: `data_dir` (the folder itself or the one holding it), else
+    $SCREWCAL_DATA_DIR; DatasetMissingError naming where it looked and where to get it."""
+    given = data_dir if data_dir is not None else os.environ.get(DATA_DIR_ENV)
+    if not given:
+        raise DatasetMissingError(f"${DATA_DIR_ENV}", f"not set and no --data given: "
+                                  f"{WHERE_TO_GET}")
+    for folder in (Path(given), Path(given) / DATASET_NAME):
+        if (folder / "measured_joints.txt").is_file():
+            return folder
+    raise DatasetMissingError(str(given), f"no {DATASET_NAME} data set here: {WHERE_TO_GET}")
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """Calibration of the real IRB 120 laser-tracker data: calibrate on a random half of the poses,
 validate on the other half, and look at what the residual is made of.
 
-    python -m screwcal.tracker_study [--data ../shared/datasets/irb120-laser-tracker] [--seed 0]
+    python -m screwcal.studies.tracker_study [--data DIR] [--seed 0]
 
 Models compared: the nominal robot with only the tracker frame and the reflector's offset fitted
 ("frames", the robot's uncalibrated accuracy), the thesis's virtual joints, and the full model.
@@ -12,19 +12,22 @@ The tracker's noise is taken as 0.05 mm (a laser tracker at 2.5 m); the joint re
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
-from screwcal.identify import CalibrationResult, NoiseModel, identify
-from screwcal.kinematics import forward_kinematics
-from screwcal.measurements import MeasurementSet
-from screwcal.robots import irb120
-from screwcal.se3 import Array
-from screwcal.tracker_dataset import TrackerData, read_tracker_dataset
+from screwcal.calibration.identify import CalibrationResult, NoiseModel, identify
+from screwcal.calibration.measurements import MeasurementSet
+from screwcal.errors import DataFileError
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.robots import irb120
+from screwcal.kinematics.se3 import Array
+from screwcal.studies.tracker_dataset import (
+    DATA_DIR_ENV,
+    TrackerData,
+    locate_dataset,
+    read_tracker_dataset,
+)
 
-DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "datasets" / \
-    "irb120-laser-tracker"
 TRACKER_NOISE = NoiseModel(position_mm=0.05, joint_deg=0.0)
 MODELS = ("frames", "thesis", "full")
 
@@ -96,12 +99,17 @@ def format_study(s: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--data", default=str(DEFAULT_DATA))
+    parser.add_argument("--data", default=None, metavar="DIR",
+                        help=f"the irb120-laser-tracker folder (default: ${DATA_DIR_ENV})")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--position-only", action="store_true",
                         help="use reflector 1's position only, not the three-reflector frame")
     args = parser.parse_args()
-    dataset = read_tracker_dataset(args.data)
+    try:
+        folder = locate_dataset(args.data)
+    except DataFileError as err:
+        parser.exit(2, f"error: {err}\n")
+    dataset = read_tracker_dataset(folder)
     print(dataset.report())
     print(format_study(run_study(dataset, args.seed, not args.position_only)))
 

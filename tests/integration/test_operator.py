@@ -4,7 +4,7 @@ one-command demo."""
 import asyncio
 import re
 
-from screwcal.cli import main
+from screwcal.commands.main import main
 from service.cli import Operator, result_table
 from service.demo import service
 from service.settings import ServiceSettings

@@ -17,7 +17,7 @@ AUTH = {"Authorization": f"Bearer {TOKEN}"}
 
 
 def start_service(db):
-    proc = subprocess.Popen([sys.executable, "-m", "screwcal.cli", "serve", "--db", str(db),
+    proc = subprocess.Popen([sys.executable, "-m", "screwcal", "serve", "--db", str(db),
                              "--port", "0", "--token", TOKEN], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     line = proc.stdout.readline()

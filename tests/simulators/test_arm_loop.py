@@ -7,9 +7,9 @@ import pytest
 
 from protocol.arm import ArmReader
 from protocol.errors import ArmLineError
-from screwcal.flange import frame_from_holes
-from screwcal.kinematics import forward_kinematics
-from screwcal.se3 import exp_twist
+from screwcal.calibration.flange import frame_from_holes
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.se3 import exp_twist
 from simulators.arm import ArmEmulator, WorldFileSource, WorldFileWriter
 from tests.simulators.conftest import targets
 

@@ -13,7 +13,7 @@ import pytest
 from protocol.arm import ArmReader
 from protocol.client import ControllerClient
 
-EXE = [sys.executable, "-m", "screwcal.cli", "emulator"]
+EXE = [sys.executable, "-m", "screwcal", "emulator"]
 
 
 def start(args):

@@ -8,9 +8,9 @@ import pytest
 from protocol.client import ControllerClient, Timeouts
 from protocol.codec import FRAME_LEN, Stat, encode, frame
 from protocol.errors import ControllerError
-from screwcal.kinematics import flange_kinematics
-from screwcal.pose import pose_from_transform
-from screwcal.robots import irb1600
+from screwcal.kinematics.forward import flange_kinematics
+from screwcal.kinematics.pose import pose_from_transform
+from screwcal.kinematics.robots import irb1600
 from tests.simulators.conftest import targets
 
 

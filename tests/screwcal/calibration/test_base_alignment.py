@@ -3,15 +3,15 @@ import json
 import numpy as np
 import pytest
 
-from screwcal.base_alignment import AlignmentError, base_from_sweeps, fit_circle
-from screwcal.cli import main
-from screwcal.identify import identify
-from screwcal.kinematics import forward_kinematics
-from screwcal.pose import transform_from_pose
-from screwcal.posesets import random_configurations
-from screwcal.robots import irb1600
-from screwcal.se3 import exp_twist, invert_transform
-from screwcal.simulate import simulate_measurements
+from screwcal.calibration.base_alignment import AlignmentError, base_from_sweeps, fit_circle
+from screwcal.calibration.identify import identify
+from screwcal.calibration.posesets import random_configurations
+from screwcal.commands.main import main
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.pose import transform_from_pose
+from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import exp_twist, invert_transform
+from screwcal.studies.simulate import simulate_measurements
 
 BASE = exp_twist([0.1, -0.2, 2.0, 1500, -400, -250])
 TOOL = exp_twist([0.0, 0.0, 0.0, 20, 30, 60])

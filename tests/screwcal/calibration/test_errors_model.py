@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
-from screwcal.errors_model import ErrorModel, candidate_params
-from screwcal.kinematics import forward_kinematics
-from screwcal.robots import irb1600
-from screwcal.se3 import exp_twist, twist_from_transform_difference
+from screwcal.calibration.errors_model import ErrorModel, candidate_params
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import exp_twist, twist_from_transform_difference
 from tests.conftest import random_q
 
 

@@ -3,15 +3,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from screwcal.correction import CorrectionRefusedError, joint_correction
-from screwcal.errors_model import Param
-from screwcal.identify import IdentificationError, NoiseModel, identify
-from screwcal.kinematics import forward_kinematics
-from screwcal.posesets import random_configurations
-from screwcal.robots import irb1600
-from screwcal.se3 import exp_twist
-from screwcal.simulate import simulate_measurements
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.calibration.correction import CorrectionRefusedError, joint_correction
+from screwcal.calibration.errors_model import Param
+from screwcal.calibration.identify import IdentificationError, NoiseModel, identify
+from screwcal.calibration.posesets import random_configurations
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import exp_twist
+from screwcal.studies.simulate import simulate_measurements
 
 BASE = exp_twist([0.2, -0.1, 2.5, 1400, -600, -300])  # the measuring system's frame
 TOOL = exp_twist([0.0, 0.0, 0.0, 25, -40, 90])  # the measured point on the flange
@@ -132,7 +132,7 @@ def test_correction_is_minus_the_offsets_and_refuses_the_implausible():
 def test_lm_is_statistically_efficient():
     """Issue 3: >= 200 simulated calibrations, the RMS error of every joint offset within 1.2x
     of its Cramer-Rao bound from the same Jacobian and noise model."""
-    from screwcal.montecarlo import efficiency_study
+    from screwcal.studies.montecarlo import efficiency_study
 
     rows = efficiency_study(samples=200, seed=0)
     offsets = [r for r in rows if r.unit == "deg"]

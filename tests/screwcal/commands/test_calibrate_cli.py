@@ -5,13 +5,13 @@ import re
 import numpy as np
 import pytest
 
-from screwcal.cli import main
-from screwcal.kinematics import forward_kinematics
-from screwcal.pose import euler_zyx_deg_from_rotation, pose_from_transform
-from screwcal.posesets import random_configurations
-from screwcal.robots import irb1600
-from screwcal.simulate import simulate_measurements
-from tests.screwcal.test_identify import BASE, TOOL, full_truth
+from screwcal.calibration.posesets import random_configurations
+from screwcal.commands.main import main
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, pose_from_transform
+from screwcal.kinematics.robots import irb1600
+from screwcal.studies.simulate import simulate_measurements
+from tests.screwcal.calibration.test_identify import BASE, TOOL, full_truth
 
 
 def _write_measurements(path, data, full_pose=True):
@@ -69,7 +69,7 @@ def test_calibrate_then_predict_in_the_measuring_frame(tmp_path, rng, truth):
 
 
 def test_thesis_model_with_known_frames_and_de(tmp_path, rng):
-    from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+    from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
     truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
     data = simulate_measurements(truth, random_configurations(40, rng), rng)
     csv_path = _write_measurements(tmp_path / "m.csv", data)

@@ -6,10 +6,10 @@ import sys
 import numpy as np
 import pytest
 
-from screwcal.cli import main
-from screwcal.kinematics import forward_kinematics
-from screwcal.modelfile import save_model
-from screwcal.pose import pose_from_transform
+from screwcal.commands.main import main
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.modelfile import save_model
+from screwcal.kinematics.pose import pose_from_transform
 from tests.conftest import random_model, random_q
 
 
@@ -98,7 +98,7 @@ COMMANDS = ("demo", "simulate", "predict", "calibrate", "compensate", "evaluate"
 
 
 def test_the_console_script_runs():
-    exe = [sys.executable, "-m", "screwcal.cli"]
+    exe = [sys.executable, "-m", "screwcal"]
     top = subprocess.run([*exe, "--help"], capture_output=True, text=True, check=True).stdout
     assert all(command in top for command in COMMANDS)
 

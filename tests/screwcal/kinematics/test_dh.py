@@ -1,9 +1,15 @@
 import numpy as np
 import pytest
 
-from screwcal.dh import DHRow, DHTable, dh_forward_kinematics, dh_from_model, model_from_dh
-from screwcal.kinematics import flange_kinematics
-from screwcal.robots import irb120, irb1600
+from screwcal.kinematics.dh import (
+    DHRow,
+    DHTable,
+    dh_forward_kinematics,
+    dh_from_model,
+    model_from_dh,
+)
+from screwcal.kinematics.forward import flange_kinematics
+from screwcal.kinematics.robots import irb120, irb1600
 from tests.conftest import random_model, random_q
 
 

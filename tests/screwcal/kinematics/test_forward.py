@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from screwcal.kinematics import (
+from screwcal.kinematics.forward import (
     ParameterLayout,
     flange_kinematics,
     forward_kinematics,
@@ -10,9 +10,9 @@ from screwcal.kinematics import (
     point_jacobian,
     spatial_jacobian,
 )
-from screwcal.pose import pose_from_transform, quaternion_wxyz_from_rotation
-from screwcal.robots import irb120, irb1600
-from screwcal.se3 import twist_from_transform_difference
+from screwcal.kinematics.pose import pose_from_transform, quaternion_wxyz_from_rotation
+from screwcal.kinematics.robots import irb120, irb1600
+from screwcal.kinematics.se3 import twist_from_transform_difference
 from tests.conftest import random_model, random_q
 
 # Thesis Figure 37 (section 4.4): nominal joint space -> nominal task space, configurations 37-40.

@@ -3,12 +3,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.errors import ModelError, UnreachableError
-from screwcal.ik import BRANCHES, closed_form_ik, numerical_ik
-from screwcal.kinematics import forward_kinematics
-from screwcal.robots import irb120, irb1600
-from screwcal.se3 import exp_twist
-from screwcal.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.ik import BRANCHES, closed_form_ik, numerical_ik
+from screwcal.kinematics.robots import irb120, irb1600
+from screwcal.kinematics.se3 import exp_twist
 from tests.conftest import random_q
 
 

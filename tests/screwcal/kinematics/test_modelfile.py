@@ -4,9 +4,14 @@ import numpy as np
 import pytest
 
 from screwcal.errors import ModelError
-from screwcal.kinematics import forward_kinematics
-from screwcal.modelfile import load_model, model_file_from_model, resolve_model, save_model
-from screwcal.robots import irb1600
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.modelfile import (
+    load_model,
+    model_file_from_model,
+    resolve_model,
+    save_model,
+)
+from screwcal.kinematics.robots import irb1600
 from tests.conftest import random_model, random_q
 
 

@@ -2,7 +2,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from screwcal.pose import (
+from screwcal.kinematics.pose import (
     pose_from_transform,
     quaternion_wxyz_from_rotation,
     rotation_from_euler_zyx_deg,
@@ -59,7 +59,7 @@ def test_batches_keep_their_shape():
 def test_rodrigues_exp_and_log_match_scipy(rng):
     from scipy.spatial.transform import Rotation
 
-    from screwcal.se3 import rotation_from_rotvec, rotvec_from_rotation
+    from screwcal.kinematics.se3 import rotation_from_rotvec, rotvec_from_rotation
 
     phi = np.concatenate([rng.normal(0, 1, (200, 3)), rng.normal(0, 1e-8, (5, 3)),
                           np.pi * np.array([[1.0, 0, 0], [0, 0.6, 0.8]]) * 0.999])
@@ -70,7 +70,7 @@ def test_rodrigues_exp_and_log_match_scipy(rng):
 
 
 def test_euler_triple_nearest_the_reference():
-    from screwcal.pose import euler_zyx_deg_near
+    from screwcal.kinematics.pose import euler_zyx_deg_near
 
     R = rotation_from_euler_zyx_deg([179.9, 0.2, -179.5])  # near flange-down (180, 0, 180)
     np.testing.assert_allclose(euler_zyx_deg_near(R, [180, 0, 180]), [179.9, 0.2, 180.5],

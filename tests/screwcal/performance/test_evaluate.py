@@ -5,8 +5,8 @@ import re
 import numpy as np
 import pytest
 
-from screwcal.cli import main
-from screwcal.evaluate import read_performance_csv
+from screwcal.commands.main import main
+from screwcal.performance.evaluate import read_performance_csv
 
 HEADER = ["cycle", "point", "q1", "q2", "q3", "q4", "q5", "q6", "x_cmd", "y_cmd", "z_cmd",
           "rx_cmd", "ry_cmd", "rz_cmd", "x", "y", "z", "rx", "ry", "rz"]

@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 
 from screwcal.errors import ScrewcalError
-from screwcal.iso9283 import pose_metrics, wrap_deg
-from screwcal.straightness import straightness
+from screwcal.performance.iso9283 import pose_metrics, wrap_deg
+from screwcal.performance.straightness import straightness
 
 
 def test_known_bias_and_spread_come_back(rng):
@@ -93,7 +93,7 @@ def test_straightness_refuses_degenerate_input():
 def test_orientation_in_the_other_zyx_representation():
     """Flange-down commanded as (180, 0, 180), attained written as (0, 180, 0) + small errors:
     the same rotations, so APa/b/c are the small errors, not 180 deg."""
-    from screwcal.pose import euler_zyx_deg_from_rotation, rotation_from_euler_zyx_deg
+    from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, rotation_from_euler_zyx_deg
 
     cmd = np.array([180.0, 0.0, 180.0])
     R = rotation_from_euler_zyx_deg([[180.02, 0.01, 179.97], [179.98, -0.01, 180.01]])

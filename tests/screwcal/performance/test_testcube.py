@@ -3,12 +3,12 @@ import csv
 import numpy as np
 import pytest
 
-from screwcal.cli import main
-from screwcal.ik import closed_form_ik
-from screwcal.kinematics import forward_kinematics
-from screwcal.pose import pose_from_transform, transform_from_pose
-from screwcal.robots import irb1600
-from screwcal.testcube import (
+from screwcal.commands.main import main
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.ik import closed_form_ik
+from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
+from screwcal.kinematics.robots import irb1600
+from screwcal.performance.testcube import (
     CYCLE_ORDER,
     ArmSphere,
     InfeasibleCubeError,

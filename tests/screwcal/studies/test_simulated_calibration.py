@@ -1,8 +1,8 @@
 import numpy as np
 
-from screwcal.cli import main
-from screwcal.simulated_calibration import run_demo
-from screwcal.virtual_joints import THESIS_TABLE11
+from screwcal.calibration.virtual_joints import THESIS_TABLE11
+from screwcal.commands.main import main
+from screwcal.studies.simulated_calibration import run_demo
 
 
 def test_demo_calibration_recovers_the_robot():

@@ -3,10 +3,10 @@ import csv
 import numpy as np
 import pytest
 
-from screwcal.design import d_optimal, log_det
-from screwcal.posesets import cube_set, quadrant_variants
-from screwcal.robots import irb1600
-from screwcal.study import STUDIES, run_samples, run_study
+from screwcal.calibration.design import d_optimal, log_det
+from screwcal.calibration.posesets import cube_set, quadrant_variants
+from screwcal.kinematics.robots import irb1600
+from screwcal.studies.study import STUDIES, run_samples, run_study
 
 
 @pytest.mark.parametrize("name", sorted(STUDIES))

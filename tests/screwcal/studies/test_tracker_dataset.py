@@ -1,3 +1,4 @@
+import re
 import shutil
 from pathlib import Path
 
@@ -5,12 +6,31 @@ import numpy as np
 import pytest
 
 from screwcal.errors import DataFileError
-from screwcal.tracker_dataset import read_tracker_dataset
-from screwcal.tracker_study import DEFAULT_DATA, run_study
+from screwcal.studies.tracker_dataset import (
+    DatasetMissingError,
+    locate_dataset,
+    read_tracker_dataset,
+)
+from screwcal.studies.tracker_study import run_study
+from tests.conftest import TRACKER_DATA, needs_tracker_data
 
-DATA = DEFAULT_DATA
-needs_data = pytest.mark.skipif(not DATA.exists(), reason=f"real data set not found at {DATA} "
-                                "(../shared beside the repository)")
+DATA = TRACKER_DATA
+needs_data = needs_tracker_data
+
+
+def test_missing_data_set_says_where_to_get_it(tmp_path, monkeypatch):
+    monkeypatch.delenv("SCREWCAL_DATA_DIR", raising=False)
+    with pytest.raises(DatasetMissingError, match=r"SCREWCAL_DATA_DIR.*icelinker"):
+        locate_dataset()
+    with pytest.raises(DatasetMissingError, match=rf"{re.escape(str(tmp_path))}.*icelinker"):
+        locate_dataset(tmp_path)
+
+
+@needs_data
+def test_data_set_found_by_folder_or_its_parent(monkeypatch):
+    assert locate_dataset(DATA) == DATA
+    monkeypatch.setenv("SCREWCAL_DATA_DIR", str(DATA.parent))
+    assert locate_dataset() == DATA
 
 
 def _copy(tmp_path: Path) -> Path:

@@ -1,0 +1,30 @@
+"""Public names of a subpackage, importable from it without importing every module at start-up.
+
+A subpackage's `__init__` lists its public names and the module that defines each; the module is
+imported on first use (PEP 562), so `from screwcal.kinematics import forward_kinematics` costs
+only `forward`'s imports and `screwcal --help` imports none of the numeric code.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Callable
+
+
+def lazy_exports(package: str, exports: dict[str, str]
+                 ) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
+    """`__getattr__` and `__dir__` for `package` whose public name N lives in `exports[N]`."""
+
+    def __getattr__(name: str) -> object:  # noqa: N807 (the module hook's required name)
+        module = exports.get(name)
+        if module is None:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(f"{package}.{module}"), name)
+        setattr(sys.modules[package], name, value)  # the next look-up is a plain attribute
+        return value
+
+    def __dir__() -> list[str]:  # noqa: N807
+        return sorted(set(exports) | set(vars(sys.modules[package])))
+
+    return __getattr__, __dir__

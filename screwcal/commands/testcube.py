@@ -1,0 +1,63 @@
+"""`screwcal testcube`: the ISO 9283 test cube that fits the robot, and its performance pose list.
+
+    screwcal testcube --robot irb1600 --out perf.csv [--edge-mm 400] [--plot cube.png]
+
+The cube, its inclined plane and P1-P5 are described in `screwcal.performance.testcube`.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from screwcal.kinematics.modelfile import resolve_model
+    from screwcal.performance import plots
+    from screwcal.performance.testcube import (
+        FLANGE_DOWN_DEG,
+        ArmSphere,
+        find_test_cube,
+        performance_pose_list,
+        write_pose_list,
+    )
+
+    model = resolve_model(args.robot)
+    arm = ArmSphere(tuple(args.arm_centre), args.arm_radius) if args.arm_centre else None
+    cube = find_test_cube(model, args.edge_mm, orientation_deg=args.orientation or FLANGE_DOWN_DEG,
+                          approach_mm=args.approach, arm=arm, floor_z_mm=args.floor_z,
+                          centre_mm=args.centre)
+    plans = performance_pose_list(model, cube, args.cycles)
+    write_pose_list(args.out, plans)
+    c = cube.centre_mm
+    print(f"cube edge {cube.edge_mm:.1f} mm, centre ({c[0]:.1f}, {c[1]:.1f}, {c[2]:.1f}) mm; "
+          f"{len(plans)} poses ({args.cycles} cycles x 5 points x return + target) -> {args.out}")
+    for label, p in cube.points_mm.items():
+        print(f"  {label}: ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) mm")
+    if args.plot:
+        q_p1 = np.radians(next(p.q_deg for p in plans if p.point == "P1" and p.role == "target"))
+        print(f"  plot -> {plots.test_cube(model, cube, q_p1, args.plot, arm)}")
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("testcube", help="ISO 9283 test cube and the performance pose list",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--robot", required=True, help="built-in robot or model file")
+    p.add_argument("--out", required=True, help="pose list CSV to write")
+    p.add_argument("--edge-mm", type=float, default=None,
+                   help="cube edge (default: the largest that fits)")
+    p.add_argument("--centre", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="use the cube with this centre (mm, robot base frame; needs --edge-mm)")
+    p.add_argument("--cycles", type=int, default=30, help="measuring cycles (default 30)")
+    p.add_argument("--orientation", type=float, nargs=3, default=None,
+                   metavar=("RX", "RY", "RZ"), help="tool orientation, deg (default flange down)")
+    p.add_argument("--approach", type=float, nargs=3, default=[0.0, 0.0, 50.0],
+                   metavar=("DX", "DY", "DZ"), help="return point offset, mm (default 0 0 50)")
+    p.add_argument("--arm-centre", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="measuring arm base in the robot frame, mm: keep the cube in its reach")
+    p.add_argument("--arm-radius", type=float, default=1200.0, help="arm reach, mm")
+    p.add_argument("--floor-z", type=float, default=0.0, help="lowest allowed z, mm")
+    p.add_argument("--plot", help="PNG of the cube, plane, points and robot")
+    p.set_defaults(func=run)

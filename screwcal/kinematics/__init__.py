@@ -1,0 +1,75 @@
+"""Kinematics: screws and rigid motions (`se3`), poses in mm/deg (`pose`), the serial model
+(`model`), forward kinematics and Jacobians (`forward`), DH conversions (`dh`), inverse kinematics
+(`ik`), the built-in robots (`robots`) and model files (`modelfile`).
+
+May import: numpy, scipy, pydantic, and of ours only `screwcal.errors` and this package. It
+knows nothing of calibration, performance testing, studies or the command line.
+"""
+
+from screwcal._lazy import lazy_exports
+
+_EXPORTS = {
+    "Array": "se3",
+    "BRANCHES": "ik",
+    "BUILTIN_MODELS": "robots",
+    "Convention": "dh",
+    "DHFile": "modelfile",
+    "DHJoint": "modelfile",
+    "DHRow": "dh",
+    "DHTable": "dh",
+    "FORMAT": "modelfile",
+    "FiniteFloat": "modelfile",
+    "IKSolutions": "ik",
+    "JointCommon": "modelfile",
+    "ModelFile": "modelfile",
+    "PRISMATIC": "model",
+    "ParameterLayout": "forward",
+    "PoseIn": "modelfile",
+    "REVOLUTE": "model",
+    "ScrewJoint": "modelfile",
+    "ScrewsFile": "modelfile",
+    "SerialModel": "model",
+    "Vec3": "modelfile",
+    "WristPartitionedGeometry": "ik",
+    "adjoint": "se3",
+    "builtin_model": "robots",
+    "closed_form_ik": "ik",
+    "cross": "se3",
+    "dh_forward_kinematics": "dh",
+    "dh_from_model": "dh",
+    "dh_link_transform": "dh",
+    "euler_zyx_deg_from_rotation": "pose",
+    "euler_zyx_deg_near": "pose",
+    "exp_twist": "se3",
+    "flange_kinematics": "forward",
+    "forward_kinematics": "forward",
+    "invert_transform": "se3",
+    "irb120": "robots",
+    "irb1600": "robots",
+    "joint_positions": "forward",
+    "load_model": "modelfile",
+    "model_file_from_model": "modelfile",
+    "model_from_dh": "dh",
+    "numerical_ik": "ik",
+    "parameter_jacobian": "forward",
+    "parse_model": "modelfile",
+    "perturb_model": "forward",
+    "point_jacobian": "forward",
+    "pose_from_transform": "pose",
+    "quaternion_wxyz_from_rotation": "pose",
+    "resolve_model": "modelfile",
+    "rotation_angle_deg": "pose",
+    "rotation_from_euler_zyx_deg": "pose",
+    "rotation_from_quaternion_wxyz": "pose",
+    "rotation_from_rotvec": "se3",
+    "rotvec_from_rotation": "se3",
+    "save_model": "modelfile",
+    "skew": "se3",
+    "spatial_jacobian": "forward",
+    "transform_from_pose": "pose",
+    "transform_from_rotation_translation": "se3",
+    "twist_from_transform_difference": "se3",
+    "twist_hat": "se3",
+}
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
