@@ -15,7 +15,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, FastAPI, Header, HTTPException, Request, status
+from fastapi import APIRouter, Depends, FastAPI, Header, HTTPException, Query, Request, status
 from fastapi.responses import HTMLResponse, JSONResponse, StreamingResponse
 
 from screwcal.errors import ScrewcalError
@@ -149,8 +149,23 @@ def create_app(settings: ServiceSettings) -> FastAPI:
     @jobs.get("/{job_id}/result", response_model=JobResult)
     def result(job_id: int, store: StoreDep) -> dict[str, Any]:
         job = store.job(job_id)
+        found = {k: v for k, v in (job["result"] or {}).items()
+                 if not k.startswith("calibration")}  # the whole documents: GET .../model
         return {"id": job_id, "state": job["state"], "reason": job["reason"],
-                "phases": job["phases"], **(job["result"] or {})}
+                "phases": job["phases"], **found}
+
+    @jobs.get("/{job_id}/model", responses={200: {"description": (
+        "the calibration result document (format screwcal-calibration) whose `model` is the "
+        "robot as its controller reads it after the job's correction; `screwcal predict`, "
+        "`compensate` and the RAPID filter read it")}})
+    def calibrated_model(job_id: int, store: StoreDep,
+                         round: Annotated[int, Query(ge=1, le=2)] = 1) -> dict[str, Any]:
+        job = store.job(job_id)
+        doc = (job["result"] or {}).get("calibration" + ("_2" if round == 2 else ""))
+        if doc is None:
+            raise NotFoundError(f"job {job_id} has no calibrated model (round {round}): "
+                                "a calibration or procedure job has one once its estimation ran")
+        return doc
 
     @jobs.get("/{job_id}/report", response_class=HTMLResponse)
     async def report(job_id: int, store: StoreDep) -> str:

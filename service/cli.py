@@ -28,6 +28,7 @@ import httpx
 
 from service.errors import ServiceError
 from service.settings import ServiceSettings
+from service.summary import before_after
 
 
 # -- the service --------------------------------------------------------------------------------
@@ -107,6 +108,9 @@ class Operator:
     def result(self, job_id: int) -> dict:
         return self._check(self.http.get(f"/jobs/{job_id}/result"))
 
+    def model(self, job_id: int, round_: int = 1) -> dict:
+        return self._check(self.http.get(f"/jobs/{job_id}/model", params={"round": round_}))
+
     def report(self, job_id: int) -> str:
         r = self.http.get(f"/jobs/{job_id}/report")
         if r.status_code >= 400:
@@ -128,13 +132,14 @@ class Operator:
                     out(f"{event['phase']:<12} [{bar:<30}] pose {event['done']} of "
                         f"{event['total']}")
                 elif kind == "waiting":
-                    answer = ask(f"robot will move to {event['phase']} pose {event['index']} "
-                                 f"(joints {event['joints_deg']}): go? [y/N] ")
+                    note = f"{event['note']}. " if event.get("note") else ""
+                    answer = ask(f"{note}robot will move to {event['phase']} pose "
+                                 f"{event['index']} (joints {event['joints_deg']}): go? [y/N] ")
                     if answer.strip().lower() != "y":
                         out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
                         return "waiting"
                     self.go(job_id, event["index"])
-                elif kind in ("phase", "paused", "resumed", "corrected", "failed"):
+                elif kind in ("phase", "paused", "resumed", "corrected", "failed", "warning"):
                     out(f"{kind}: " + ", ".join(f"{k}={v}" for k, v in event.items()
                                                if k not in ("kind", "seq", "time")))
                 elif kind == "end":
@@ -142,28 +147,19 @@ class Operator:
         return self.job(job_id)["state"]
 
 
-def result_table(result: dict) -> str:
-    """The before/after table a person reads."""
+def result_table(result: dict, times: bool = True) -> str:
+    """The before/after table a person reads (`times`: the seconds each phase took)."""
     lines = [f"job {result['id']}: {result['state']} {result.get('reason', '')}".rstrip()]
-    perf = result.get("performance") or {}
-    if perf:
-        lines.append(f"  {'ISO 9283':<34}{'before':>12}{'after':>12}")
-
-        def row(label: str, key: str, unit: str, section: str = "overall") -> None:
-            phases = ("perf_before", "perf_after") + (("perf_after_2",) if "perf_after_2" in perf
-                                                       else ())
-            vals = [perf.get(p, {}).get(section, {}).get(key) for p in phases]
-            cells = "".join(f"{v:>9.3f} {unit:<2}" if v is not None else f"{'-':>12}"
-                            for v in vals)
-            lines.append(f"  {label:<34}{cells}")
-
-        if "perf_after_2" in perf:
-            lines[-1] += f"{'round 2':>12}"
-        row("position accuracy AP, mean", "ap_mm_mean", "mm")
-        row("position accuracy AP, max", "ap_mm_max", "mm")
-        row("position repeatability RP, max", "rp_mm_max", "mm")
-        row("orientation accuracy, max |APa,b,c|", "ap_abc_deg_max", "°")
-        row("straightness, peak + valley", "peak_to_valley_mm", "mm", "straightness")
+    phases, rows = before_after(result.get("performance") or {})
+    if rows:
+        names = {"perf_before": "before", "perf_after": "after", "perf_after_2": "round 2"}
+        lines.append(f"  {'ISO 9283':<36}" + "".join(f"{names[p]:>12}" for p in phases)
+                     + (f"{'factor':>9}" if len(phases) > 1 else ""))
+        for r in rows:
+            cells = "".join(f"{v:>9.3f} {r.unit:<2}" if v is not None else f"{'-':>12}"
+                            for v in r.values)
+            factor = f"{r.factor:>8.1f}x" if r.factor is not None else ""
+            lines.append(f"  {r.label:<36}{cells}{factor}")
     est = result.get("estimation")
     if est:
         lines.append(f"  identified ({est['rank']} parameters, chi2/dof "
@@ -175,15 +171,50 @@ def result_table(result: dict) -> str:
         if est.get("removed"):
             lines.append("    not separable from these data (not corrected): " + ", ".join(
                 r["name"] for r in est["removed"]))
-    corr = result.get("correction") or {}
-    if "zero_command_deg" in corr:
-        lines.append("  correction sent (ZERO, deg): "
-                     + " ".join(f"{v:.4f}" for v in corr["zero_command_deg"]))
+    for suffix in ("", "_2"):
+        lines += _route_lines(result.get("correction" + suffix) or {}, suffix)
+    for warning in result.get("warnings", []):
+        lines.append(f"  WARNING: {warning}")
     phases = result.get("phases") or {}
-    if phases:
+    if phases and times:
         lines.append("  time per phase (s): " + ", ".join(
             f"{k} {v.get('seconds', 0):.2f}" for k, v in phases.items()))
     return "\n".join(lines)
+
+
+def _route_lines(corr: dict, suffix: str) -> list[str]:
+    """What the correction route did, compensated, or left in the robot."""
+    if not corr:
+        return []
+    head = f"  correction{' (round 2)' if suffix else ''}: {corr.get('route', 'zero')}"
+    lines = []
+    if corr.get("route") == "none":
+        return [f"{head} ({corr.get('note', '')})"]
+    if "refused" in corr:
+        return [f"{head}: refused ({corr['refused']})"]
+    if "zero_command_deg" in corr:
+        sent = "sent" if corr.get("sent") else "planned, not sent"
+        lines.append(f"{head}; ZERO {sent} (deg): "
+                     + " ".join(f"{v:.4f}" for v in corr["zero_command_deg"]))
+    else:
+        lines.append(head)
+    if corr.get("compensated_lists"):
+        lines.append(f"    compensated joint targets for {', '.join(corr['compensated_lists'])} "
+                     f"(largest joint change {corr.get('max_joint_change_deg', 0):.3f} deg)")
+    predicted = corr.get("predicted_position_error_mm")
+    if predicted:
+        lines.append(f"    model-predicted flange error on the ISO targets: "
+                     f"{predicted['before']:.3f} -> {predicted['after']:.3f} mm")
+    left = corr.get("left_in_robot") or []
+    if left:
+        lines.append("    left in the robot (not corrected by this route): " + ", ".join(
+            f"{p['name']} {p['value']:+.3f} {p['unit']}" for p in left))
+    elif "left_in_robot" in corr:
+        lines.append("    left in the robot: nothing the model identified")
+    if corr.get("not_identified"):
+        lines.append("    not identified from these data (nothing corrects them): "
+                     + ", ".join(corr["not_identified"]))
+    return lines
 
 
 def _operator(args: argparse.Namespace) -> Operator:
@@ -205,7 +236,8 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
             print(f"robot {robot['id']}: {robot['name']}")
         elif args.action == "start":
             options: dict[str, Any] = {"cycles": args.cycles,
-                                       "calibration_poses": args.poses, "model": args.model}
+                                       "calibration_poses": args.poses, "model": args.model,
+                                       "correction": args.correction}
             if args.arm_position:
                 options["arm_position_mm"] = args.arm_position
             job = op.start(robot_id=args.robot, kind=args.kind, mode=args.mode, options=options)
@@ -222,6 +254,11 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
             print(f"job {args.id}: abort requested")
         elif args.action == "result":
             print(result_table(op.result(args.id)))
+        elif args.action == "model":
+            doc = op.model(args.id, args.round)
+            Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+            print(f"job {args.id}: calibrated model -> {args.out} ({doc.get('model_note', '')}; "
+                  "read by screwcal predict, compensate and compensate --rapid)")
         elif args.action == "report":
             Path(args.out).write_text(op.report(args.id), encoding="utf-8")
             print(f"report -> {args.out}")
@@ -256,13 +293,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     st.add_argument("--mode", choices=["AUTO", "STEP"], default="AUTO")
     st.add_argument("--cycles", type=int, default=30, help="ISO 9283 cycles")
     st.add_argument("--poses", type=int, default=40, help="calibration poses")
-    st.add_argument("--model", choices=["thesis", "full", "joints"], default="thesis")
+    st.add_argument("--model", choices=["thesis", "full", "joints"], default="full",
+                    help="error model (default full)")
+    st.add_argument("--correction", choices=["compensate", "zero", "zero+compensate"],
+                    default="compensate", help="procedure's correction route (default "
+                    "compensate: the later lists' joint targets; zero: ZERO, thesis 4.5)")
     st.add_argument("--arm-position", type=float, nargs=3, metavar=("X", "Y", "Z"))
     st.add_argument("--no-watch", action="store_true")
     for name, text in (("watch", "follow a job (STEP: answer the prompts)"),
                        ("abort", "abort a job"), ("result", "print a job's result table")):
         a = actions.add_parser(name, help=text)
         a.add_argument("id", type=int)
+    mod = actions.add_parser("model", help="save a job's calibrated model (result document)")
+    mod.add_argument("id", type=int)
+    mod.add_argument("--out", required=True, help="JSON file to write")
+    mod.add_argument("--round", type=int, choices=[1, 2], default=1,
+                     help="the second calibration round's model (procedure with rounds 2)")
     rep = actions.add_parser("report", help="save a job's report page")
     rep.add_argument("id", type=int)
     rep.add_argument("--out", required=True)

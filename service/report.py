@@ -15,12 +15,14 @@ import numpy as np
 
 from screwcal.performance import plots
 from screwcal.performance.iso9283 import PoseMetrics
+from service.summary import before_after
 
 # Thesis Table 13: minutes per activity of a whole calibration.
 THESIS_TABLE13_MIN = {"setup": 60, "measuring": 90, "estimation": 1}
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}
 table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:4px 8px;
-text-align:right}th{background:#eee}td:first-child{text-align:left}img{max-width:100%}"""
+text-align:right}th{background:#eee}td:first-child{text-align:left}img{max-width:100%}
+.warning{background:#fff3cd;border:1px solid #e0b000;padding:6px}"""
 
 
 def _png_bytes(draw: Any, *args: Any) -> bytes:
@@ -31,9 +33,15 @@ def _png_bytes(draw: Any, *args: Any) -> bytes:
 
 
 def report_figures(job: dict) -> dict[str, bytes]:
-    """The report's figures as PNG files: accuracy per point and straightness, before/after."""
-    perf = (job.get("result") or {}).get("performance") or {}
+    """The report's figures as PNG files: accuracy per point and straightness, before/after,
+    and the calibration residual per pose."""
+    result = job.get("result") or {}
+    perf = result.get("performance") or {}
     out: dict[str, bytes] = {}
+    residuals = (result.get("calibration") or {}).get("residuals")
+    if residuals:
+        out["calibration_residuals.png"] = _png_bytes(
+            plots.calibration_residuals, residuals["before"], residuals["after"])
     results = {name.replace("perf_", ""): {k: PoseMetrics(**v) for k, v in s["points"].items()}
                for name, s in perf.items() if s.get("points")}
     if results:
@@ -64,6 +72,7 @@ def _table(header: list[str], rows: list[list[Any]]) -> str:
 
 def report_html(job: dict, robot: dict) -> str:
     result = job.get("result") or {}
+    figures = report_figures(job)
     out = io.StringIO()
     title = f"screwcal job {job['id']}: {job['kind']} of {robot['name']}"
     out.write(f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
@@ -71,11 +80,26 @@ def report_html(job: dict, robot: dict) -> str:
     out.write(f"<p>State: <b id='state'>{html.escape(job['state'])}</b> "
               f"{html.escape(job['reason'])} &middot; mode {job['mode']} &middot; "
               "units mm and degrees</p>")
-    phases = job.get("phases") or {}
-    out.write("<h2>Time per phase</h2>" + _table(
-        ["phase", "seconds"], [[k, float(v.get("seconds", 0.0))] for k, v in phases.items()]))
-    out.write("<p>The thesis's Table 13, for comparison: set-up 60 min, measurements 90 min "
-              "(4 performance rounds and 2 calibration rounds), estimation under 1 min.</p>")
+    for warning in result.get("warnings", []):
+        out.write(f"<p class='warning'><b>Warning:</b> {html.escape(warning)}</p>")
+    phases, rows = before_after(result.get("performance") or {})
+    if rows:
+        names = {"perf_before": "before", "perf_after": "after", "perf_after_2": "round 2"}
+        out.write("<h2>Summary: ISO 9283 before and after</h2>" + _table(
+            ["", "unit", *(names[p] for p in phases), "factor"],
+            [[r.label, r.unit, *("-" if v is None else float(v) for v in r.values),
+              "-" if r.factor is None else f"{r.factor:.1f}x"] for r in rows]))
+        note = result.get("frame_note")
+        if note:
+            out.write(f"<p>{html.escape(note)}</p>")
+    conditions = result.get("test_conditions")
+    if conditions:
+        out.write("<h2>Test conditions</h2>" + _table(
+            ["condition", "value"], [[k.replace("_", " "), v] for k, v in conditions.items()]))
+    for suffix in ("", "_2"):
+        corr = result.get("correction" + suffix)
+        if corr:
+            out.write(correction_section(corr, suffix))
     est = result.get("estimation")
     if est:
         out.write("<h2>Identified parameters</h2>" + _table(
@@ -93,20 +117,58 @@ def report_html(job: dict, robot: dict) -> str:
                   f"chi2/dof {est['chi2_reduced']:.2f}; calibration residual "
                   f"{est['residual_before_mm']:.3f} mm before, "
                   f"{est['residual_after_mm']:.3f} mm after.</p>")
-    corr = result.get("correction")
-    if corr:
-        out.write("<h2>Correction</h2>")
-        if "refused" in corr:
-            out.write(f"<p>Refused: {html.escape(str(corr['refused']))}</p>")
-        else:
-            out.write(_table(["joint", "offset deg", "ZERO target deg", "identified"],
-                             [[f"J{i + 1}", float(o), float(z), str(ok)] for i, (o, z, ok) in
-                              enumerate(zip(corr["offsets_deg"], corr["zero_command_deg"],
-                                            corr["identified"], strict=True))]))
+        if "calibration_residuals.png" in figures:
+            out.write(_img("calibration residual per pose",
+                           figures["calibration_residuals.png"]))
     perf = result.get("performance") or {}
     if perf:
-        out.write(performance_section(perf, report_figures(job)))
+        out.write(performance_section(perf, figures))
+    phase_times = job.get("phases") or {}
+    out.write("<h2>Time per phase</h2>" + _table(
+        ["phase", "seconds"], [[k, float(v.get("seconds", 0.0))]
+                               for k, v in phase_times.items()]))
+    out.write("<p>The thesis's Table 13, for comparison: set-up 60 min, measurements 90 min "
+              "(4 performance rounds and 2 calibration rounds), estimation under 1 min.</p>")
     out.write("</body></html>")
+    return out.getvalue()
+
+
+def correction_section(corr: dict, suffix: str) -> str:
+    """Which route ran, and what it corrected, compensated, or left in the robot."""
+    out = io.StringIO()
+    out.write(f"<h2>Correction{' (round 2)' if suffix else ''}: "
+              f"{html.escape(str(corr.get('route', 'zero')))}</h2>")
+    if "refused" in corr:
+        out.write(f"<p>Refused: {html.escape(str(corr['refused']))}</p>")
+        return out.getvalue()
+    if corr.get("note"):
+        out.write(f"<p>{html.escape(corr['note'])}</p>")
+    if "zero_command_deg" in corr:
+        sent = "sent to the controller" if corr.get("sent") else "planned, not sent"
+        out.write(f"<p>ZERO ({sent}; on a real IRC5 the operator enters the offsets on the "
+                  "FlexPendant and gives the go-ahead):</p>")
+        out.write(_table(["joint", "offset deg", "ZERO target deg", "identified"],
+                         [[f"J{i + 1}", float(o), float(z), str(ok)] for i, (o, z, ok) in
+                          enumerate(zip(corr["offsets_deg"], corr["zero_command_deg"],
+                                        corr["identified"], strict=True))]))
+    if corr.get("compensated_lists"):
+        out.write(f"<p>Compensated joint targets sent for {', '.join(corr['compensated_lists'])}"
+                  f" (largest joint change {corr.get('max_joint_change_deg', 0.0):.4f} deg): "
+                  "the calibrated robot reaches the nominal targets; nothing changed in the "
+                  "controller.</p>")
+    predicted = corr.get("predicted_position_error_mm")
+    if predicted:
+        out.write(f"<p>Model-predicted flange position error on the ISO targets: "
+                  f"{predicted['before']:.3f} mm before, {predicted['after']:.4f} mm after.</p>")
+    if corr.get("left_in_robot"):
+        out.write("<p>Left in the robot by this route (identified, not corrected):</p>" + _table(
+            ["parameter", "value", "unit"],
+            [[p["name"], float(p["value"]), p["unit"]] for p in corr["left_in_robot"]]))
+    elif "left_in_robot" in corr:
+        out.write("<p>Left in the robot: nothing the model identified.</p>")
+    if corr.get("not_identified"):
+        out.write("<p>Not identified from these data (nothing corrects them): "
+                  + html.escape(", ".join(corr["not_identified"])) + "</p>")
     return out.getvalue()
 
 

@@ -1,10 +1,22 @@
 """Runs one job: the thesis's flow (Fig. 41) against a real (or emulated) controller and arm.
 
 Kinds: `performance` (the ISO 9283 list), `calibration` (the calibration list and the
-estimation), `procedure` (performance before, calibration, estimation, correction by ZERO,
-performance after). Every list runs in STEP mode on the wire: the go-ahead for a pose is sent
-only once the previous pose is committed to the store, so no measurement is ever lost to a crash;
-an AUTO job gives the go-ahead itself, a STEP job waits for the operator's.
+estimation), `procedure` (performance before, calibration, estimation, correction, performance
+after). Every list runs in STEP mode on the wire: the go-ahead for a pose is sent only once the
+previous pose is committed to the store, so no measurement is ever lost to a crash; an AUTO job
+gives the go-ahead itself, a STEP job waits for the operator's.
+
+Correction routes (`options.correction`) of a procedure:
+- `compensate` (default): nothing changes in the controller; every list after the estimation is
+  sent as the joint targets that make the *calibrated* robot reach the nominal targets
+  (`screwcal.calibration.correction.compensate`), all computed and checked (reach, limits,
+  plausibility) before anything moves;
+- `zero`: the thesis's route (4.5): ZERO moves to the identified offsets and makes them the new
+  zero; the link errors stay in the robot;
+- `zero+compensate`: ZERO for the joint offsets, then compensation of what remains with the model
+  updated for the new zeros.
+A ZERO on a real IRC5 stops (WAIT 0) while a person enters the offsets on the FlexPendant: that
+WAIT needs the operator's go-ahead in every mode, AUTO included.
 
 A lost controller or arm link pauses the job (its state says why); it resumes from the next
 unmeasured pose when the link is back. A correction outside plausible bounds, or a target outside
@@ -14,7 +26,9 @@ the joint limits, fails the job before anything is sent.
 from __future__ import annotations
 
 import asyncio
+import json
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -29,12 +43,20 @@ from protocol.errors import (
     LinkTimeoutError,
     ProtocolError,
 )
-from screwcal.calibration.correction import CorrectionRefusedError, joint_correction
+from screwcal.calibration.correction import (
+    CorrectionRefusedError,
+    after_zero,
+    compensate,
+    joint_correction,
+)
 from screwcal.calibration.flange import MeasuringFlange
 from screwcal.calibration.identify import CalibrationResult, identify
 from screwcal.calibration.measurements import MeasurementSet
+from screwcal.calibration.resultfile import result_document
 from screwcal.errors import ScrewcalError
-from screwcal.kinematics.modelfile import parse_model
+from screwcal.kinematics.forward import flange_kinematics
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.modelfile import model_file_from_model, parse_model
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
 from screwcal.kinematics.se3 import invert_transform
 from screwcal.performance.evaluate import PerformanceData, PointData, point_metrics, summarise
@@ -54,6 +76,11 @@ STEPS = {
 # The thesis's "Calibracao 2" (4.7): acquire again, estimate, correct, evaluate.
 SECOND_ROUND = ("cal_2", "estimation_2", "correction_2", "perf_after_2")
 PERF_PHASES = ("perf_before", "perf_after", "perf_after_2")
+POOR_FIT_CHI2 = 10.0  # chi2/dof above this with the stated noise: the model misses something
+# The estimation whose model drives a list's targets when the route compensates.
+ESTIMATION_FOR = {"perf_after": "", "cal_2": "", "perf_after_2": "_2"}
+ZERO_NOTE = ("ZERO: the robot stands at the correction; enter the offsets on the FlexPendant "
+             "(calibration data), then give the go-ahead")
 LINK_ERRORS = (LinkLostError, LinkTimeoutError, ArmLineError, serial.SerialException, OSError)
 
 
@@ -75,6 +102,7 @@ class JobRunner:
         self.go_ahead: asyncio.Queue[int] = asyncio.Queue()
         self.waiting_for: tuple[str, int] | None = None
         self._plans: dict[str, list[PlannedPose]] = {}
+        self._compensated: dict[str, list[PlannedPose]] = {}
 
     # -- plans ---------------------------------------------------------------------------------
     def plan(self, kind: str) -> list[PlannedPose]:
@@ -89,6 +117,42 @@ class JobRunner:
                     float(self.options.get("cube_edge_mm", 300.0)),
                     self.options.get("arm_position_mm"))
         return self._plans[kind]
+
+    @property
+    def route(self) -> str:
+        """The correction route of a procedure; 'none' for the other kinds."""
+        if self.job["kind"] != "procedure":
+            return "none"
+        return str(self.options.get("correction", "compensate"))
+
+    def targets(self, phase: str) -> list[PlannedPose]:
+        """What a phase sends: its plan, compensated when the route says so (built once)."""
+        plan = self.plan("cal" if phase.startswith("cal") else "perf")
+        suffix = ESTIMATION_FOR.get(phase)
+        if suffix is None or "compensate" not in self.route:
+            return plan
+        if phase not in self._compensated:
+            self._compensated[phase] = self._compensate_plan(plan, self.robot_model(suffix))[0]
+        return self._compensated[phase]
+
+    def robot_model(self, suffix: str) -> SerialModel:
+        """The robot as its controller now reads it, from the stored calibration document."""
+        doc = (self.job["result"] or {}).get("calibration" + suffix)
+        if not doc:
+            raise SafetyError(f"no calibrated model for the estimation{suffix or ''}: the "
+                              "compensated targets cannot be built")
+        return parse_model(doc["model"], f"job {self.job_id} calibration{suffix}")
+
+    def _compensate_plan(self, plan: list[PlannedPose], robot: SerialModel
+                         ) -> tuple[list[PlannedPose], float]:
+        """The plan's joints replaced by those that take `robot` to the nominal targets, and the
+        largest joint change (deg). Raises before anything moves when one cannot be reached."""
+        q_nominal = np.radians([p.joints_deg for p in plan])
+        comp = compensate(robot, self.model, flange_kinematics(self.model, q_nominal),
+                          q_nominal, frame="base")
+        q = np.round(np.degrees(comp.q_rad), 4)
+        return ([replace(p, joints_deg=tuple(float(v) for v in q[k]))
+                 for k, p in enumerate(plan)], comp.max_change_deg)
 
     def steps(self) -> tuple[str, ...]:
         steps = STEPS[self.job["kind"]]
@@ -107,7 +171,8 @@ class JobRunner:
             for step in self.steps():
                 if phases.get(step, {}).get("done"):
                     continue
-                if step.startswith("correction") and phases.get(step, {}).get("started"):
+                if step.startswith("correction") and phases.get(step, {}).get("started") \
+                        and self.route.startswith("zero"):
                     raise SafetyError("the job stopped during the correction: whether ZERO took "
                                       "effect is unknown; check the controller, then start anew")
                 phases[step] = {"started": True}
@@ -155,13 +220,15 @@ class JobRunner:
         if step == "setup":
             await self._connect()
         elif step.startswith(("perf", "cal")):
-            await self.measure(step, self.plan("cal" if step.startswith("cal") else "perf"))
+            await self.measure(step, self.targets(step))
         elif step.startswith("estimation"):
             await asyncio.to_thread(self.estimate, suffix)
         elif step.startswith("correction"):
             await self.correct(suffix)
         elif step == "evaluation":
             await asyncio.to_thread(self.evaluate)
+            for warning in self.job["result"].get("warnings", []):
+                await self.events.publish("warning", message=warning)
 
     # -- links ---------------------------------------------------------------------------------
     async def _connect(self) -> None:
@@ -223,18 +290,20 @@ class JobRunner:
                 await self.events.publish("measured", phase=phase, index=planned.idx,
                                           done=done, total=len(plan))
 
-    async def _gate(self, phase: str, planned: PlannedPose) -> None:
+    async def _gate(self, phase: str, planned: PlannedPose, note: str = "") -> None:
         """Before the robot moves to `planned`: the previous pose is committed; drop stale arm
-        lines; in a STEP job wait for the operator's go-ahead."""
+        lines; in a STEP job wait for the operator's go-ahead. A `note` (a step that needs a
+        person at the controller) waits for the operator in every mode."""
         if self.aborted.is_set():
             raise JobAborted()
         assert self.arm is not None
         await asyncio.to_thread(self.arm.drain)
-        if self.job["mode"] != "STEP":
+        if self.job["mode"] != "STEP" and not note:
             return
         self.waiting_for = (phase, planned.idx)
+        extra = {"note": note} if note else {}
         await self.events.publish("waiting", phase=phase, index=planned.idx,
-                                  joints_deg=list(planned.joints_deg))
+                                  joints_deg=list(planned.joints_deg), **extra)
         try:
             while True:
                 getter = asyncio.create_task(self.go_ahead.get())
@@ -266,41 +335,101 @@ class JobRunner:
                               T[:, :3, :3].copy(), tuple(str(r["idx"]) for r in rows))
 
     def estimate(self, suffix: str = "") -> None:
+        kind = self.options.get("model", "full")
         data = self.measurement_set("cal" + suffix)
-        result = identify(self.model, data, kind=self.options.get("model", "thesis"),
-                          frames="base")
-        correction = None
-        try:
-            correction = joint_correction(result.params, result.values, result.std_errors,
-                                          self.model.n_joints)
-        except CorrectionRefusedError as err:
-            refused = str(err)
-        else:
-            refused = None
+        result = identify(self.model, data, kind=kind, frames="base")
         job_result = dict(self.job["result"] or {})
         job_result["estimation" + suffix] = _estimation_summary(result)
         job_result["base"] = result.model.base.tolist()
-        job_result["correction" + suffix] = correction.to_dict() if correction else \
-            {"refused": refused}
-        self.job = self.store.set_job(self.job_id, result=job_result)
-        if refused:
-            raise CorrectionRefusedError(refused)
+        job_result["calibration" + suffix] = result_document(
+            result, self.model.name, {"model": kind, "frames": "base", "poses": len(data),
+                                      "job": self.job_id, "phase": "cal" + suffix})
+        try:
+            job_result["correction" + suffix] = self._plan_correction(result, suffix)
+        finally:
+            self.job = self.store.set_job(self.job_id, result=job_result)
+
+    def _plan_correction(self, result: CalibrationResult, suffix: str) -> dict:
+        """What the route will do, checked before anything moves: the ZERO targets (refused
+        when implausible), the compensated lists (refused when unreachable or implausible), the
+        accuracy the model predicts before and after, and what stays in the robot."""
+        route = self.route
+        robot_params = [(p, v) for p, v in zip(result.params, result.values, strict=True)
+                        if p.group == "robot"]
+        not_identified = [n for n, _ in result.removed if not n.startswith(("base", "tool"))]
+        if route == "none":
+            return {"route": "none", "note": "a calibration job sends no correction; the "
+                    "calibrated model is downloadable (screwcal job model N)",
+                    "not_identified": not_identified}
+        plan = self.plan("perf")
+        q_nominal = np.radians([p.joints_deg for p in plan])
+        robot = result.model
+        out: dict[str, Any] = {"route": route, "not_identified": not_identified}
+        if route.startswith("zero"):
+            correction = joint_correction(result.params, result.values, result.std_errors,
+                                          self.model.n_joints)
+            out |= correction.to_dict()
+            robot = after_zero(robot, correction.zero_command_deg)
+        target = flange_kinematics(self.model, q_nominal)
+        before = _flange_error_mm(result.model, q_nominal, target)
+        if "compensate" in route:
+            lists = ["perf_after"] + (["cal_2"] if suffix == "" and
+                                      int(self.options.get("rounds", 1)) == 2 else [])
+            if suffix == "_2":
+                lists = ["perf_after_2"]
+            change = 0.0
+            for phase in lists:
+                base_plan = self.plan("cal" if phase.startswith("cal") else "perf")
+                self._compensated[phase], c = self._compensate_plan(base_plan, robot)
+                change = max(change, c)
+            q_sent = np.radians([p.joints_deg for p in self._compensated[lists[0]]])
+            after = _flange_error_mm(robot, q_sent, target)
+            out |= {"compensated_lists": lists, "max_joint_change_deg": change,
+                    "left_in_robot": []}
+        else:
+            after = _flange_error_mm(robot, q_nominal, target)
+            out["left_in_robot"] = [
+                {"name": p.name, "value": float(v), "unit": p.unit}
+                for p, v in robot_params if p.kind != "zero" and abs(v) > 0.0]
+        out["predicted_position_error_mm"] = {
+            "before": float(before.mean()), "after": float(after.mean()),
+            "meaning": "mean over the performance targets of the calibrated model's flange "
+                       "position minus the nominal target"}
+        if after.mean() > before.mean():
+            raise CorrectionRefusedError(
+                f"the {route} route would leave the robot worse ({before.mean():.3f} -> "
+                f"{after.mean():.3f} mm predicted): nothing is sent")
+        return out
 
     async def correct(self, suffix: str = "") -> None:
         assert self.client is not None
         correction = (self.job["result"] or {}).get("correction" + suffix, {})
+        if not self.route.startswith("zero"):
+            await self.events.publish("corrected", route=self.route, note="nothing sent to "
+                                      "the controller: the later lists are compensated")
+            return
         zero = np.array(correction.get("zero_command_deg", []), dtype=float)
         if zero.size != self.model.n_joints:
             raise SafetyError("no correction to send")
         if not self.model.within_limits(np.radians(zero)):
             raise SafetyError(f"correction target {zero.round(4).tolist()} outside the limits")
 
-        async def gate(idx: int) -> None:
+        async def gate(idx: int) -> None:  # a person enters the offsets: in every mode
             await self._gate("correction" + suffix, PlannedPose(idx, tuple(zero.tolist()),
-                                                                "zero"))
+                                                                "zero"), note=ZERO_NOTE)
 
         await self.client.zero(zero.tolist(), on_wait=gate)
-        await self.events.publish("corrected", zero_command_deg=zero.tolist())
+        job_result = dict(self.job["result"] or {})
+        doc = dict(job_result["calibration" + suffix])
+        doc["model"] = json.loads(model_file_from_model(
+            after_zero(parse_model(doc["model"]), zero)).model_dump_json())
+        doc["model_note"] = ("the robot once ZERO made the identified offsets the new zero: "
+                             "the model of the joints as the controller now reads them")
+        job_result["calibration" + suffix] = doc
+        job_result["correction" + suffix] = {**correction, "sent": True}
+        self.job = self.store.set_job(self.job_id, result=job_result)
+        await self.events.publish("corrected", route=self.route,
+                                  zero_command_deg=zero.tolist())
 
     def evaluate(self) -> None:
         job_result = dict(self.job["result"] or {})
@@ -310,7 +439,13 @@ class JobRunner:
                            frames="base")
             base = fit.model.base.tolist()
             job_result["base"] = base
-            job_result["base_note"] = "measuring frame fitted to the performance data itself"
+            job_result["frame_note"] = (
+                "accuracy measured in a robot base frame fitted to this performance data "
+                "itself (no calibration in this job): it hides any error such a frame absorbs, "
+                "so it reads lower than after a calibration's frame")
+        else:
+            job_result["frame_note"] = ("accuracy measured in the robot base frame identified "
+                                        "by this job's calibration, before and after alike")
         plan = {p.idx: p for p in self.plan("perf")}
         performance = {}
         for phase in PERF_PHASES:
@@ -318,7 +453,49 @@ class JobRunner:
             if rows:
                 performance[phase] = _performance(rows, plan, np.array(base))
         job_result["performance"] = performance
+        job_result["test_conditions"] = self._test_conditions(plan)
+        job_result["warnings"] = _warnings(job_result)
         self.job = self.store.set_job(self.job_id, result=job_result)
+
+    def _test_conditions(self, plan: dict[int, PlannedPose]) -> dict[str, Any]:
+        centre = next(p.commanded[:3] for p in plan.values()
+                      if p.point == "P1" and p.role == "target")
+        return {
+            "robot": f"{self.robot['name']} (model {self.model.name})",
+            "controller": f"{self.robot['controller_host']}:{self.robot['controller_port']}",
+            "measuring arm": self.robot["arm_url"],
+            "cube edge mm": float(self.options.get("cube_edge_mm", 300.0)),
+            "cube centre (P1) mm": ", ".join(f"{v:.1f}" for v in centre),
+            "cycles": int(self.options.get("cycles", 30)),
+            "speed": "v100, fine (the RAPID server module's MoveAbsJ)",
+            "date (UTC)": time.strftime("%Y-%m-%d %H:%M", time.gmtime(self.job["created"]))
+            if self.job.get("created") else "",
+        }
+
+
+def _warnings(job_result: dict) -> list[str]:
+    """What a user must see: a poor fit, an accuracy that did not improve."""
+    out = []
+    for suffix in ("", "_2"):
+        est = job_result.get("estimation" + suffix)
+        if est and est["chi2_reduced"] > POOR_FIT_CHI2:
+            out.append(f"poor fit in the estimation{suffix}: chi2/dof {est['chi2_reduced']:.1f} "
+                       f"(> {POOR_FIT_CHI2:g}): the model misses something (compliance, a loose "
+                       "flange, drift) or the noise is larger than stated")
+    perf = job_result.get("performance") or {}
+    before = perf.get("perf_before", {}).get("overall", {}).get("ap_mm_mean")
+    for phase in ("perf_after", "perf_after_2"):
+        after = perf.get(phase, {}).get("overall", {}).get("ap_mm_mean")
+        if before is not None and after is not None and after > before:
+            out.append(f"accuracy got worse in {phase}: AP mean {before:.3f} -> {after:.3f} mm; "
+                       "do not use this correction")
+    return out
+
+
+def _flange_error_mm(robot: SerialModel, q_sent: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Per pose: how far `robot`'s flange (its base frame) lands from the target (N, 4, 4) when
+    sent the joints q_sent (N, n) rad."""
+    return np.linalg.norm(flange_kinematics(robot, q_sent)[:, :3, 3] - target[:, :3, 3], axis=1)
 
 
 def _estimation_summary(result: CalibrationResult) -> dict:

@@ -40,7 +40,12 @@ class RobotPublic(BaseModel):
 
 class JobOptions(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    model: Literal["thesis", "full", "joints"] = "thesis"
+    model: Literal["thesis", "full", "joints"] = Field(
+        "full", description="error model identified: full (every identifiable parameter, "
+        "frames identified) or the thesis's virtual joints")
+    correction: Literal["compensate", "zero", "zero+compensate"] = Field(
+        "compensate", description="procedure: compensate the later lists' joint targets "
+        "(nothing changes in the controller), ZERO the joint offsets (thesis 4.5), or both")
     rounds: int = Field(1, ge=1, le=2, description="procedure: 2 adds the thesis's second "
                                                   "calibration round (4.7)")
     calibration_poses: int = Field(40, ge=10, le=400)

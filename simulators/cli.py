@@ -90,12 +90,14 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
     world.observers.append(writer)
     writer(world)
     emu = IRC5Emulator(world, EmulatorSettings(speed_deg_s=args.speed_deg_s,
-                                               time_scale=args.time_scale))
+                                               time_scale=args.time_scale,
+                                               zero_wait=args.zero_wait))
     host, port = await emu.start(args.host, args.port)
     line = f"irc5 emulator on {host}:{port}"
     arm = None
     if args.arm_port is not None:
-        arm = ArmEmulator(world, seed=args.seed)
+        noise_seed = args.seed if args.noise_seed is None else args.noise_seed
+        arm = ArmEmulator(world, seed=noise_seed)
         arm_host, arm_port = await arm.start(args.host, args.arm_port)
         line += f"; measuring arm on socket://{arm_host}:{arm_port}"
     print(line, flush=True)
@@ -143,6 +145,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     irc5.add_argument("--time-scale", type=float, default=1.0,
                       help="motion time factor (0: instant)")
     irc5.add_argument("--speed-deg-s", type=float, default=60.0, help="joint speed")
+    irc5.add_argument("--zero-wait", action="store_true",
+                      help="stop after ZERO for the operator (WAIT 0), as a real IRC5 does")
+    irc5.add_argument("--noise-seed", type=int, default=None,
+                      help="seed of the in-process arm's noise (default: --seed; none: random)")
     irc5.add_argument("--world", help="keep this world file up to date for an arm process "
                       f"(default {DEFAULT_WORLD_FILE})")
     irc5.add_argument("--arm-port", type=int, default=None,

@@ -61,6 +61,9 @@ class EmulatorSettings:
     speed_deg_s: float = 60.0
     time_scale: float = 1.0
     faults: FaultPlan = field(default_factory=FaultPlan)
+    # A real IRC5 stops after ZERO (WAIT 0) while a person enters the offsets on the
+    # FlexPendant; by default the emulator applies ZERO itself and sends no WAIT.
+    zero_wait: bool = False
 
 
 class _SessionEndedError(Exception):
@@ -310,7 +313,7 @@ class _Session:
             return
         await self.send(Ack(msg.seq, "ZERO"))
         await self.move(target)
-        if self.emu.mode == "STEP":  # the operator updates the offsets, then GO 0
+        if self.emu.settings.zero_wait:  # the operator enters the offsets, then GO 0
             self.emu.state = "WAITING"
             await self.send(Wait(msg.seq, 0))
             if not await self.wait_go(0, msg.seq):

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from screwcal.calibration.correction import after_zero
 from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM
 from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
 from screwcal.kinematics.model import SerialModel
@@ -59,7 +60,7 @@ class World:
     def set_zero(self, at_deg: Array) -> None:
         """ZERO: the position whose reading is `at_deg` now reads 0 (thesis 4.5)."""
         at = np.asarray(at_deg, dtype=float)
-        self.truth = replace(self.truth, joint_zero=self.truth.joint_zero + np.radians(at))
+        self.truth = after_zero(self.truth, at)
         self.q_deg = (self.q_deg.astype(float) - at).astype(np.float32)
 
     def nominal_tool0(self) -> Array:

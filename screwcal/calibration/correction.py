@@ -6,15 +6,21 @@
   angle is 0 reads -z: the ZERO command targets -z. Offsets beyond a plausibility bound
   (default 5 deg, the thesis's search range) or not identified to better than a tenth of a
   degree are refused, never sent.
-- Compensated targets: for desired poses of the measured point (measuring frame), the joint
-  targets that make the calibrated robot reach them (numerical IK on the calibrated model), and
-  the nominal tool0 poses to program on a controller that runs its nominal model.
+- Compensation, for a controller whose nominal model stays as it is: for each desired pose, the
+  joint targets that make the *calibrated* robot reach it (numerical IK on the calibrated model,
+  on the branch and 2-pi turn nearest a reference solution, inside the limits), and the nominal
+  tool0 pose of those joints: what to program so that the nominal controller drives the joints
+  there. Desired poses are flange (tool0) poses in the robot base frame (`frame="base"`: what a
+  program or a pose list commands) or poses of the measured point in the measuring system's frame
+  (`frame="measuring"`: what the measuring system will see). A compensation that moves any joint
+  further than the plausibility bound from the reference is refused.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -77,14 +83,42 @@ def joint_correction(params: Sequence[Param], values_deg: ArrayLike,
 class Compensation:
     q_rad: Array  # (N, n) joint targets (controller readings) that reach the desired poses
     nominal_tool0: Array  # (N, 4, 4) the nominal flange pose of those joints: what to program
+    change_deg: Array  # (N, n) q_rad minus the reference solution, deg (zeros without one)
+
+    @property
+    def max_change_deg(self) -> float:
+        return float(np.abs(self.change_deg).max()) if self.change_deg.size else 0.0
 
 
 def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLike,
-               q_ref: ArrayLike | None = None) -> Compensation:
-    """Joint targets (nearest to q_ref, default all zeros, within limits) and nominal tool0
-    targets that take the calibrated robot's measured point to T_desired (N, 4, 4)."""
+               q_ref: ArrayLike | None = None, *,
+               frame: Literal["base", "measuring"] = "measuring",
+               bound_deg: float = PLAUSIBLE_OFFSET_DEG) -> Compensation:
+    """Joint targets (nearest to q_ref (N, n) or (n,), default all zeros; within the limits)
+    and nominal tool0 poses that take the calibrated robot to T_desired (N, 4, 4): flange poses
+    in the robot base frame (`frame="base"`) or measured-point poses in the measuring frame.
+
+    With q_ref, a joint that would move more than `bound_deg` from it is refused
+    (CorrectionRefusedError naming the target): no plausible calibration moves a joint that far.
+    """
     T = np.asarray(T_desired, dtype=float)
-    sol = numerical_ik(calibrated, T)
+    robot = calibrated if frame == "measuring" else \
+        calibrated.with_frames(base=np.eye(4), tool=np.eye(4))
+    sol = numerical_ik(robot, T)
     q = sol.nearest(np.zeros(calibrated.n_joints) if q_ref is None else q_ref)
     calibrated.check_limits(q, "compensated target")
-    return Compensation(q, flange_kinematics(nominal, q))
+    change = np.zeros_like(q) if q_ref is None else \
+        calibrated.joints_to_deg(q - np.broadcast_to(np.asarray(q_ref, float), q.shape))
+    if q_ref is not None and np.abs(change).max(initial=0.0) > bound_deg:
+        k, j = np.unravel_index(int(np.argmax(np.abs(change))), change.shape)
+        raise CorrectionRefusedError(
+            f"target {k}: compensation moves joint {j + 1} by {change[k, j]:+.3f} deg, beyond "
+            f"the plausible +-{bound_deg:g} deg: check the calibrated model before using it")
+    return Compensation(q, flange_kinematics(nominal, q), change)
+
+
+def after_zero(model: SerialModel, zero_command_deg: ArrayLike) -> SerialModel:
+    """The model of the robot once ZERO made the readings at `zero_command_deg` the new zero:
+    the controller now reads q - zero_command where it read q (thesis 4.5)."""
+    return model.derived(joint_zero=model.joint_zero + np.radians(
+        np.asarray(zero_command_deg, float)) * model.is_revolute)

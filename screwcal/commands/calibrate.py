@@ -17,63 +17,16 @@ import argparse
 import json
 from pathlib import Path
 
-import numpy as np
-
 from screwcal.calibration import base_alignment
 from screwcal.calibration.base_alignment import base_from_sweeps, fit_circle, read_sweeps_csv
-from screwcal.calibration.correction import CorrectionRefusedError, compensate, joint_correction
-from screwcal.calibration.identify import CalibrationResult, NoiseModel, identify
+from screwcal.calibration.correction import compensate
+from screwcal.calibration.identify import NoiseModel, identify
 from screwcal.calibration.measurements import read_measurements_csv
+from screwcal.calibration.resultfile import result_document
 from screwcal.errors import DataFileError, JointLimitError, UnreachableError
-from screwcal.kinematics.modelfile import PoseIn, load_model, model_file_from_model, resolve_model
+from screwcal.kinematics.modelfile import PoseIn, load_model, resolve_model
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
 from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
-
-RESULT_FORMAT = "screwcal-calibration"
-
-
-def _summary(values: np.ndarray) -> dict:
-    return {"mean": float(values.mean()), "rms": float(np.sqrt(np.mean(values**2))),
-            "max": float(values.max())}
-
-
-def result_document(result: CalibrationResult, robot: str, settings: dict) -> dict:
-    """The result.json document: parameters, identifiability, residuals, model, correction."""
-    params = [{"name": p.name, "unit": p.unit, "group": p.group, "value": float(v),
-               "std_error": float(s)}
-              for p, v, s in zip(result.params, result.values, result.std_errors, strict=True)]
-    residuals: dict = {"kind": result.residual_kind, "unit": "mm",
-                       "before": result.residuals_before.tolist(),
-                       "after": result.residuals_after.tolist(),
-                       "summary_before": _summary(result.residuals_before),
-                       "summary_after": _summary(result.residuals_after)}
-    if result.rotation_after_deg is not None:
-        residuals |= {"rotation_before_deg": result.rotation_before_deg.tolist(),
-                      "rotation_after_deg": result.rotation_after_deg.tolist()}
-    try:
-        correction = joint_correction(result.params, result.values, result.std_errors,
-                                      result.model.n_joints).to_dict()
-    except CorrectionRefusedError as err:
-        correction = {"refused": str(err)}
-    return {
-        "format": RESULT_FORMAT, "version": 1, "robot": robot, "settings": settings,
-        "parameters": params,
-        "removed_parameters": [{"name": n, "reason": why} for n, why in result.removed],
-        "correlation": {"names": list(result.names), "matrix": result.correlation.tolist()},
-        "identifiability": {
-            "rank": result.rank, "candidates": result.n_candidates,
-            "condition_number": result.condition_number, "o1_borm_menq": result.o1,
-            "min_singular_value": result.min_singular_value, "degenerate": result.degenerate,
-            "unidentifiable_combinations": list(result.unidentifiable_combinations)},
-        "convergence": {"converged": result.converged, "message": result.message,
-                        "evaluations": result.n_evaluations, "seconds": result.seconds,
-                        "chi2_reduced": result.chi2_reduced},
-        "residuals": residuals,
-        "frames": {"base": PoseIn.of(result.model.base).model_dump(),
-                   "tool": PoseIn.of(result.model.tool).model_dump()},
-        "correction": correction,
-        "model": json.loads(model_file_from_model(result.model).model_dump_json()),
-    }
 
 
 def run_calibrate(args: argparse.Namespace) -> int:

@@ -57,8 +57,36 @@ def accuracy_per_point(results: Mapping[str, Mapping[str, PoseMetrics]], path: s
                        ylabel="[deg]")
     for ax in axes[0]:
         ax.set_xticks(x + width * (len(results) - 1) / 2, labels)
+        _readable_scale(ax)
         ax.grid(axis="y", alpha=0.3)
         ax.legend()
+    return _save(fig, path)
+
+
+def _readable_scale(ax: plt.Axes, ratio: float = 20.0) -> None:
+    """A log scale when the tallest bar is `ratio` times the shortest: an "after" 100x smaller
+    than "before" stays visible."""
+    heights = np.array([b.get_height() for b in ax.patches], float)
+    heights = heights[heights > 0]
+    if heights.size and heights.max() > ratio * heights.min():
+        ax.set_yscale("log")
+        ax.set_ylabel(ax.get_ylabel() + " (log scale)")
+
+
+def calibration_residuals(before_mm: ArrayLike, after_mm: ArrayLike, path: str | Path) -> Path:
+    """Per-pose position residual of the calibration data, nominal model ("before") and
+    calibrated model ("after"), on a log scale."""
+    before, after = np.asarray(before_mm, float), np.asarray(after_mm, float)
+    fig, ax = plt.subplots(figsize=(8, 4))
+    k = np.arange(1, len(before) + 1)
+    ax.semilogy(k, before, "o-", ms=3, color=_COLOURS.get("before"),
+                label=f"before (nominal): mean {before.mean():.3f} mm")
+    ax.semilogy(k, after, "o-", ms=3, color=_COLOURS.get("after"),
+                label=f"after (calibrated): mean {after.mean():.4f} mm")
+    ax.set(title="Calibration residual per pose (|measured - model| position)",
+           xlabel="calibration pose", ylabel="residual [mm] (log scale)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend()
     return _save(fig, path)
 
 

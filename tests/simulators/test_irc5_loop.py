@@ -109,16 +109,25 @@ async def test_movj_home_and_zero(client, emulator):
     np.testing.assert_allclose(np.degrees(emulator.world.truth.joint_zero), 0, atol=1e-5)
 
 
-async def test_zero_in_step_mode_waits_for_the_operator(client, emulator):
-    await client.load("CAL", targets(1))
-    _ = [p async for p in client.run("CAL", "STEP", on_wait=_accept)]
+async def test_zero_waits_for_the_operator_like_a_real_irc5(client, emulator):
+    emulator.settings.zero_wait = True  # a real IRC5 stops for the FlexPendant, in every mode
+    zero_before = emulator.world.truth.joint_zero.copy()
     waited = []
 
     async def operator(idx: int) -> None:
         waited.append(idx)
+        # nothing applied while the person is at the controller
+        np.testing.assert_array_equal(emulator.world.truth.joint_zero, zero_before)
 
     await client.zero([0.5, 0, 0, 0, 0, 0], on_wait=operator)
     assert waited == [0]
+    assert np.degrees(emulator.world.truth.joint_zero - zero_before)[0] == pytest.approx(0.5)
+
+
+async def test_emulator_applies_zero_itself_without_wait_by_default(client, emulator):
+    await client.load("CAL", targets(1))
+    _ = [p async for p in client.run("CAL", "STEP", on_wait=_accept)]
+    await client.zero([0.5, 0, 0, 0, 0, 0])  # no on_wait: a WAIT would raise SequenceError
 
 
 async def _accept(idx: int) -> None:

@@ -1,0 +1,66 @@
+"""The calibration result document (`result.json`): parameters with units and standard errors,
+identifiability, convergence, residuals, frames, the joint-offset correction and the calibrated
+model. `screwcal calibrate` writes it, the job service serves it (`GET /jobs/{id}/model`), and
+`predict`, `compensate` and the RAPID filter read its `model` member."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from screwcal.calibration.correction import CorrectionRefusedError, joint_correction
+from screwcal.calibration.identify import CalibrationResult
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.modelfile import PoseIn, model_file_from_model
+
+RESULT_FORMAT = "screwcal-calibration"
+
+
+def _summary(values: np.ndarray) -> dict:
+    return {"mean": float(values.mean()), "rms": float(np.sqrt(np.mean(values**2))),
+            "max": float(values.max())}
+
+
+def result_document(result: CalibrationResult, robot: str, settings: dict,
+                    model: SerialModel | None = None, model_note: str | None = None) -> dict:
+    """The result.json document: parameters, identifiability, residuals, model, correction.
+    `model` replaces the identified one (e.g. the robot's model once a ZERO correction made the
+    identified offsets the new zero), `model_note` says so."""
+    params = [{"name": p.name, "unit": p.unit, "group": p.group, "value": float(v),
+               "std_error": float(s)}
+              for p, v, s in zip(result.params, result.values, result.std_errors, strict=True)]
+    residuals: dict = {"kind": result.residual_kind, "unit": "mm",
+                       "before": result.residuals_before.tolist(),
+                       "after": result.residuals_after.tolist(),
+                       "summary_before": _summary(result.residuals_before),
+                       "summary_after": _summary(result.residuals_after)}
+    if result.rotation_after_deg is not None:
+        residuals |= {"rotation_before_deg": result.rotation_before_deg.tolist(),
+                      "rotation_after_deg": result.rotation_after_deg.tolist()}
+    try:
+        correction = joint_correction(result.params, result.values, result.std_errors,
+                                      result.model.n_joints).to_dict()
+    except CorrectionRefusedError as err:
+        correction = {"refused": str(err)}
+    return {
+        "format": RESULT_FORMAT, "version": 1, "robot": robot, "settings": settings,
+        "parameters": params,
+        "removed_parameters": [{"name": n, "reason": why} for n, why in result.removed],
+        "correlation": {"names": list(result.names), "matrix": result.correlation.tolist()},
+        "identifiability": {
+            "rank": result.rank, "candidates": result.n_candidates,
+            "condition_number": result.condition_number, "o1_borm_menq": result.o1,
+            "min_singular_value": result.min_singular_value, "degenerate": result.degenerate,
+            "unidentifiable_combinations": list(result.unidentifiable_combinations)},
+        "convergence": {"converged": result.converged, "message": result.message,
+                        "evaluations": result.n_evaluations, "seconds": result.seconds,
+                        "chi2_reduced": result.chi2_reduced},
+        "residuals": residuals,
+        "frames": {"base": PoseIn.of(result.model.base).model_dump(),
+                   "tool": PoseIn.of(result.model.tool).model_dump()},
+        "correction": correction,
+        "model": json.loads(model_file_from_model(model or result.model).model_dump_json()),
+        "model_note": model_note or "the identified model: the robot as the controller reads "
+                                    "its joints during the calibration",
+    }
