@@ -168,6 +168,11 @@ def result_table(result: dict, times: bool = True) -> str:
             if p["name"].startswith("J"):
                 lines.append(f"    {p['name']:<8}{p['value']:>10.4f} {p['unit']:<3} "
                              f"± {p['std_error']:.4f}")
+        noise = est.get("noise")
+        if noise:
+            lines.append("    noise levels: " + ", ".join(
+                f"{k} {v['value']:.4g} {v['unit']}" + (f" ± {v['std']:.2g}" if v["std"] else "")
+                for k, v in noise.items() if isinstance(v, dict) and v["measured"]))
         if est.get("removed"):
             lines.append("    not separable from these data (not corrected): " + ", ".join(
                 r["name"] for r in est["removed"]))

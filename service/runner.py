@@ -7,8 +7,9 @@ previous pose is committed to the store, so no measurement is ever lost to a cra
 gives the go-ahead itself, a STEP job waits for the operator's.
 
 Correction routes (`options.correction`) of a procedure:
-- `compensate` (default): nothing changes in the controller; every list after the estimation is
-  sent as the joint targets that make the *calibrated* robot reach the nominal targets
+- `compensate` (default): nothing changes in the controller; every performance list after the
+  estimation is sent as the joint targets that make the *calibrated* robot reach the nominal
+  targets
   (`screwcal.calibration.correction.compensate`), all computed and checked (reach, limits,
   plausibility) before anything moves;
 - `zero`: the thesis's route (4.5): ZERO moves to the identified offsets and makes them the new
@@ -77,8 +78,10 @@ STEPS = {
 SECOND_ROUND = ("cal_2", "estimation_2", "correction_2", "perf_after_2")
 PERF_PHASES = ("perf_before", "perf_after", "perf_after_2")
 POOR_FIT_CHI2 = 10.0  # chi2/dof above this with the stated noise: the model misses something
-# The estimation whose model drives a list's targets when the route compensates.
-ESTIMATION_FOR = {"perf_after": "", "cal_2": "", "perf_after_2": "_2"}
+# The estimation whose model drives a performance list's targets when the route compensates.
+# A calibration list (the second round's) is sent as planned: its poses need reach no
+# particular target, only be measured, and compensating them could push one out of the limits.
+ESTIMATION_FOR = {"perf_after": "", "perf_after_2": "_2"}
 ZERO_NOTE = ("ZERO: the robot stands at the correction; enter the offsets on the FlexPendant "
              "(calibration data), then give the go-ahead")
 LINK_ERRORS = (LinkLostError, LinkTimeoutError, ArmLineError, serial.SerialException, OSError)
@@ -373,15 +376,8 @@ class JobRunner:
         target = flange_kinematics(self.model, q_nominal)
         before = _flange_error_mm(result.model, q_nominal, target)
         if "compensate" in route:
-            lists = ["perf_after"] + (["cal_2"] if suffix == "" and
-                                      int(self.options.get("rounds", 1)) == 2 else [])
-            if suffix == "_2":
-                lists = ["perf_after_2"]
-            change = 0.0
-            for phase in lists:
-                base_plan = self.plan("cal" if phase.startswith("cal") else "perf")
-                self._compensated[phase], c = self._compensate_plan(base_plan, robot)
-                change = max(change, c)
+            lists = ["perf_after" + suffix]
+            self._compensated[lists[0]], change = self._compensate_plan(plan, robot)
             q_sent = np.radians([p.joints_deg for p in self._compensated[lists[0]]])
             after = _flange_error_mm(robot, q_sent, target)
             out |= {"compensated_lists": lists, "max_joint_change_deg": change,
@@ -512,6 +508,7 @@ def _estimation_summary(result: CalibrationResult) -> dict:
         "removed": [{"name": n, "reason": why} for n, why in result.removed],
         "rank": result.rank, "condition_number": result.condition_number,
         "chi2_reduced": result.chi2_reduced, "converged": result.converged,
+        "noise": result.noise.to_dict() if result.noise is not None else None,
         "residual_before_mm": float(result.residuals_before.mean()),
         "residual_after_mm": float(result.residuals_after.mean()),
     }

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 from screwcal.calibration.errors_model import Param
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.forward import flange_kinematics
-from screwcal.kinematics.ik import numerical_ik
+from screwcal.kinematics.ik import local_ik, numerical_ik
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
@@ -94,7 +94,8 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
                q_ref: ArrayLike | None = None, *,
                frame: Literal["base", "measuring"] = "measuring",
                bound_deg: float = PLAUSIBLE_OFFSET_DEG) -> Compensation:
-    """Joint targets (nearest to q_ref (N, n) or (n,), default all zeros; within the limits)
+    """Joint targets (from q_ref (N, n) or (n,), on its branch and turn; without it, the
+    branch nearest all zeros; within the limits)
     and nominal tool0 poses that take the calibrated robot to T_desired (N, 4, 4): flange poses
     in the robot base frame (`frame="base"`) or measured-point poses in the measuring frame.
 
@@ -104,8 +105,10 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
     T = np.asarray(T_desired, dtype=float)
     robot = calibrated if frame == "measuring" else \
         calibrated.with_frames(base=np.eye(4), tool=np.eye(4))
-    sol = numerical_ik(robot, T)
-    q = sol.nearest(np.zeros(calibrated.n_joints) if q_ref is None else q_ref)
+    if q_ref is None:
+        q = numerical_ik(robot, T).nearest(np.zeros(calibrated.n_joints))
+    else:  # the solution next to the reference: its branch and turn, even near singularities
+        q = local_ik(robot, T, q_ref)
     calibrated.check_limits(q, "compensated target")
     change = np.zeros_like(q) if q_ref is None else \
         calibrated.joints_to_deg(q - np.broadcast_to(np.asarray(q_ref, float), q.shape))

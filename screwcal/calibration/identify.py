@@ -14,6 +14,16 @@ Weighting:
   errors in degrees (the thesis gives no unit; in degrees W = 1 mm/deg balances the two, which is
   what its Figs. 20-21 found best). Standard errors are scaled by the residual variance.
 
+Noise levels (variance components): unless a level is fixed, the measuring noise (position, and
+orientation when measured) and the joint noise are estimated with the parameters by Förstner's
+iteration: with S_i = sum_k theta_k V_k,i, the whitened fit gives residuals e; each component's
+share of the redundancy r_k = tr(W theta_k V_k) - tr(N^-1 A^T W theta_k V_k W A) and of the
+squared residual Omega_k = e^T W theta_k V_k W e update theta_k <- theta_k Omega_k / r_k until
+they agree (Förstner 1979; Koch, Parameter Estimation and Hypothesis Testing, 1999, 3.6). The
+result reports the levels with their standard deviations (theta_k sqrt(2 / r_k)); the final fit's
+chi2/dof is then 1 by construction and the standard errors are honest. With every level fixed,
+the standard errors are scaled by chi2/dof when it exceeds 1 (the noise was understated).
+
 Identifiability: the weighted Jacobian of every candidate parameter at the start is factorised
 by QR with column pivoting (frames and the model's preferred parameters first); the parameters
 outside the numerical rank are held at their starting value and reported with the kept
@@ -23,7 +33,7 @@ parameters they cannot be told from. Nothing is "solved" that the data cannot de
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -59,14 +69,55 @@ class IdentificationError(ScrewcalError):
     """The identification cannot run on these data (too few poses, nothing identifiable)."""
 
 
+PRIOR_NOISE = (0.013, 0.013 / 50.0 * np.sqrt(2) * 180 / np.pi, 0.05)  # FARO arm, holes 50 mm
+
+
 @dataclass(frozen=True)
 class NoiseModel:
-    """Stated noise: measuring system (mm, 1 sigma), flange-derived orientation (deg, 1 sigma),
-    random joint error (deg, uniform +-)."""
+    """Noise levels: measuring system (mm, 1 sigma), flange-derived orientation (deg, 1 sigma),
+    random joint error (deg, uniform +-). A level left None is estimated from the data,
+    starting from PRIOR_NOISE (the FARO arm's 0.013 mm, holes 50 mm apart, the thesis's
+    +-0.05 deg)."""
 
-    position_mm: float = 0.013
-    orientation_deg: float = 0.013 / 50.0 * np.sqrt(2) * 180 / np.pi  # holes ~50 mm apart
-    joint_deg: float = 0.05
+    position_mm: float | None = None
+    orientation_deg: float | None = None
+    joint_deg: float | None = None
+
+    @property
+    def free(self) -> tuple[bool, bool, bool]:
+        return (self.position_mm is None, self.orientation_deg is None, self.joint_deg is None)
+
+    def filled(self) -> tuple[float, float, float]:
+        """The levels, the priors where free."""
+        return tuple(PRIOR_NOISE[k] if v is None else float(v)  # type: ignore[return-value]
+                     for k, v in enumerate((self.position_mm, self.orientation_deg,
+                                            self.joint_deg)))
+
+
+@dataclass(frozen=True)
+class NoiseEstimate:
+    """The noise levels the fit used: estimated from the data or fixed by the user."""
+
+    position_mm: float
+    orientation_deg: float
+    joint_deg: float  # uniform +- half-width (sigma = joint_deg / sqrt 3)
+    position_std_mm: float | None  # standard deviation of the estimate; None: fixed
+    orientation_std_deg: float | None
+    joint_std_deg: float | None
+    iterations: int = 0
+    converged: bool = True
+
+    def to_dict(self) -> dict:
+        out = {}
+        for name, unit, value, std in (
+                ("position", "mm", self.position_mm, self.position_std_mm),
+                ("orientation", "deg", self.orientation_deg, self.orientation_std_deg),
+                ("joint", "deg (uniform +-)", self.joint_deg, self.joint_std_deg)):
+            measured = bool(np.isfinite(value))
+            out[name] = {"value": value if measured else None, "unit": unit,
+                         "estimated": std is not None, "std": std, "measured": measured}
+        out["iterations"], out["converged"] = self.iterations, self.converged
+        return out
 
 
 @dataclass(frozen=True)
@@ -98,6 +149,7 @@ class CalibrationResult:
     rotation_after_deg: Array | None = None
     degenerate: bool = False
     covariance: Array = field(default_factory=lambda: np.zeros((0, 0)))  # numeric units
+    noise: NoiseEstimate | None = None  # the levels used (statistical weighting)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -116,6 +168,22 @@ class CalibrationResult:
 
 # ----------------------------------------------------------------------------------------------
 # Residuals
+
+def _theta(levels: tuple[float, float, float]) -> Array:
+    """Variance components (mm^2, rad^2, rad^2) of the levels (mm, deg, uniform +- deg)."""
+    p, o, j = levels
+    return np.array([p**2, np.radians(o) ** 2, (np.radians(j) / np.sqrt(3.0)) ** 2])
+
+
+def _levels(theta: Array) -> Array:
+    """The inverse of _theta: (mm, deg, uniform +- deg)."""
+    p, o, j = np.sqrt(np.maximum(theta, 0.0))
+    return np.array([p, np.degrees(o), np.degrees(j) * np.sqrt(3.0)])
+
+
+def _whitening(cov: Array) -> Array:
+    """W_i with W_i^T W_i = cov_i^-1, per pose (N, k, k)."""
+    return np.linalg.inv(np.linalg.cholesky(cov))
 
 class _Problem:
     """Residuals and Jacobian of one identification, pure functions of x."""
@@ -139,6 +207,26 @@ class _Problem:
         out._whiten, out._last = self._whiten, None
         return out
 
+    def with_whitening(self, whiten: Array) -> _Problem:
+        """The same problem with other whitening matrices (N, k, k)."""
+        out = self.restricted(self.errors)
+        out._whiten = whiten
+        return out
+
+    def components(self, at: Array) -> Array:
+        """The unit covariance components V_k (3, N, k, k) at x = `at`: position rows (mm^2),
+        orientation rows (rad^2), and the joints' through the joint Jacobian (per rad^2)."""
+        k = self.rows
+        model = self.errors.apply(at)
+        T = forward_kinematics(model, self.data.q)
+        Jq = point_jacobian(spatial_jacobian(model, self.data.q), T)[:, :k, :]
+        V = np.zeros((3, len(self.data), k, k))
+        V[0, :, range(3), range(3)] = 1.0
+        if k == 6:
+            V[1, :, range(3, 6), range(3, 6)] = 1.0
+        V[2] = np.einsum("nij,nkj->nik", Jq, Jq)
+        return V
+
     def _weights(self, weighting: str, weight_mm: float, noise: NoiseModel, at: Array) -> Array:
         """Per-pose whitening matrices (N, k, k), or per-pair weights (P,) for distances; the
         joint-noise part is carried through the joint Jacobian of the model at x = `at`."""
@@ -148,20 +236,14 @@ class _Problem:
             w = np.r_[np.full(3, 1.0 / weight_mm), np.full(3, 180.0 / np.pi)][:k]
             W = np.broadcast_to(np.diag(w), (N, k, k)).copy()
             return W if self.residual != "distance" else np.full(len(pairs(N)[0]), w[0])
-        model = self.errors.apply(at)
-        T = forward_kinematics(model, data.q)
-        Jq = point_jacobian(spatial_jacobian(model, data.q), T)[:, :k, :]
-        s_q = np.radians(noise.joint_deg) / np.sqrt(3.0)
-        s_m = np.r_[np.full(3, noise.position_mm), np.full(3, np.radians(noise.orientation_deg))]
-        cov = np.einsum("nij,nkj->nik", Jq, Jq) * s_q**2 + np.diag(s_m[:k] ** 2)
+        cov = np.einsum("k,knij->nij", _theta(noise.filled()), self.components(at))
         if self.residual == "distance":
             i, j = pairs(N)
             u = data.positions_mm[i] - data.positions_mm[j]
             u /= np.linalg.norm(u, axis=1, keepdims=True)
             var = np.einsum("pi,pij,pj->p", u, cov[i] + cov[j], u)
             return 1.0 / np.sqrt(var)
-        L = np.linalg.cholesky(cov)
-        return np.linalg.inv(L)
+        return _whitening(cov)
 
     def raw(self, x: Array, jacobian: bool = True) -> tuple[Array, Array | None]:
         """Unweighted residuals (N, k) or (P,) and, if asked, their Jacobian (N, k, p) or
@@ -301,6 +383,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         return sol.x, bool(sol.status > 0), str(sol.message), int(sol.nfev)
 
     statistical = weighting == "statistical"
+    estimate_noise = statistical and residual != "distance" and any(noise.free)
     reweighted = False
     if solver == "lm":
         # The candidate Jacobian at the start gives one Gauss-Newton step for free; with
@@ -309,7 +392,10 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         # identified) and solve once. If that step does not lower the cost, solve from the
         # start and re-weight afterwards.
         x_gn = -np.linalg.lstsq(J0[:, keep], r0, rcond=None)[0]
-        if statistical and problem.cost(x_gn) < float(r0 @ r0):
+        if estimate_noise:  # the noise levels' own loop re-weights and solves from there
+            x, converged, message, nfev = x_gn, True, "", 0
+            reweighted = True
+        elif statistical and problem.cost(x_gn) < float(r0 @ r0):
             problem = _Problem(errors, data, residual, weighting, weight_mm, noise,
                                weights_at=x_gn)
             x, converged, message, nfev = lm(problem, x_gn)
@@ -343,20 +429,30 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         x, converged = polish.x, bool(de.success or polish.status > 0)
         message = f"DE: {de.message}; polished: {polish.message}"
         nfev = int(de.nfev + polish.nfev)
-    if statistical and not reweighted:
+    noise_used = None
+    if estimate_noise:
+        # Re-weighted at every estimate while the noise levels are found (variance components).
+        problem, x, noise_used, nfev_vce, (converged, message) = _estimate_noise(
+            problem, noise, x, lambda pr, x_start: lm(pr, x_start, 1e-10))
+        nfev += nfev_vce
+        if not noise_used.converged:
+            message += "; noise levels did not settle (see noise)"
+    elif statistical and not reweighted:
         # Re-weight at the estimate and solve again (iteratively re-weighted GLS; one pass is
         # enough, the weights' own error is then second order).
         problem = _Problem(errors, data, residual, weighting, weight_mm, noise, weights_at=x)
         x, converged_again, message_again, nfev_again = lm(problem, x)
         converged = converged and converged_again
         message, nfev = f"{message}; re-weighted: {message_again}", nfev + nfev_again
+    if statistical and noise_used is None:
+        noise_used = NoiseEstimate(*noise.filled(), None, None, None)
 
     r, Jw = problem.weighted(x)
     dof = max(m - p, 1)
     chi2 = float(r @ r) / dof
     cov = scipy.linalg.pinvh(Jw.T @ Jw)
-    if weighting == "eq2.4":
-        cov = cov * chi2
+    if weighting == "eq2.4" or (statistical and not estimate_noise and chi2 > 1.0):
+        cov = cov * chi2  # the noise was understated: the a-posteriori variance factor
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     corr = cov / np.outer(np.where(std > 0, std, 1), np.where(std > 0, std, 1))
     col = np.linalg.norm(Jw, axis=0)
@@ -374,7 +470,89 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         min_singular_value=float(s[-1]), chi2_reduced=chi2, converged=bool(converged),
         message=str(message), n_evaluations=nfev, seconds=time.perf_counter() - started,
         residuals_before=before[0], residuals_after=after[0], rotation_before_deg=before[1],
-        rotation_after_deg=after[1], degenerate=degenerate, covariance=cov)
+        rotation_after_deg=after[1], degenerate=degenerate, covariance=cov, noise=noise_used)
+
+
+VCE_MAX_ITER = 25
+VCE_TOL = 0.05  # relative change of every free component at convergence
+NEGLIGIBLE = 0.01  # a component under this share of the variance no longer shapes the weights
+STEP_LIMIT = 20.0  # one scoring step changes a component by at most this factor
+
+
+def _estimate_noise(problem: _Problem, noise: NoiseModel, x: Array,
+                    solve: Callable[[_Problem, Array], tuple[Array, bool, str, int]]
+                    ) -> tuple[_Problem, Array, NoiseEstimate, int, tuple[bool, str]]:
+    """The free noise levels and the parameters together, by restricted maximum likelihood
+    (Fisher scoring on the variance components, a Gauss-Newton step of the parameters with the
+    weights of each step, LM at the end); returns the final problem, estimate, levels,
+    evaluations and the final solve's (converged, message)."""
+    theta = _theta(noise.filled())
+    floor = 1e-8 * _theta(PRIOR_NOISE)
+    free = np.array(noise.free)
+    if problem.rows == 3:
+        free[1] = False  # no orientation measured
+        theta[1] = 0.0
+    idx = np.flatnonzero(free)
+    information = np.eye(len(idx))
+    nfev, converged, iteration = 0, False, 0
+    # The levels are found on the problem linearised at the start (which the candidates'
+    # Gauss-Newton step puts near the optimum), then LM solves the nonlinear problem once with
+    # the final weights, taken at its own estimate.
+    V = problem.components(x)
+    e, A = problem.raw(x)
+    assert A is not None
+    while iteration < VCE_MAX_ITER:
+        iteration += 1
+        W = _whitening(np.einsum("k,knij->nij", theta, V))
+        # The weighted linear least-squares step, and the residuals carried there.
+        dx = -np.linalg.lstsq((W @ A).reshape(-1, A.shape[-1]),
+                              (W @ e[..., None]).reshape(-1), rcond=None)[0]
+        x, e = x + dx, e + A @ dx
+        Cinv = np.swapaxes(W, 1, 2) @ W
+        Ce = (Cinv @ e[..., None])[..., 0]
+        CA = Cinv @ A
+        p_ = A.shape[-1]
+        Ninv = scipy.linalg.pinvh(A.reshape(-1, p_).T @ CA.reshape(-1, p_))
+        Vk = V[idx]
+        K = len(idx)
+        M = Cinv @ Vk  # C^-1 V_k per pose
+        S = CA @ Ninv @ np.swapaxes(CA, 1, 2)  # C^-1 A N^-1 A^T C^-1 per pose
+        G = (np.swapaxes(CA, 1, 2) @ Vk @ CA).sum(axis=1)  # A^T C^-1 V_k C^-1 A
+        # REML score and expected information of the variance components (traces of products
+        # of per-pose blocks: tr(X Y) = sum of X * Y^T)
+        score = 0.5 * ((Ce[:, None, :] @ Vk @ Ce[:, :, None]).sum(axis=(1, 2, 3))
+                       - np.trace(M, axis1=2, axis2=3).sum(axis=1)
+                       + (Vk * np.swapaxes(S, 1, 2)).sum(axis=(1, 2, 3)))
+        GN = G @ Ninv
+        MS = M @ S
+        information = 0.5 * (M.reshape(K, -1) @ np.swapaxes(M, 2, 3).reshape(K, -1).T
+                             - 2.0 * Vk.reshape(K, -1) @ np.swapaxes(MS, 2, 3).reshape(K, -1).T
+                             + np.einsum("kpq,lqp->kl", GN, GN))
+        step = np.linalg.lstsq(information, score, rcond=None)[0]
+        old = theta[idx].copy()
+        new = np.clip(old + step, old / STEP_LIMIT, old * STEP_LIMIT)
+        theta[idx] = np.maximum(new, floor[idx])
+        share = np.einsum("knii->k", V) * theta
+        share = share / share.sum()
+        at_zero = (share[idx] < NEGLIGIBLE) & (step < 0)  # on the boundary: below detection
+        if np.all((np.abs(theta[idx] / old - 1.0) < VCE_TOL) | at_zero):
+            converged = True
+            break
+    V = problem.components(x)
+    problem = problem.with_whitening(_whitening(np.einsum("k,knij->nij", theta, V)))
+    x, solved, message, n = solve(problem, x)
+    nfev += n
+    levels = _levels(theta)
+    cov_theta = scipy.linalg.pinvh(information)
+    stds: list[float | None] = [None, None, None]
+    for j, c in enumerate(idx):
+        # d level / d theta = level / (2 theta) for each of the three levels' scalings
+        stds[c] = float(levels[c] / (2.0 * theta[c]) * np.sqrt(max(cov_theta[j, j], 0.0)))
+    if problem.rows == 3:
+        levels[1] = float("nan")
+    estimate = NoiseEstimate(*(float(v) for v in levels), *stds,  # type: ignore[arg-type]
+                             iterations=iteration, converged=converged)
+    return problem, x, estimate, nfev, (solved, message)
 
 
 def _pose_errors(model: SerialModel, data: MeasurementSet, residual: str

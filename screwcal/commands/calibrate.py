@@ -8,7 +8,9 @@
 By default the measuring system's frame and the measured point's offset from the flange are
 identified with the robot's errors; `--base-frame known` says the data are already in the robot
 base frame and the measured point is the flange. `--weight-mm W` selects the thesis's Eq. 2.4
-objective with that W; otherwise residuals are weighted statistically by the stated noise.
+objective with that W; otherwise residuals are weighted statistically by the noise levels, which
+are estimated from the data (variance components) unless `--noise-mm` / `--joint-noise-deg` fix
+them; the result reports the levels used with their uncertainty.
 """
 
 from __future__ import annotations
@@ -51,10 +53,24 @@ def run_calibrate(args: argparse.Namespace) -> int:
     print(f"{args.model} model, {len(data)} poses, rank {result.rank}/{result.n_candidates}: "
           f"residual mean {b['mean']:.3f} -> {a['mean']:.3f} mm, max {b['max']:.3f} -> "
           f"{a['max']:.3f} mm{'' if result.converged else ' (NOT converged)'} -> {args.out}")
+    if result.noise is not None:
+        print("noise levels: " + _noise_line(result.noise.to_dict())
+              + f"; chi2/dof {result.chi2_reduced:.2f}")
     if result.degenerate:
         print("warning: some requested parameters cannot be identified from these data; see "
               "removed_parameters in the result")
     return 0 if result.converged else 1
+
+
+def _noise_line(noise: dict) -> str:
+    parts = []
+    for name in ("position", "orientation", "joint"):
+        n = noise[name]
+        if not n["measured"]:
+            continue
+        how = f"+- {n['std']:.2g} (estimated)" if n["estimated"] else "(fixed)"
+        parts.append(f"{name} {n['value']:.4g} {n['unit']} {how}")
+    return ", ".join(parts)
 
 
 def run_compensate(args: argparse.Namespace) -> int:
@@ -119,9 +135,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="default: pose for full-pose data, position otherwise")
     p.add_argument("--base-guess", metavar="SWEEPS_CSV",
                    help="start the base frame from the thesis's joint 1/joint 2 sweeps (4.6)")
-    p.add_argument("--noise-mm", type=float, default=0.013, help="measuring noise, 1 sigma")
-    p.add_argument("--joint-noise-deg", type=float, default=0.05,
-                   help="random joint error, uniform +-")
+    p.add_argument("--noise-mm", type=float, default=None,
+                   help="fix the measuring noise, 1 sigma (default: estimated from the data)")
+    p.add_argument("--joint-noise-deg", type=float, default=None,
+                   help="fix the random joint error, uniform +- (default: estimated)")
     p.set_defaults(func=run_calibrate)
 
     c = sub.add_parser("compensate", help="joint targets that make the calibrated robot reach "

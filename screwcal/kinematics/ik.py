@@ -222,25 +222,15 @@ def _pose_error(T_target: Array, T: Array) -> Array:
     return np.concatenate([T_target[:, :3, 3] - T[:, :3, 3], dphi], axis=1)
 
 
-def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float = 1e-9,
-                 tol_rad: float = 1e-11, max_iter: int = 30, damping: float = 1e-9
-                 ) -> IKSolutions:
-    """IK of any 6R model, every branch refined by damped Gauss-Newton from the closed form of
-    the model's nearest ideal geometry. A branch counts as reachable when it converged."""
-    T_target = np.asarray(T_world_tool, dtype=float)
-    T_flange = _flange_targets(model, T_target)
-    geo = WristPartitionedGeometry.from_model(model, tol=None)
-    # A calibrated arm may reach a little beyond its ideal twin: seed from the stretched pose.
-    theta0, reach0 = _closed_form_theta(geo, T_flange, slack=0.05, elbow_floor=0.02)
-    _raise_unreachable(reach0)
-    N = T_target.shape[0]
-    q = np.nan_to_num(theta0 - model.joint_zero).reshape(-1, 6)
-    targets = np.repeat(T_target, 8, axis=0)
-    active = reach0.reshape(-1).copy()
-    converged = np.zeros_like(active)
+def _refine(model: SerialModel, targets: Array, q0: Array, tol_mm: float, tol_rad: float,
+            max_iter: int, damping: float) -> tuple[Array, Array]:
+    """Damped Gauss-Newton from the joint readings q0 (M, 6) toward targets (M, 4, 4) (world
+    tool poses); returns the readings and which converged."""
+    q = q0.copy()
+    converged = np.zeros(len(q), bool)
     eye = np.eye(6)
     for _ in range(max_iter):
-        idx = np.flatnonzero(active & ~converged)
+        idx = np.flatnonzero(~converged)
         if idx.size == 0:
             break
         T = forward_kinematics(model, q[idx])
@@ -255,12 +245,48 @@ def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float =
         JT = np.swapaxes(J, 1, 2)
         step = np.linalg.solve(JT @ J + damping * eye, (JT @ err[:, :, None]))[:, :, 0]
         q[idx] += step
-    # A last check for the branches that converged on the final step.
-    idx = np.flatnonzero(active & ~converged)
+    # A last check for those that converged on the final step.
+    idx = np.flatnonzero(~converged)
     if idx.size:
         err = _pose_error(targets[idx], forward_kinematics(model, q[idx]))
         converged[idx] = (np.linalg.norm(err[:, :3], axis=1) < tol_mm * 10) & \
                          (np.linalg.norm(err[:, 3:], axis=1) < tol_rad * 10)
+    return q, converged
+
+
+def local_ik(model: SerialModel, T_world_tool: ArrayLike, q_seed: ArrayLike, *,
+             tol_mm: float = 1e-9, tol_rad: float = 1e-11, max_iter: int = 30,
+             damping: float = 1e-9) -> Array:
+    """The joint readings (N, 6) that reach each target, found from a nearby seed (N, 6) by
+    damped Gauss-Newton: the same branch and turn as the seed, well defined near the wrist
+    singularity where branches meet. For small changes of a known solution (compensation).
+    Raises UnreachableError naming the first target that did not converge."""
+    T = np.asarray(T_world_tool, dtype=float)
+    seed = np.broadcast_to(np.asarray(q_seed, float), (T.shape[0], model.n_joints))
+    q, converged = _refine(model, T, seed, tol_mm, tol_rad, max_iter, damping)
+    if not converged.all():
+        k = int(np.flatnonzero(~converged)[0])
+        raise UnreachableError(f"target {k}: no solution near the given joints", index=k)
+    return q
+
+
+def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float = 1e-9,
+                 tol_rad: float = 1e-11, max_iter: int = 30, damping: float = 1e-9
+                 ) -> IKSolutions:
+    """IK of any 6R model, every branch refined by damped Gauss-Newton from the closed form of
+    the model's nearest ideal geometry. A branch counts as reachable when it converged."""
+    T_target = np.asarray(T_world_tool, dtype=float)
+    T_flange = _flange_targets(model, T_target)
+    geo = WristPartitionedGeometry.from_model(model, tol=None)
+    # A calibrated arm may reach a little beyond its ideal twin: seed from the stretched pose.
+    theta0, reach0 = _closed_form_theta(geo, T_flange, slack=0.05, elbow_floor=0.02)
+    _raise_unreachable(reach0)
+    N = T_target.shape[0]
+    q0 = np.nan_to_num(theta0 - model.joint_zero).reshape(-1, 6)
+    active = reach0.reshape(-1)
+    q, converged = q0.copy(), np.zeros_like(active)
+    q[active], converged[active] = _refine(model, np.repeat(T_target, 8, axis=0)[active],
+                                           q0[active], tol_mm, tol_rad, max_iter, damping)
     reach = converged.reshape(N, 8)
     _raise_unreachable(reach)
     return _solutions(model, q.reshape(N, 8, 6) + model.joint_zero, reach, T_flange)

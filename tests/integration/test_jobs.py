@@ -2,8 +2,10 @@
 
 import asyncio
 
+import numpy as np
 import pytest
 
+from screwcal.kinematics.modelfile import parse_model
 from tests.integration.conftest import AUTH, FAST, add_robot
 
 THESIS_OFFSETS = {"J2ry": 1.1, "J3rz": 3.1, "J4rx": -2.0, "J5ry": 3.7, "J6rx": -4.6}
@@ -18,7 +20,9 @@ async def wait_state(http, job_id, states=("done", "failed", "aborted"), timeout
             await asyncio.sleep(0.02)
 
 
-async def test_procedure_in_auto_corrects_the_robot(service, rig):
+async def test_procedure_in_auto_compensates_the_robot(service, rig):
+    """The default route: the full model, the performance list after sent as compensated
+    joint targets; the robot itself reaches the nominal targets."""
     robot = await add_robot(service, rig)
     r = await service.post("/jobs", headers=AUTH, json={"robot_id": robot, "kind": "procedure",
                                                        "options": FAST})
@@ -26,20 +30,101 @@ async def test_procedure_in_auto_corrects_the_robot(service, rig):
     job = await wait_state(service, r.json()["id"])
     assert job["state"] == "done", job["reason"]
     result = (await service.get(f"/jobs/{job['id']}/result")).json()
-    values = {p["name"]: p["value"] for p in result["estimation"]["parameters"]}
-    for name, imposed in THESIS_OFFSETS.items():  # the thesis model recovers Table 11
-        assert values[name] == pytest.approx(imposed, abs=0.1), name
-    assert "J1rz" in {p["name"] for p in result["estimation"]["removed"]}
+    assert result["correction"]["route"] == "compensate"
+    assert result["correction"]["compensated_lists"] == ["perf_after"]
+    assert result["correction"]["left_in_robot"] == []
+    assert rig.emu.world.truth.joint_zero[1] != 0  # nothing was changed in the controller
     before = result["performance"]["perf_before"]["overall"]["ap_mm_mean"]
     after = result["performance"]["perf_after"]["overall"]["ap_mm_mean"]
-    assert before > 5 * after and after < 2.0
+    assert before > 40 and after < 0.1
+    noise = result["estimation"]["noise"]
+    assert noise["joint"]["estimated"] and noise["joint"]["value"] < 0.01  # none in the emulator
+    assert noise["position"]["value"] == pytest.approx(0.013, rel=0.5)
+    assert result["estimation"]["chi2_reduced"] == pytest.approx(1.0, abs=0.2)
     assert set(job["phases"]) >= {"setup", "perf_before", "cal", "estimation", "correction",
                                   "perf_after", "evaluation"}
     measured = (await service.get(f"/jobs/{job['id']}/measurements",
                                   params={"phase": "cal"})).json()
     assert [m["idx"] for m in measured] == list(range(30))  # each once
+    sent = (await service.get(f"/jobs/{job['id']}/measurements",
+                              params={"phase": "perf_after"})).json()
+    planned = (await service.get(f"/jobs/{job['id']}/measurements",
+                                 params={"phase": "perf_before"})).json()
+    moved = np.abs(np.array(sent[0]["joints_deg"]) - planned[0]["joints_deg"]).max()
+    assert 0.5 < moved < 5.0  # compensated targets, within the plausible bound
+    model = await service.get(f"/jobs/{job['id']}/model")
+    assert model.status_code == 200 and model.json()["format"] == "screwcal-calibration"
+    calibrated = parse_model(model.json())  # a file predict, compensate and the filter read
+    assert calibrated.name == "irb1600"
     page = await service.get(f"/jobs/{job['id']}/report")
     assert page.status_code == 200 and "ISO 9283" in page.text and "data:image/png" in page.text
+    assert "Summary" in page.text and "Test conditions" in page.text
+    assert "Correction: compensate" in page.text
+
+
+async def test_procedure_zero_route_recovers_table11_and_leaves_the_links(service, rig):
+    """The thesis's route with its model: ZERO takes the joint offsets out; the link
+    offsets stay in the robot and the report says so."""
+    robot = await add_robot(service, rig)
+    r = await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "procedure",
+        "options": {**FAST, "model": "thesis", "correction": "zero"}})
+    job = await wait_state(service, r.json()["id"])
+    assert job["state"] == "done", job["reason"]
+    result = (await service.get(f"/jobs/{job['id']}/result")).json()
+    values = {p["name"]: p["value"] for p in result["estimation"]["parameters"]}
+    for name, imposed in THESIS_OFFSETS.items():  # the thesis model recovers Table 11
+        assert values[name] == pytest.approx(imposed, abs=0.1), name
+    assert "J1rz" in {p["name"] for p in result["estimation"]["removed"]}
+    corr = result["correction"]
+    assert corr["route"] == "zero" and corr["sent"]
+    assert {p["name"] for p in corr["left_in_robot"]} >= {"J2pz", "J4px"}
+    np.testing.assert_allclose(np.degrees(rig.emu.world.truth.joint_zero[1:]),
+                               [0, 0, 0, 0, 0], atol=0.1)  # ZERO applied
+    before = result["performance"]["perf_before"]["overall"]["ap_mm_mean"]
+    after = result["performance"]["perf_after"]["overall"]["ap_mm_mean"]
+    assert before > 5 * after and 0.2 < after < 2.0  # the links' error stays
+
+
+@pytest.mark.parametrize("mode", ["AUTO", "STEP"])
+async def test_zero_wait_needs_the_operator_in_every_mode(service, rig, mode):
+    """A real IRC5 stops after ZERO while a person enters the offsets: even an AUTO job waits
+    for the operator's go-ahead there, and the robot is not corrected until it is given."""
+    rig.emu.settings.zero_wait = True
+    robot = await add_robot(service, rig)
+    r = await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "procedure", "mode": mode,
+        "options": {**FAST, "correction": "zero+compensate"}})
+    job_id = r.json()["id"]
+    async with asyncio.timeout(60):
+        while True:
+            job = (await service.get(f"/jobs/{job_id}")).json()
+            waiting = job["waiting_for"]
+            if waiting and waiting["phase"] == "correction":
+                break
+            if waiting:  # STEP: the operator lets every measuring pose go
+                await service.post(f"/jobs/{job_id}/go", headers=AUTH,
+                                   json={"index": waiting["index"]})
+            await asyncio.sleep(0.01)
+    zero_before = rig.emu.world.truth.joint_zero.copy()
+    await asyncio.sleep(0.3)
+    assert (await service.get(f"/jobs/{job_id}")).json()["state"] == "running"
+    np.testing.assert_array_equal(rig.emu.world.truth.joint_zero, zero_before)
+    assert (await service.post(f"/jobs/{job_id}/go", headers=AUTH,
+                               json={"index": 0})).status_code == 204
+    async with asyncio.timeout(60):
+        while True:
+            job = (await service.get(f"/jobs/{job_id}")).json()
+            if job["state"] in ("done", "failed", "aborted"):
+                break
+            if job["waiting_for"]:
+                await service.post(f"/jobs/{job_id}/go", headers=AUTH,
+                                   json={"index": job["waiting_for"]["index"]})
+            await asyncio.sleep(0.01)
+    assert job["state"] == "done", job["reason"]
+    assert not np.array_equal(rig.emu.world.truth.joint_zero, zero_before)
+    result = (await service.get(f"/jobs/{job_id}/result")).json()
+    assert result["performance"]["perf_after"]["overall"]["ap_mm_mean"] < 0.1
 
 
 async def test_calibration_in_step_waits_for_the_operator(service, rig):
@@ -61,8 +146,10 @@ async def test_calibration_in_step_waits_for_the_operator(service, rig):
         again = await service.post(f"/jobs/{job_id}/go", headers=AUTH, json={"index": k})
         assert again.status_code == 409  # one go-ahead, one move
     job = await wait_state(service, job_id)
-    assert job["state"] in ("done", "failed")  # 12 poses: the estimation may refuse to correct
+    assert job["state"] == "done", job["reason"]  # a calibration job sends no correction
     assert len((await service.get(f"/jobs/{job_id}/measurements")).json()) == 12
+    result = (await service.get(f"/jobs/{job_id}/result")).json()
+    assert result["correction"]["route"] == "none"
 
 
 async def test_performance_job_alone(service, rig):
@@ -133,15 +220,17 @@ async def test_every_kind_in_every_mode(service, rig, kind, mode):
         "robot_id": robot, "kind": kind, "mode": mode, "options": FAST})).json()["id"]
     job, asked = await operate(service, job_id)
     assert job["state"] == "done", job["reason"]
-    moves = {"performance": 31, "calibration": 30, "procedure": 31 + 30 + 1 + 31}[kind]
+    # the procedure's default route compensates: no ZERO move
+    moves = {"performance": 31, "calibration": 30, "procedure": 31 + 30 + 31}[kind]
     assert asked == (moves if mode == "STEP" else 0)  # STEP: one go-ahead per move
     assert rig.emu.world.arrivals == moves
 
 
-async def test_a_second_round_refines_the_correction(service, rig):
+async def test_a_second_round_refines_the_zero_correction(service, rig):
     robot = await add_robot(service, rig)
     job_id = (await service.post("/jobs", headers=AUTH, json={
-        "robot_id": robot, "kind": "procedure", "options": {**FAST, "rounds": 2}})).json()["id"]
+        "robot_id": robot, "kind": "procedure", "options": {
+            **FAST, "rounds": 2, "model": "thesis", "correction": "zero"}})).json()["id"]
     job = await wait_state(service, job_id)
     assert job["state"] == "done", job["reason"]
     result = (await service.get(f"/jobs/{job_id}/result")).json()
@@ -150,3 +239,20 @@ async def test_a_second_round_refines_the_correction(service, rig):
     perf = result["performance"]
     assert perf["perf_after_2"]["overall"]["ap_mm_mean"] < 2.0
     assert {"cal_2", "estimation_2", "correction_2", "perf_after_2"} <= set(job["phases"])
+
+
+async def test_a_second_round_with_compensation(service, rig):
+    """Round 2 measures the calibration list as planned, re-identifies the (unchanged) robot
+    and compensates the last performance list with that model."""
+    robot = await add_robot(service, rig)
+    job_id = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "procedure", "options": {**FAST, "rounds": 2}})).json()["id"]
+    job = await wait_state(service, job_id)
+    assert job["state"] == "done", job["reason"]
+    result = (await service.get(f"/jobs/{job_id}/result")).json()
+    assert result["correction"]["compensated_lists"] == ["perf_after"]
+    assert result["correction_2"]["compensated_lists"] == ["perf_after_2"]
+    perf = result["performance"]
+    assert perf["perf_after"]["overall"]["ap_mm_mean"] < 0.15
+    assert perf["perf_after_2"]["overall"]["ap_mm_mean"] < 0.15  # 30 poses, 30 parameters
+    assert (await service.get(f"/jobs/{job_id}/model", params={"round": 2})).status_code == 200

@@ -30,7 +30,7 @@ async def test_operator_answers_step_prompts_and_reads_the_result(tmp_path, rig)
         assert len(prompts) == 12 and prompts[0].startswith("robot will move to cal pose 0")
         assert any("pose 12 of 12" in line for line in lines)
         table = result_table(await asyncio.to_thread(op.result, job["id"]))
-        assert "identified" in table and "J2ry" in table
+        assert "identified" in table and "J2 " in table  # the full model by default
 
         # Declining a move leaves the robot where it is and the job waiting.
         job2 = await asyncio.to_thread(op.start, robot_id=robot["id"], kind="calibration",
