@@ -23,8 +23,8 @@ import httpx
 from service.app import create_app
 from service.settings import ServiceSettings
 from simulators.arm import ArmEmulator
-from simulators.cli import make_world
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
+from simulators.truth import make_world
 
 TOKEN = "bench"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}

@@ -21,8 +21,8 @@ import numpy as np
 
 from protocol.client import ControllerClient
 from screwcal.calibration.posesets import random_configurations
-from simulators.cli import make_world
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
+from simulators.truth import make_world
 
 
 async def measure(repeat: int) -> tuple[float, float]:

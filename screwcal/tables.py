@@ -7,6 +7,7 @@ column; writers write to a temporary file and rename it, so a refused input writ
 from __future__ import annotations
 
 import csv
+import io
 import math
 import os
 import tempfile
@@ -120,14 +121,25 @@ def read_numeric_csv(path: str | Path, required: Sequence[str],
 def write_csv_atomic(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[object]]
                      ) -> None:
     """Write a CSV through a temporary file in the same folder, renamed into place at the end."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(header)
+    writer.writerows(rows)
+    write_text_atomic(path, buffer.getvalue().encode("utf-8"))
+
+
+def write_text_atomic(path: str | Path, data: bytes) -> None:
+    """Write bytes through a temporary file in the same folder, renamed into place at the end:
+    a failure leaves the old file (or none), never half a file."""
     path = Path(path)
     directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
     try:
-        with os.fdopen(fd, "w", newline="", encoding="utf-8") as handle:
-            writer = csv.writer(handle, lineterminator="\n")
-            writer.writerow(header)
-            writer.writerows(rows)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    except OSError as err:
+        raise DataFileError(str(path), f"cannot write here ({err.strerror})") from None
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

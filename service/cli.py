@@ -15,20 +15,21 @@ and its token in --token or SCREWCAL_TOKEN.
 from __future__ import annotations
 
 import argparse
-import asyncio
 import json
 import os
 import socket
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
-
-import httpx
+from typing import TYPE_CHECKING, Any
 
 from service.errors import ServiceError
-from service.settings import ServiceSettings
 from service.summary import before_after
+
+if TYPE_CHECKING:  # imported where used: `screwcal --help` pays for neither
+    import httpx
+
+    from service.settings import ServiceSettings
 
 
 # -- the service --------------------------------------------------------------------------------
@@ -46,12 +47,16 @@ def serve(settings: ServiceSettings, announce: Callable[[str], None] = print) ->
     server = uvicorn.Server(uvicorn.Config(create_app(settings), log_level="warning"))
     announce(f"screwcal service on http://{host}:{port} (database {settings.db_path})")
     sys.stdout.flush()
+    import asyncio
+
     asyncio.run(server.serve(sockets=[sock]))
 
 
 def run_serve(args: argparse.Namespace) -> int:
     overrides = {k: v for k, v in (("db_path", args.db), ("host", args.host),
                                    ("port", args.port), ("token", args.token)) if v is not None}
+    from service.settings import ServiceSettings
+
     settings = ServiceSettings(**overrides)
     if not settings.token:
         print("warning: no token (--token or SCREWCAL_TOKEN): every request that moves a robot "
@@ -68,6 +73,8 @@ class Operator:
     """A thin httpx client of the REST API (a transport can be passed for tests)."""
 
     def __init__(self, base_url: str, token: str, transport: httpx.BaseTransport | None = None):
+        import httpx
+
         self.http = httpx.Client(base_url=base_url, transport=transport, timeout=30.0,
                                  headers={"Authorization": f"Bearer {token}"})
 
@@ -233,6 +240,8 @@ def run_job(args: argparse.Namespace) -> int:
 
 
 def _run_job(op: Operator, args: argparse.Namespace) -> int:
+    import httpx
+
     try:
         if args.action == "robot-add":
             host, _, port = args.controller.rpartition(":")

@@ -11,7 +11,6 @@ writes the report (HTML and PNG) to a folder. The same `--seed` prints the same 
 from __future__ import annotations
 
 import argparse
-import asyncio
 import contextlib
 import re
 import secrets
@@ -23,11 +22,12 @@ import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from screwcal.calibration.virtual_joints import THESIS_TABLE11
-from service.cli import Operator, result_table
 from service.errors import ServiceError
-from service.settings import ServiceSettings
+
+if TYPE_CHECKING:
+    from service.settings import ServiceSettings
 
 ARM_POSITION_MM = (500.0, 0.0, 600.0)  # the emulator's default arm stand (robot frame)
 NOISE_SEED = 2018  # the arm's noise when no --seed is given (Table 11's errors)
@@ -58,6 +58,8 @@ def emulators(time_scale: float, seed: int | None, world: Path) -> Iterator[tupl
 @contextlib.contextmanager
 def service(settings: ServiceSettings) -> Iterator[str]:
     """The service in a thread of this process, on a free port; yields its URL."""
+    import asyncio
+
     import uvicorn  # here, not at import: every `screwcal` command would pay for it
 
     from service.app import create_app
@@ -83,7 +85,10 @@ def service(settings: ServiceSettings) -> Iterator[str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from screwcal.calibration.virtual_joints import THESIS_TABLE11
+    from service.cli import Operator, result_table
     from service.report import report_figures
+    from service.settings import ServiceSettings
 
     started = time.perf_counter()
     out_dir = Path(args.out)

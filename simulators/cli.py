@@ -8,85 +8,30 @@ Each prints its bound address on one line (`--port 0` picks a free port). The tr
 nominal IRB 1600 with the thesis's Table 11 errors, or the virtual-joint errors of a JSON file
 ({"J1rz": 2.0, ...}), or a whole model file (any full-model errors), or random errors from a
 seed. The arm runs in the IRC5 process (`--arm-port`) or in its own, following the world file
-the IRC5 process writes (`--world FILE`, by default screwcal-world.json in the temp folder); until
-a robot is known it answers `$NM ... NO_ROBOT`.
+the IRC5 process writes: `--world FILE`, or by default a new private folder per run, whose file
+the IRC5 process prints on its second line. Until a robot is known the arm answers
+`$NM ... NO_ROBOT`.
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
-import json
+import sys
 import tempfile
-from dataclasses import replace
 from pathlib import Path
-
-import numpy as np
-
-from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
-from screwcal.errors import ModelError
-from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.modelfile import parse_model
-from screwcal.kinematics.robots import irb1600
-from screwcal.kinematics.se3 import exp_twist
-from simulators.arm import ArmEmulator, WorldFileSource, WorldFileWriter
-from simulators.irc5 import EmulatorSettings, IRC5Emulator
-from simulators.world import World
-
-# Where the measuring arm stands by default: (500, 0, 600) mm in the robot frame.
-DEFAULT_ARM_POSITION_MM = (500.0, 0.0, 600.0)
-# Where an irc5 emulator process publishes its world for an arm process, unless --world says.
-DEFAULT_WORLD_FILE = Path(tempfile.gettempdir()) / "screwcal-world.json"
-
-
-def arm_base(arm_position_mm: tuple[float, float, float]) -> np.ndarray:
-    """The arm frame <- robot base transform for an arm standing at this robot-frame point."""
-    T = np.eye(4)
-    T[:3, 3] = -np.asarray(arm_position_mm, dtype=float)
-    return T
-
-
-def random_errors(nominal: SerialModel, seed: int) -> SerialModel:
-    """Thesis-like errors drawn from a seed: joint offsets within +-3 deg, link offsets within
-    +-0.5 mm, axes tilted by ~0.05 deg and shifted by ~0.2 mm."""
-    rng = np.random.default_rng(seed)
-    names = ["J1rz", "J2ry", "J3rz", "J4rx", "J5ry", "J6rx"]
-    errors = {n: float(rng.uniform(-3, 3)) for n in names}
-    errors |= {n: float(rng.uniform(-0.5, 0.5)) for n in ("J1pz", "J1px", "J2pz", "J4px")}
-    model = apply_virtual_joints(nominal, errors)
-    dirs = model.axis_dirs + rng.normal(0, np.radians(0.05), (6, 3))
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    return replace(model, axis_dirs=dirs,
-                   axis_points_mm=model.axis_points_mm + rng.normal(0, 0.2, (6, 3)),
-                   home_flange=exp_twist(np.r_[rng.normal(0, 1e-3, 3), rng.normal(0, 0.2, 3)])
-                   @ model.home_flange)
-
-
-def true_robot(errors_file: str | None, seed: int | None) -> SerialModel:
-    nominal = irb1600()
-    if errors_file is None:
-        return random_errors(nominal, seed) if seed is not None else \
-            apply_virtual_joints(nominal, THESIS_TABLE11)
-    try:
-        doc = json.loads(Path(errors_file).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as err:
-        raise ModelError(f"{errors_file}: cannot read the errors file ({err})") from None
-    if isinstance(doc, dict) and ("representation" in doc or "model" in doc):
-        return parse_model(doc, errors_file)  # a whole true model
-    if not isinstance(doc, dict) or not all(isinstance(v, int | float) for v in doc.values()):
-        raise ModelError(f"{errors_file}: expected {{\"J1rz\": 2.0, ...}} or a model file")
-    return apply_virtual_joints(nominal, doc)
-
-
-def make_world(errors_file: str | None, seed: int | None,
-               arm_position_mm: tuple[float, float, float] = DEFAULT_ARM_POSITION_MM) -> World:
-    truth = true_robot(errors_file, seed).with_frames(base=arm_base(arm_position_mm))
-    return World(nominal=irb1600(), truth=truth)
 
 
 async def _serve_irc5(args: argparse.Namespace) -> None:
+    from simulators.arm import ArmEmulator, WorldFileWriter
+    from simulators.irc5 import EmulatorSettings, IRC5Emulator
+    from simulators.truth import make_world
+
     world = make_world(args.errors, args.seed)
-    writer = WorldFileWriter(args.world or DEFAULT_WORLD_FILE)
+    # One world per run, in a private folder (mkdtemp: mode 0700), unless --world names one.
+    world_file = Path(args.world) if args.world else \
+        Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "world.json"
+    writer = WorldFileWriter(world_file)
     world.observers.append(writer)
     writer(world)
     emu = IRC5Emulator(world, EmulatorSettings(speed_deg_s=args.speed_deg_s,
@@ -101,6 +46,7 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
         arm_host, arm_port = await arm.start(args.host, args.arm_port)
         line += f"; measuring arm on socket://{arm_host}:{arm_port}"
     print(line, flush=True)
+    print(f"world file {world_file} (for `screwcal emulator arm --world`)", flush=True)
     try:
         await asyncio.Event().wait()
     finally:
@@ -110,7 +56,14 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
 
 
 async def _serve_arm(args: argparse.Namespace) -> None:
-    arm = ArmEmulator(WorldFileSource(args.world or DEFAULT_WORLD_FILE), seed=args.seed)
+    from simulators.arm import ArmEmulator, WorldFileSource
+
+    if not args.world:
+        print("warning: no --world: this arm knows no robot and answers NO_ROBOT; pass the "
+              "world file the irc5 emulator printed", file=sys.stderr)
+    world = Path(args.world) if args.world else \
+        Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "none.json"
+    arm = ArmEmulator(WorldFileSource(world), seed=args.seed)
     host, port = await arm.start(args.host, args.port, pty=args.pty)
     line = f"measuring arm on socket://{host}:{port}"
     if arm.pty_path:
@@ -150,7 +103,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     irc5.add_argument("--noise-seed", type=int, default=None,
                       help="seed of the in-process arm's noise (default: --seed; none: random)")
     irc5.add_argument("--world", help="keep this world file up to date for an arm process "
-                      f"(default {DEFAULT_WORLD_FILE})")
+                      "(default: a new private folder per run, printed on start)")
     irc5.add_argument("--arm-port", type=int, default=None,
                       help="also serve the measuring arm on this TCP port")
     irc5.set_defaults(func=run)
@@ -158,8 +111,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                            formatter_class=argparse.RawDescriptionHelpFormatter)
     arm.add_argument("--host", default="127.0.0.1")
     arm.add_argument("--port", type=int, required=True)
-    arm.add_argument("--world", help="the world file of a running irc5 emulator "
-                     f"(default {DEFAULT_WORLD_FILE})")
+    arm.add_argument("--world", help="the world file a running irc5 emulator printed")
     arm.add_argument("--pty", action="store_true", help="also serve a pty (a serial device)")
     arm.add_argument("--seed", type=int, default=None, help="noise seed")
     arm.set_defaults(func=run)

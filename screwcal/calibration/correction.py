@@ -26,18 +26,25 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.calibration.errors_model import Param
-from screwcal.errors import ScrewcalError
+from screwcal.errors import JointLimitError, ScrewcalError, UnreachableError
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.ik import local_ik, numerical_ik
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
 PLAUSIBLE_OFFSET_DEG = 5.0
+# A compensated joint moves by its offset plus what the other joints' errors ask of it (J4 and
+# J6 together near the wrist singularity): twice the offsets' bound.
+PLAUSIBLE_CHANGE_DEG = 2 * PLAUSIBLE_OFFSET_DEG
 MAX_STD_ERROR_DEG = 0.1
 
 
 class CorrectionRefusedError(ScrewcalError):
-    """A correction outside plausible bounds: nothing is sent."""
+    """A correction outside plausible bounds: nothing is sent. `index`: the target refused."""
+
+    def __init__(self, message: str, index: int | None = None):
+        super().__init__(message)
+        self.index = index
 
 
 @dataclass(frozen=True)
@@ -84,40 +91,69 @@ class Compensation:
     q_rad: Array  # (N, n) joint targets (controller readings) that reach the desired poses
     nominal_tool0: Array  # (N, 4, 4) the nominal flange pose of those joints: what to program
     change_deg: Array  # (N, n) q_rad minus the reference solution, deg (zeros without one)
+    refused: tuple[tuple[int, str], ...] = ()  # (target, why), with strict=False only
+
+    @property
+    def ok(self) -> Array:
+        """(N,) the targets compensated (False where refused)."""
+        out = np.ones(len(self.q_rad), bool)
+        out[[k for k, _ in self.refused]] = False
+        return out
 
     @property
     def max_change_deg(self) -> float:
-        return float(np.abs(self.change_deg).max()) if self.change_deg.size else 0.0
+        change = self.change_deg[self.ok]
+        return float(np.abs(change).max()) if change.size else 0.0
 
 
 def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLike,
                q_ref: ArrayLike | None = None, *,
                frame: Literal["base", "measuring"] = "measuring",
-               bound_deg: float = PLAUSIBLE_OFFSET_DEG) -> Compensation:
+               bound_deg: float = PLAUSIBLE_CHANGE_DEG, strict: bool = True) -> Compensation:
     """Joint targets (from q_ref (N, n) or (n,), on its branch and turn; without it, the
-    branch nearest all zeros; within the limits)
-    and nominal tool0 poses that take the calibrated robot to T_desired (N, 4, 4): flange poses
-    in the robot base frame (`frame="base"`) or measured-point poses in the measuring frame.
+    branch nearest all zeros; within the limits) and nominal tool0 poses that take the
+    calibrated robot to T_desired (N, 4, 4): flange poses in the robot base frame
+    (`frame="base"`) or measured-point poses in the measuring frame.
 
-    With q_ref, a joint that would move more than `bound_deg` from it is refused
-    (CorrectionRefusedError naming the target): no plausible calibration moves a joint that far.
+    With q_ref, a joint that would move more than `bound_deg` from it is refused: no plausible
+    calibration moves a joint that far. `strict`: the first refused target raises
+    (CorrectionRefusedError, UnreachableError or JointLimitError naming it); otherwise the
+    refusals are listed in the result and those rows keep q_ref.
     """
     T = np.asarray(T_desired, dtype=float)
     robot = calibrated if frame == "measuring" else \
         calibrated.with_frames(base=np.eye(4), tool=np.eye(4))
     if q_ref is None:
         q = numerical_ik(robot, T).nearest(np.zeros(calibrated.n_joints))
-    else:  # the solution next to the reference: its branch and turn, even near singularities
-        q = local_ik(robot, T, q_ref)
-    calibrated.check_limits(q, "compensated target")
-    change = np.zeros_like(q) if q_ref is None else \
-        calibrated.joints_to_deg(q - np.broadcast_to(np.asarray(q_ref, float), q.shape))
-    if q_ref is not None and np.abs(change).max(initial=0.0) > bound_deg:
-        k, j = np.unravel_index(int(np.argmax(np.abs(change))), change.shape)
-        raise CorrectionRefusedError(
-            f"target {k}: compensation moves joint {j + 1} by {change[k, j]:+.3f} deg, beyond "
-            f"the plausible +-{bound_deg:g} deg: check the calibrated model before using it")
-    return Compensation(q, flange_kinematics(nominal, q), change)
+        calibrated.check_limits(q, "compensated target")
+        return Compensation(q, flange_kinematics(nominal, q), np.zeros_like(q))
+    ref = np.broadcast_to(np.asarray(q_ref, float), (T.shape[0], calibrated.n_joints))
+    # the solution next to the reference: its branch and turn, even near singularities
+    q, reached = local_ik(robot, T, ref)
+    change = calibrated.joints_to_deg(q - ref)
+    inside = calibrated.within_limits(q)
+    plausible = np.abs(change).max(axis=1, initial=0.0) <= bound_deg
+    refused = []
+    for k in np.flatnonzero(~(reached & inside & plausible)):
+        if not reached[k]:
+            why, error = "the calibrated robot cannot reach it near the nominal solution", \
+                UnreachableError
+        elif not inside[k]:
+            j = int(np.argmax(np.maximum(calibrated.limits[:, 0] - q[k],
+                                         q[k] - calibrated.limits[:, 1])))
+            why, error = (f"joint {j + 1} would be {np.degrees(q[k, j]):.4f} deg, outside "
+                          "its limits"), JointLimitError
+        else:
+            j = int(np.argmax(np.abs(change[k])))
+            why, error = (f"compensation moves joint {j + 1} by {change[k, j]:+.3f} deg, beyond "
+                          f"the plausible +-{bound_deg:g} deg: check the calibrated model "
+                          "before using it"), CorrectionRefusedError
+        if strict:
+            raise error(f"target {k}: {why}", index=k)
+        refused.append((int(k), why))
+    bad = [k for k, _ in refused]
+    q[bad], change[bad] = ref[bad], 0.0
+    return Compensation(q, flange_kinematics(nominal, q), change, tuple(refused))
 
 
 def after_zero(model: SerialModel, zero_command_deg: ArrayLike) -> SerialModel:

@@ -18,20 +18,46 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from screwcal.calibration import base_alignment
-from screwcal.calibration.base_alignment import base_from_sweeps, fit_circle, read_sweeps_csv
-from screwcal.calibration.correction import compensate
-from screwcal.calibration.identify import NoiseModel, identify
-from screwcal.calibration.measurements import read_measurements_csv
-from screwcal.calibration.resultfile import result_document
-from screwcal.errors import DataFileError, JointLimitError, UnreachableError
-from screwcal.kinematics.modelfile import PoseIn, load_model, resolve_model
-from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
-from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
+if TYPE_CHECKING:
+    from screwcal.kinematics.model import SerialModel
+
+# The numeric modules are imported inside each command: `screwcal --help` and the other
+# subcommands do not pay for scipy.optimize and pydantic.
+
+
+ALIGN_DOC = """`screwcal align`: the robot base frame in the measuring system's frame, by hand
+(thesis 4.6, Fig. 40); also what `calibrate --base-guess` starts from.
+
+A point on the robot is probed while joint 1 alone turns, then while joint 2 alone turns. A
+circle fitted to each sweep gives the joint's axis; the model's nominal geometry places the base
+origin and x axis from them. The sweeps file has the columns joint (1 or 2), q1 (deg, joint 1's
+reading), x, y, z (mm), in the order probed, at least 8 rows.
+"""
+
+COMPENSATE_DOC = """`screwcal compensate`: make the calibrated robot reach what is asked of it.
+
+    screwcal compensate --model result.json --rapid IN.mod --out OUT.mod [--tool T] [--wobj W]
+    screwcal compensate --model result.json --targets base.csv --out compensated.csv
+    screwcal compensate --model result.json --measuring-targets meas.csv --out compensated.csv
+
+--rapid rewrites every robtarget so that the nominal controller drives the joints to where the
+calibrated robot reaches the original target (confdata recomputed), keeps the rest of the file
+byte for byte, and lists what a static filter cannot compensate (Offs, RelTool, CRobT, inline
+targets, stationary tools, moving work objects) with its line. --targets takes tool0 poses in
+the robot base frame (what a program commands); --measuring-targets poses of the measured point
+in the measuring system's frame (what the measuring system will see).
+"""
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
+    from screwcal.calibration.base_alignment import base_from_sweeps, read_sweeps_csv
+    from screwcal.calibration.identify import NoiseModel, identify
+    from screwcal.calibration.measurements import read_measurements_csv
+    from screwcal.calibration.resultfile import result_document
+    from screwcal.kinematics.modelfile import resolve_model
+
     nominal = resolve_model(args.robot)
     data = read_measurements_csv(args.data, nominal)
     weighting = "eq2.4" if args.weight_mm is not None else "statistical"
@@ -74,27 +100,71 @@ def _noise_line(noise: dict) -> str:
 
 
 def run_compensate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from screwcal.calibration.correction import CorrectionRefusedError, compensate
+    from screwcal.errors import DataFileError, JointLimitError, UnreachableError
+    from screwcal.kinematics.ik import numerical_ik
+    from screwcal.kinematics.modelfile import load_model, resolve_model
+    from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
+    from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
+
     calibrated = load_model(args.model)
     robot = args.robot or json.loads(Path(args.model).read_text(encoding="utf-8")).get("robot")
     nominal = resolve_model(robot) if robot else calibrated
-    table = read_numeric_csv(args.targets, ["x", "y", "z", "rx", "ry", "rz"])
+    if args.rapid:
+        return _compensate_rapid(args, calibrated, nominal)
+    frame = "base" if args.targets else "measuring"
+    table = read_numeric_csv(args.targets or args.measuring_targets,
+                             ["x", "y", "z", "rx", "ry", "rz"])
     T = transform_from_pose(table.take(["x", "y", "z", "rx", "ry", "rz"]))
     try:
-        comp = compensate(calibrated, nominal, T)
-    except (UnreachableError, JointLimitError) as err:
-        line = table.lines[err.index] if err.index is not None else None
+        q_ref = None
+        if frame == "base":  # from the nominal solution nearest home: its branch and turn
+            q_ref = numerical_ik(nominal.with_frames(np.eye(4), np.eye(4)), T).nearest(
+                np.zeros(nominal.n_joints))
+        comp = compensate(calibrated, nominal, T, q_ref, frame=frame)
+    except (UnreachableError, JointLimitError, CorrectionRefusedError) as err:
+        line = table.lines[err.index] if getattr(err, "index", None) is not None else None
         raise DataFileError(table.path, f"no compensated target: {err}", line=line) from None
     q_deg = calibrated.joints_to_deg(comp.q_rad)
     poses = pose_from_transform(comp.nominal_tool0)
     header = ["id", *joint_columns(calibrated.n_joints), "x", "y", "z", "rx", "ry", "rz"]
     write_csv_atomic(args.out, header, ([i, *(f"{v:.4f}" for v in q), *(f"{v:.4f}" for v in p)]
                                         for i, q, p in zip(table.ids, q_deg, poses, strict=True)))
-    print(f"compensated {len(q_deg)} targets -> {args.out} (joint targets, and the nominal "
-          f"tool0 poses of model '{nominal.name}' to program)")
+    where = "tool0 in the robot base frame" if frame == "base" else \
+        "measured point in the measuring frame"
+    print(f"compensated {len(q_deg)} targets ({where}) -> {args.out}: joint targets, and the "
+          f"nominal tool0 poses of model '{nominal.name}' to program; largest joint change "
+          f"{comp.max_change_deg:.3f} deg")
+    return 0
+
+
+def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
+                      nominal: SerialModel) -> int:
+    from screwcal.calibration.rapid_filter import filter_rapid
+    from screwcal.calibration.rapid_source import read_rapid_module
+    from screwcal.errors import DataFileError
+    from screwcal.tables import write_text_atomic
+
+    path = Path(args.rapid)
+    try:
+        raw = path.read_bytes()
+    except OSError as err:
+        raise DataFileError(str(path), f"cannot read the RAPID module ({err.strerror})") from None
+    text = raw.decode("latin-1")  # RAPID files are 8-bit; every byte round-trips
+    module = read_rapid_module(str(path), text)
+    out_text, report = filter_rapid(module, calibrated, nominal, tool=args.tool,
+                                    wobj=args.wobj)
+    write_text_atomic(args.out, out_text.encode("latin-1"))
+    print(report.summary().replace(f"{path}:", f"{path} -> {args.out}:", 1))
     return 0
 
 
 def run_align(args: argparse.Namespace) -> int:
+    from screwcal.calibration.base_alignment import base_from_sweeps, fit_circle, read_sweeps_csv
+    from screwcal.kinematics.modelfile import PoseIn, resolve_model
+
     nominal = resolve_model(args.robot)
     j1, j2, q1 = read_sweeps_csv(args.sweeps)
     base = base_from_sweeps(nominal, j1, j2, q1)
@@ -112,7 +182,7 @@ def run_align(args: argparse.Namespace) -> int:
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     a = sub.add_parser("align", help="base frame from joint 1 and joint 2 sweeps (thesis 4.6)",
-                       description=base_alignment.__doc__,
+                       description=ALIGN_DOC,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     a.add_argument("--robot", required=True, help="built-in robot or model file")
     a.add_argument("--sweeps", required=True,
@@ -141,12 +211,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="fix the random joint error, uniform +- (default: estimated)")
     p.set_defaults(func=run_calibrate)
 
-    c = sub.add_parser("compensate", help="joint targets that make the calibrated robot reach "
-                       "desired poses", description=__doc__,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    c = sub.add_parser(
+        "compensate", help="targets and RAPID programs compensated for the calibrated robot",
+        description=COMPENSATE_DOC, formatter_class=argparse.RawDescriptionHelpFormatter)
     c.add_argument("--model", required=True, help="calibration result (or model file)")
-    c.add_argument("--targets", required=True,
-                   help="CSV of desired poses: id, x, y, z, rx, ry, rz (measuring frame)")
-    c.add_argument("--out", required=True, help="CSV to write: id, q1..q6, x..rz (nominal tool0)")
+    what = c.add_mutually_exclusive_group(required=True)
+    what.add_argument("--rapid", metavar="IN.mod", help="a RAPID module: every robtarget "
+                      "declaration rewritten (tool and work object applied)")
+    what.add_argument("--targets", metavar="CSV", help="desired tool0 poses in the robot base "
+                      "frame: id, x, y, z, rx, ry, rz (mm, deg)")
+    what.add_argument("--measuring-targets", metavar="CSV", help="desired poses of the "
+                      "measured point in the measuring system's frame: id, x, y, z, rx, ry, rz")
+    c.add_argument("--out", required=True, help="the compensated module (--rapid), or a CSV: "
+                   "id, q1..q6, x..rz (the nominal tool0 pose to program)")
+    c.add_argument("--tool", default="tool0", help="--rapid: the tooldata for targets no motion "
+                   "instruction of the module uses (default tool0)")
+    c.add_argument("--wobj", default="wobj0", help="--rapid: the wobjdata for those targets "
+                   "(default wobj0)")
     c.add_argument("--robot", help="nominal model, when the result does not name it")
     c.set_defaults(func=run_compensate)

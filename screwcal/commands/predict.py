@@ -11,24 +11,17 @@ from __future__ import annotations
 import argparse
 import sys
 
-import numpy as np
-
-from screwcal.kinematics.forward import forward_kinematics
-from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.modelfile import resolve_model
-from screwcal.kinematics.pose import pose_from_transform
-from screwcal.kinematics.se3 import Array
-from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
-
 OUTPUT_COLUMNS = ("id", "x", "y", "z", "rx", "ry", "rz")
 
 
-def predict_poses(model: SerialModel, q_deg: Array) -> Array:
-    """Poses (N, 6) = (x, y, z [mm], rx, ry, rz [deg]) for controller joint readings (N, n) deg."""
-    return pose_from_transform(forward_kinematics(model, model.joints_from_deg(q_deg)))
-
-
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from screwcal.kinematics.forward import forward_kinematics
+    from screwcal.kinematics.modelfile import resolve_model
+    from screwcal.kinematics.pose import pose_from_transform
+    from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
+
     model = resolve_model(args.model)
     table = read_numeric_csv(args.joints, joint_columns(model.n_joints))
     q_deg = table.values
@@ -36,7 +29,7 @@ def run(args: argparse.Namespace) -> int:
     for k in np.flatnonzero(outside)[:5]:
         print(f"warning: {table.path}, line {table.lines[k]}: joints outside the limits of model "
               f"'{model.name}' (predicted anyway)", file=sys.stderr)
-    poses = predict_poses(model, q_deg)
+    poses = pose_from_transform(forward_kinematics(model, model.joints_from_deg(q_deg)))
     write_csv_atomic(args.out, OUTPUT_COLUMNS,
                      ([pid] + [f"{v:.6f}" for v in pose] for pid, pose in zip(table.ids, poses,
                                                                               strict=True)))

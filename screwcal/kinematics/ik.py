@@ -84,14 +84,20 @@ class IKSolutions:
     def valid(self) -> Array:
         return self.reachable & self.within_limits
 
+    def toward(self, q_ref: ArrayLike) -> Array:
+        """Every branch (N, 8, 6) with each joint moved by whole turns, inside the limits, as
+        close as it gets to q_ref (N, 6) or (6,) rad."""
+        q_ref = np.broadcast_to(np.asarray(q_ref, float), (self.q.shape[0], self.q.shape[2]))
+        return self.q if self.limits is None else _turns_toward(self.q, q_ref[:, None, :],
+                                                                 self.limits)
+
     def nearest(self, q_ref: ArrayLike) -> Array:
         """For each target, the valid branch closest to q_ref (N, 6) or (6,) rad: (N, 6).
 
         Raises UnreachableError naming the first target that has no valid branch.
         """
         q_ref = np.broadcast_to(np.asarray(q_ref, float), (self.q.shape[0], self.q.shape[2]))
-        q = self.q if self.limits is None else _turns_toward(self.q, q_ref[:, None, :],
-                                                              self.limits)
+        q = self.toward(q_ref)
         dist = np.where(self.valid, np.linalg.norm(q - q_ref[:, None, :], axis=-1), np.inf)
         none = ~np.isfinite(dist).any(axis=1)
         if none.any():
@@ -256,18 +262,14 @@ def _refine(model: SerialModel, targets: Array, q0: Array, tol_mm: float, tol_ra
 
 def local_ik(model: SerialModel, T_world_tool: ArrayLike, q_seed: ArrayLike, *,
              tol_mm: float = 1e-9, tol_rad: float = 1e-11, max_iter: int = 30,
-             damping: float = 1e-9) -> Array:
+             damping: float = 1e-9) -> tuple[Array, Array]:
     """The joint readings (N, 6) that reach each target, found from a nearby seed (N, 6) by
     damped Gauss-Newton: the same branch and turn as the seed, well defined near the wrist
     singularity where branches meet. For small changes of a known solution (compensation).
-    Raises UnreachableError naming the first target that did not converge."""
+    Returns the readings and which targets converged (N,)."""
     T = np.asarray(T_world_tool, dtype=float)
     seed = np.broadcast_to(np.asarray(q_seed, float), (T.shape[0], model.n_joints))
-    q, converged = _refine(model, T, seed, tol_mm, tol_rad, max_iter, damping)
-    if not converged.all():
-        k = int(np.flatnonzero(~converged)[0])
-        raise UnreachableError(f"target {k}: no solution near the given joints", index=k)
-    return q
+    return _refine(model, T, seed, tol_mm, tol_rad, max_iter, damping)
 
 
 def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float = 1e-9,

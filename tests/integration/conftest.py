@@ -11,8 +11,8 @@ import pytest
 from service.app import create_app
 from service.settings import ServiceSettings
 from simulators.arm import ArmEmulator
-from simulators.cli import make_world
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
+from simulators.truth import make_world
 
 TOKEN = "test-token"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}

@@ -7,9 +7,9 @@ import pytest
 
 from protocol.client import ControllerClient, Timeouts
 from screwcal.calibration.posesets import WORKING_REGION_DEG
-from simulators.cli import make_world as cli_make_world
 from simulators.faults import FaultPlan
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
+from simulators.truth import make_world as cli_make_world
 from simulators.world import World
 
 

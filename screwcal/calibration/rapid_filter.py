@@ -1,0 +1,247 @@
+"""Filtering a RAPID program for a calibrated robot (what RoboDK's FilterProgram and ABB's
+Absolute Accuracy option do for closed controllers).
+
+Every declared `robtarget` is rewritten so that the nominal controller, given the new target,
+drives the joints to where the *calibrated* robot reaches the original one: the target's flange
+pose (work object and tool applied) is solved on the nominal model with the target's own
+confdata, the calibrated robot's joints are found next to that solution
+(`correction.compensate`), and the new target is the nominal pose of those joints, with its
+confdata recomputed from them. Only the numbers of `trans`, `rot` and `robconf` change; the rest
+of the file is kept byte for byte.
+
+What a static filter cannot compensate is listed with its line, never passed silently: targets
+computed at run time (`Offs`, `RelTool`, `CRobT`, ...), targets written inline in an
+instruction, targets declared without a value, a target used with two different tools or work
+objects, a stationary tool (`robhold` TRUE) and a moving or robot-held work object.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from screwcal.calibration.correction import compensate
+from screwcal.calibration.rapid_source import Aggregate, RapidModule, Token
+from screwcal.errors import ScrewcalError
+from screwcal.kinematics.confdata import confdata, solution_for_confdata
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.pose import (
+    quaternion_wxyz_from_rotation,
+    rotation_angle_deg,
+    rotation_from_quaternion_wxyz,
+)
+from screwcal.kinematics.se3 import Array, invert_transform
+
+TRANS_DECIMALS = 4  # mm
+QUAT_DECIMALS = 9
+
+
+@dataclass(frozen=True)
+class Note:
+    """Something left as it was: where, what, and why."""
+
+    line: int
+    name: str
+    reason: str
+
+
+@dataclass
+class FilterReport:
+    path: str
+    compensated: int = 0
+    max_position_change_mm: float = 0.0
+    max_rotation_change_deg: float = 0.0
+    refused: list[Note] = field(default_factory=list)  # declared targets left unchanged
+    not_static: list[Note] = field(default_factory=list)  # targets only the program knows
+
+    def summary(self) -> str:
+        lines = [f"{self.path}: {self.compensated} robtargets compensated; largest change "
+                 f"{self.max_position_change_mm:.3f} mm, {self.max_rotation_change_deg:.4f} deg"]
+        for title, notes in (("refused (left unchanged)", self.refused),
+                             ("not compensated statically", self.not_static)):
+            if notes:
+                lines.append(f"  {len(notes)} {title}:")
+                lines += [f"    {self.path}:{n.line}: {n.name}: {n.reason}" for n in notes]
+        return "\n".join(lines)
+
+
+@dataclass
+class _Target:
+    name: str  # with its index for array elements
+    base: str  # the declared name
+    line: int
+    tokens: list[Token]  # x y z, q1..q4, cf1 cf4 cf6 cfx
+
+
+def _is_robtarget(node: object) -> bool:
+    """[[x,y,z],[q1..q4],[cf1,cf4,cf6,cfx],[extax]]: four lists, numbers in the first three."""
+    return (isinstance(node, list) and len(node) == 4 and isinstance(node[0], list)
+            and len(node[0]) == 3 and isinstance(node[0][0], Token)
+            and isinstance(node[1], list) and len(node[1]) == 4
+            and isinstance(node[2], list) and len(node[2]) == 4)
+
+
+def _targets(name: str, value: Aggregate, line_of: Callable[[int], int]) -> list[_Target]:
+    """Every robtarget in a declaration's value (one, or the elements of an array)."""
+    out: list[_Target] = []
+
+    def walk(node: object, index: list[int]) -> None:
+        if _is_robtarget(node):
+            label = name + (f"{{{','.join(str(i + 1) for i in index)}}}" if index else "")
+            tokens = [t for part in node[:3] for t in part]  # type: ignore[index]
+            out.append(_Target(label, name, line_of(tokens[0].start), tokens))
+        elif isinstance(node, list):
+            for k, child in enumerate(node):
+                walk(child, [*index, k])
+
+    walk(value, [])
+    return out
+
+
+def _frame(trans: list[Token], rot: list[Token]) -> Array:
+    T = np.eye(4)
+    T[:3, :3] = rotation_from_quaternion_wxyz(np.array([t.number for t in rot]))
+    T[:3, 3] = [t.number for t in trans]
+    return T
+
+
+def _frames(module: RapidModule) -> tuple[dict, dict]:
+    """Tool and work-object frames by lower-case name: a 4x4 array, or the reason they cannot
+    be used statically."""
+    tools: dict[str, Array | str] = {"tool0": np.eye(4)}
+    wobjs: dict[str, Array | str] = {"wobj0": np.eye(4)}
+    for d in module.declarations:
+        key = d.name.lower()
+        if d.value is None:
+            (tools if d.kind == "tooldata" else wobjs)[key] = "declared without a value"
+            continue
+        try:
+            if d.kind == "tooldata":
+                robhold, (trans, rot) = d.value[0], d.value[1]
+                tools[key] = _frame(trans, rot) if robhold.text.upper() == "TRUE" else \
+                    "a stationary tool (robhold FALSE): the robot holds the work object"
+            elif d.kind == "wobjdata":
+                robhold, ufprog = d.value[0].text.upper(), d.value[1].text.upper()
+                (ut, ur), (ot, orot) = d.value[3], d.value[4]
+                if robhold == "TRUE":
+                    wobjs[key] = "a work object held by the robot (robhold TRUE)"
+                elif ufprog == "FALSE":
+                    wobjs[key] = "a moving work object (ufprog FALSE: coordinated motion)"
+                else:
+                    wobjs[key] = _frame(ut, ur) @ _frame(ot, orot)
+        except (TypeError, ValueError, IndexError, AttributeError):
+            (tools if d.kind == "tooldata" else wobjs)[key] = f"its {d.kind} value is not " \
+                "of the standard form"
+    return tools, wobjs
+
+
+def _number(value: float, decimals: int) -> str:
+    text = f"{value:.{decimals}f}"
+    return "0" if float(text) == 0.0 else text
+
+
+def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialModel, *,
+                 tool: str = "tool0", wobj: str = "wobj0") -> tuple[str, FilterReport]:
+    """The module's text with every declared robtarget compensated, and what was done.
+    `tool` and `wobj` apply to targets no motion instruction of the module names."""
+    text = module.text
+    report = FilterReport(module.path)
+    tools, wobjs = _frames(module)
+    for name, frames in ((tool, tools), (wobj, wobjs)):
+        if name.lower() not in frames:
+            raise ScrewcalError(f"{module.path}: '{name}' is not declared in the module (nor "
+                                "tool0 / wobj0)")
+    declared = {d.name.lower() for d in module.declarations if d.kind == "robtarget"}
+    uses: dict[str, set[tuple[str, str]]] = {}
+    for m in module.motions:
+        for target in m.targets:
+            base = target.split("{")[0].strip()
+            if base.lower() in declared and base.replace("_", "").isalnum():
+                uses.setdefault(base.lower(), set()).add((m.tool.lower(), m.wobj.lower()))
+            elif "(" not in target:  # calls: the run-time list below
+                report.not_static.append(Note(m.line, target[:40], "an inline or undeclared "
+                                              "target: declare it in the module to filter it"))
+    for line, what in module.runtime:
+        report.not_static.append(Note(line, what, "computed at run time from other targets: "
+                                      "its offset is applied in the nominal frame"))
+
+    targets: list[_Target] = []
+    frames: list[tuple[Array, Array]] = []
+    for d in module.declarations:
+        if d.kind != "robtarget":
+            continue
+        if d.value is None:
+            report.refused.append(Note(d.line, d.name, "declared without a value: assigned at "
+                                       "run time"))
+            continue
+        combos = uses.get(d.name.lower(), {(tool.lower(), wobj.lower())})
+        found = _targets(d.name, d.value, module.line_of)
+        if len(combos) > 1:
+            pairs = "; ".join(f"{t} with {w}" for t, w in sorted(combos))
+            report.refused += [Note(t.line, t.name, f"used with several tools or work objects "
+                                    f"({pairs}): one static value cannot serve them all")
+                               for t in found]
+            continue
+        (tname, wname), = combos
+        tframe, wframe = tools.get(tname), wobjs.get(wname)
+        problem = (f"tool {tname}: " + (tframe if isinstance(tframe, str) else "not declared "
+                   "in this module")) if not isinstance(tframe, np.ndarray) else \
+            (f"work object {wname}: " + (wframe if isinstance(wframe, str) else "not declared "
+             "in this module")) if not isinstance(wframe, np.ndarray) else None
+        if problem:
+            report.refused += [Note(t.line, t.name, problem) for t in found]
+            continue
+        targets += found
+        frames += [(wframe, tframe)] * len(found)
+    if not targets:
+        return text, report
+
+    W = np.array([f[0] for f in frames])
+    Ttool = np.array([f[1] for f in frames])
+    numbers = np.array([[float(tok.text) for tok in t.tokens] for t in targets])
+    T_target = np.tile(np.eye(4), (len(targets), 1, 1))
+    T_target[:, :3, :3] = rotation_from_quaternion_wxyz(numbers[:, 3:7])
+    T_target[:, :3, 3] = numbers[:, :3]
+    conf = np.rint(numbers[:, 7:11]).astype(int)
+    T_flange = W @ T_target @ invert_transform(Ttool)
+    q_nominal, keep = solution_for_confdata(nominal, T_flange, conf, strict=False)
+    for k in np.flatnonzero(~keep):
+        report.refused.append(Note(targets[k].line, targets[k].name, "the nominal robot has no "
+                                   f"solution with confdata {conf[k].tolist()} in its limits"))
+    idx = np.flatnonzero(keep)
+    if idx.size == 0:
+        return text, report
+    comp = compensate(calibrated, nominal, T_flange[idx], q_nominal[idx], frame="base",
+                      strict=False)
+    for row, why in comp.refused:  # the calibrated robot cannot reach it plausibly
+        report.refused.append(Note(targets[idx[row]].line, targets[idx[row]].name, why))
+    comp_ok = comp.ok
+    idx = idx[comp_ok]
+    if idx.size == 0:
+        return text, report
+    comp = replace(comp, q_rad=comp.q_rad[comp_ok], nominal_tool0=comp.nominal_tool0[comp_ok])
+    new_target = invert_transform(W[idx]) @ comp.nominal_tool0 @ Ttool[idx]
+    new_conf = confdata(nominal, comp.q_rad)
+    quats = quaternion_wxyz_from_rotation(new_target[:, :3, :3])
+    old_quats = numbers[idx, 3:7]
+    quats *= np.where(np.sum(quats * old_quats, axis=1) < 0, -1.0, 1.0)[:, None]
+    edits: list[tuple[int, int, str]] = []
+    for row, k in enumerate(idx):
+        tokens = targets[k].tokens
+        values = [*(_number(v, TRANS_DECIMALS) for v in new_target[row, :3, 3]),
+                  *(_number(v, QUAT_DECIMALS) for v in quats[row]),
+                  *(str(int(c)) for c in new_conf[row])]
+        edits += [(tok.start, tok.end, v) for tok, v in zip(tokens, values, strict=True)]
+    report.compensated = len(idx)
+    report.max_position_change_mm = float(np.linalg.norm(
+        new_target[:, :3, 3] - T_target[idx, :3, 3], axis=1).max())
+    report.max_rotation_change_deg = float(rotation_angle_deg(
+        new_target[:, :3, :3], T_target[idx, :3, :3]).max())
+    out, last = [], 0
+    for start, end, value in sorted(edits):
+        out += [text[last:start], value]
+        last = end
+    out.append(text[last:])
+    return "".join(out), report

@@ -1,0 +1,99 @@
+"""ABB robot configuration data (`confdata`: cf1, cf4, cf6, cfx) of joint solutions, and the
+solution a confdata names.
+
+cf1, cf4, cf6 are the quadrants of axes 1, 4 and 6 (floor of the angle over 90 deg: 0 for
+[0, 90), -1 for [-90, 0), ...). cfx numbers the arm configuration of an ABB serial arm (RAPID
+reference, `confdata`): 4 x (wrist centre behind axis 1) + 2 x (wrist centre behind the lower
+arm) + (axis 5 negative). It is computed from the geometry of the solution, not from a branch
+label: the wrist centre (where axes 4 and 5 meet) against the line of axis 1 along the arm's
+heading, and against the lower arm (axis 2 to axis 3) in the arm's plane.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from screwcal.errors import UnreachableError
+from screwcal.kinematics.forward import spatial_jacobian
+from screwcal.kinematics.ik import closed_form_ik
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array, cross
+
+QUADRANT_RAD = np.pi / 2
+
+
+def _axis_points(J: Array) -> tuple[Array, Array]:
+    """Unit directions and the points nearest the origin of the joint axes, from the columns
+    of a spatial Jacobian (N, 6, n) of revolute joints: (N, n, 3) each."""
+    w = np.swapaxes(J[:, :3, :], 1, 2)
+    v = np.swapaxes(J[:, 3:, :], 1, 2)
+    return w, cross(w, v) / np.sum(w * w, axis=-1, keepdims=True)
+
+
+def _meeting_point(p1: Array, d1: Array, p2: Array, d2: Array) -> Array:
+    """The midpoint of the common perpendicular of two lines (N, 3)."""
+    n = cross(d1, d2)
+    nn = np.sum(n * n, axis=-1)
+    t1 = np.sum(cross(p2 - p1, d2) * n, axis=-1) / nn
+    t2 = np.sum(cross(p2 - p1, d1) * n, axis=-1) / nn
+    return 0.5 * (p1 + t1[:, None] * d1 + p2 + t2[:, None] * d2)
+
+
+def _arm_bits(model: SerialModel, q: Array) -> Array:
+    """4 x (wrist centre behind axis 1) + 2 x (wrist centre behind the lower arm), (N,)."""
+    w, p = _axis_points(spatial_jacobian(model, q))
+    wrist = _meeting_point(p[:, 3], w[:, 3], p[:, 4], w[:, 4])
+    up = w[:, 0]  # axis 1
+    heading = cross(w[:, 1], up)  # forward along the arm: axis 2 x axis 1 (x at home)
+    heading /= np.linalg.norm(heading, axis=-1, keepdims=True)
+    behind_axis1 = np.sum((wrist - p[:, 0]) * heading, axis=-1) < 0.0
+
+    def plane(x: Array) -> tuple[Array, Array]:  # (along the heading, along axis 1)
+        return np.sum(x * heading, axis=-1), np.sum(x * up, axis=-1)
+
+    # axis 2 and 3 points are their feet nearest the origin: both in the arm's plane
+    lr, lz = plane(p[:, 2] - p[:, 1])
+    wr, wz = plane(wrist - p[:, 1])
+    behind_lower_arm = lr * wz - lz * wr > 0.0  # in front (home): the wrist ahead of the arm
+    return 4 * behind_axis1 + 2 * behind_lower_arm
+
+
+def confdata(model: SerialModel, q: ArrayLike) -> Array:
+    """(N, 4) integers cf1, cf4, cf6, cfx of joint readings q (N, 6) rad of a 6R ABB-type arm."""
+    q = np.atleast_2d(np.asarray(q, float))
+    quadrants = np.floor(np.degrees(q[:, [0, 3, 5]]) / 90.0 + 1e-9).astype(int)
+    cfx = _arm_bits(model, q) + (q[:, 4] < 0.0)
+    return np.column_stack([quadrants, cfx]).astype(int)
+
+
+def solution_for_confdata(model: SerialModel, T_flange: ArrayLike, conf: ArrayLike,
+                          strict: bool = True) -> tuple[Array, Array]:
+    """The joint readings (N, 6) rad that reach flange poses T_flange (N, 4, 4) (robot base
+    frame) with the configuration `conf` (N, 4): cf1, cf4, cf6 quadrants and cfx, within the
+    limits, and which targets have one (N,). `strict`: raise UnreachableError naming the first
+    target that has none."""
+    T = np.asarray(T_flange, float)
+    conf = np.atleast_2d(np.asarray(conf, int))
+    sol = closed_form_ik(model.with_frames(base=np.eye(4), tool=np.eye(4)), T,
+                         require_all=False)
+    N = T.shape[0]
+    centre = np.zeros((N, 6))
+    centre[:, [0, 3, 5]] = (conf[:, :3] + 0.5) * QUADRANT_RAD
+    q = sol.toward(centre)  # (N, 8, 6): axes 1, 4, 6 turned toward the asked quadrants
+    # The arm's configuration (wrist centre against axis 1 and the lower arm) does not depend
+    # on the wrist: computed on the four no-flip branches, the flip ones share it.
+    noflip = [k for k, b in enumerate(sol.branches) if b[2] == "noflip"]
+    partner = [noflip.index(sol.branches.index((b[0], b[1], "noflip"))) for b in sol.branches]
+    arm = _arm_bits(model, np.nan_to_num(q[:, noflip].reshape(-1, 6))).reshape(N, 4)[:, partner]
+    cfx = arm + (q[:, :, 4] < 0.0)
+    quadrants = np.floor(np.degrees(np.nan_to_num(q[:, :, [0, 3, 5]])) / 90.0 + 1e-9)
+    got = np.concatenate([quadrants, cfx[..., None]], axis=-1).astype(int)
+    match = sol.valid & np.all(got == conf[:, None, :], axis=-1)
+    none = ~match.any(axis=1)
+    if strict and none.any():
+        k = int(np.flatnonzero(none)[0])
+        why = "out of reach" if not sol.reachable[k].any() else \
+            f"not reachable with confdata {conf[k].tolist()} inside the joint limits"
+        raise UnreachableError(f"target {k} is {why}", index=k)
+    return q[np.arange(N), np.argmax(match, axis=1)], ~none
