@@ -307,7 +307,8 @@ class _Problem:
         T = forward_batch(self.errors, X.T, self.data.q)  # (S, N, 4, 4)
         if self.residual == "distance":
             i, j = pairs(len(self.data))
-            d_model = np.linalg.norm(T[:, i, :3, 3] - T[:, j, :3, 3], axis=2)
+            P = T[:, :, :3, 3]  # (S, N, 3); indexing T[:, i, :3, 3] would put the pairs first
+            d_model = np.linalg.norm(P[:, i] - P[:, j], axis=2)
             d_meas = np.linalg.norm(self.data.positions_mm[i] - self.data.positions_mm[j], axis=1)
             r = (d_model - d_meas) * self._whiten
             return np.sum(r**2, axis=1)

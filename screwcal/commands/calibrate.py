@@ -53,9 +53,10 @@ in the measuring system's frame (what the measuring system will see).
 
 def run_calibrate(args: argparse.Namespace) -> int:
     from screwcal.calibration.base_alignment import base_from_sweeps, read_sweeps_csv
-    from screwcal.calibration.identify import NoiseModel, identify
+    from screwcal.calibration.identify import IdentificationError, NoiseModel, identify
     from screwcal.calibration.measurements import read_measurements_csv
     from screwcal.calibration.resultfile import result_document
+    from screwcal.errors import DataFileError
     from screwcal.kinematics.modelfile import resolve_model
 
     nominal = resolve_model(args.robot)
@@ -65,9 +66,12 @@ def run_calibrate(args: argparse.Namespace) -> int:
     base_guess = None
     if args.base_guess:
         base_guess = base_from_sweeps(nominal, *read_sweeps_csv(args.base_guess))
-    result = identify(nominal, data, kind=args.model, residual=args.residual,
-                      frames=args.base_frame, solver=args.solver, weighting=weighting,
-                      weight_mm=args.weight_mm or 1.0, noise=noise, base_guess=base_guess)
+    try:
+        result = identify(nominal, data, kind=args.model, residual=args.residual,
+                          frames=args.base_frame, solver=args.solver, weighting=weighting,
+                          weight_mm=args.weight_mm or 1.0, noise=noise, base_guess=base_guess)
+    except IdentificationError as err:  # the data cannot give what was asked: say which data
+        raise DataFileError(args.data, str(err)) from None
     settings = {"model": args.model, "solver": args.solver, "base_frame": args.base_frame,
                 "residual": result.residual_kind, "weighting": weighting,
                 "weight_mm": args.weight_mm, "noise_mm": args.noise_mm,

@@ -109,6 +109,37 @@ def test_de_agrees_with_lm_on_the_thesis_model(rng):
     np.testing.assert_allclose(de.values, lm.values, atol=1e-3)
 
 
+def test_de_with_distance_residuals_the_thesis_appendix_d_method(rng):
+    """DE over pairwise distances (no frame to align): its population cost used to index the
+    pairs first and crash; now it recovers the offsets as LM does."""
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    data = simulate_measurements(truth, random_configurations(30, rng), rng, full_pose=False)
+    de = identify(irb1600(), data, kind="thesis", residual="distance", solver="de")
+    lm = identify(irb1600(), data, kind="thesis", residual="distance")
+    for name in ("J2ry", "J3rz", "J5ry"):
+        assert de.value(name) == pytest.approx(THESIS_TABLE11[name], abs=0.1), name
+        assert de.value(name) == pytest.approx(lm.value(name), abs=0.02), name
+
+
+def test_noise_levels_are_estimated_from_the_data(rng):
+    """Variance components: data without joint noise are not weighted as if they had it, and
+    data with it have it found; chi2/dof is then 1 and the levels come with uncertainties."""
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    quiet = simulate_measurements(truth, random_configurations(200, rng), rng,
+                                  joint_noise_deg=0.0)
+    r = identify(irb1600(), quiet, kind="thesis", frames="known")
+    assert r.noise.position_mm == pytest.approx(0.013, rel=0.15)
+    assert r.noise.joint_deg < 0.01 and r.chi2_reduced == pytest.approx(1.0, abs=0.1)
+    noisy = simulate_measurements(truth, random_configurations(200, rng), rng,
+                                  joint_noise_deg=0.05)
+    r = identify(irb1600(), noisy, kind="thesis", frames="known")
+    assert r.noise.joint_deg == pytest.approx(0.05, rel=0.2)
+    assert r.noise.joint_std_deg is not None and r.noise.joint_std_deg < 0.01
+    fixed = identify(irb1600(), noisy, kind="thesis", frames="known",
+                     noise=NoiseModel(0.013, None, 0.05))
+    assert fixed.noise.joint_std_deg is None  # fixed: reported as such
+
+
 def test_eq_2_4_weighting_runs_and_scales_errors(rng):
     truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
     data = simulate_measurements(truth, random_configurations(40, rng), rng)

@@ -89,7 +89,7 @@ def test_thesis_model_with_known_frames_and_de(tmp_path, rng):
     ("q1,q2,q3,q4,q5,q6,x,y\n", r"column 'z': missing column"),
     ("q1,q2,q3,q4,q5,q6,x,y,z,rx,ry\n0,0,0,0,0,0,1,2,3,0,0\n", r"rz missing"),
     ("q1,q2,q3,q4,q5,q6,x,y,z\n" + "0,10,10,0,10,0,800,0,900\n" * 4,
-     r"4 poses give 12 equations .* measure more poses"),
+     r"m\.csv: 4 poses give 12 equations .* measure more poses"),  # names the file
     ("q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n0,0,0,0,0,0,1,2,3,0,0,\n", r"line 2, column 'rz'"),
     ("q1,q2,q3,q4,q5,q6,x,y,z\n0,200,0,0,0,0,1,2,3\n", r"line 2: joint values outside"),
 ])
