@@ -13,21 +13,29 @@ In the arm plane a vector (x, z) is the complex number x + i z; Ry(t) turns it b
 
 from __future__ import annotations
 
-import warnings
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.spatial.transform import Rotation
 
 from screwcal.errors import ModelError, UnreachableError
-from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
+from screwcal.kinematics.forward import (
+    flange_kinematics,
+    forward_kinematics,
+    point_jacobian,
+    spatial_jacobian,
+)
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.se3 import Array, invert_transform
+from screwcal.kinematics.se3 import Array, invert_transform, rotvec_from_rotation
 
 BRANCHES = tuple((s, e, w) for s in ("front", "back") for e in ("up", "down")
                  for w in ("noflip", "flip"))
 _IDEAL_AXES = np.array([[0, 0, 1], [0, 1, 0], [0, 1, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0]], float)
+
+
+_GEOMETRY: weakref.WeakKeyDictionary[SerialModel, dict[float | None, WristPartitionedGeometry]] \
+    = weakref.WeakKeyDictionary()
 
 
 @dataclass(frozen=True)
@@ -44,7 +52,14 @@ class WristPartitionedGeometry:
     @classmethod
     def from_model(cls, model: SerialModel, tol: float | None = 1e-9) -> WristPartitionedGeometry:
         """Read the geometry; with `tol` None, project a near-ideal (calibrated) model onto the
-        ideal structure instead of refusing it."""
+        ideal structure instead of refusing it. Read once per model object and tolerance."""
+        per_model = _GEOMETRY.setdefault(model, {})
+        if tol not in per_model:
+            per_model[tol] = cls._read(model, tol)
+        return per_model[tol]
+
+    @classmethod
+    def _read(cls, model: SerialModel, tol: float | None) -> WristPartitionedGeometry:
         if model.n_joints != 6 or not model.is_revolute.all():
             raise ModelError(f"model '{model.name}': the closed-form IK needs 6 revolute joints")
         p = model.axis_points_mm
@@ -139,6 +154,25 @@ def _flange_targets(model: SerialModel, T_world_tool: ArrayLike) -> Array:
     return invert_transform(model.base) @ T @ invert_transform(model.tool)
 
 
+_GIMBAL_TOL = 1e-12
+
+
+def _euler_xyx(W: Array) -> Array:
+    """Angles (a, b, c) with W = Rx(a) Ry(b) Rx(c), b in [0, pi] (N, 3, 3) -> (N, 3): the
+    wrist's joints 4, 5, 6. At b = 0 or pi only a +- c is defined: c is set to 0 (scipy's
+    convention for intrinsic angles)."""
+    b = np.arccos(np.clip(W[:, 0, 0], -1.0, 1.0))
+    a = np.arctan2(W[:, 1, 0], -W[:, 2, 0])
+    c = np.arctan2(W[:, 0, 1], W[:, 0, 2])
+    lock = np.abs(np.sin(b)) < _GIMBAL_TOL
+    if lock.any():
+        straight = lock & (W[:, 0, 0] > 0)  # b = 0: W = Rx(a + c)
+        a = np.where(straight, np.arctan2(W[:, 2, 1], W[:, 1, 1]), a)
+        a = np.where(lock & ~straight, np.arctan2(W[:, 1, 2], W[:, 1, 1]), a)  # b = pi
+        c = np.where(lock, 0.0, c)
+    return np.stack([a, b, c], axis=-1)
+
+
 def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = 1e-12,
                        elbow_floor: float = 0.0) -> tuple[Array, Array]:
     """Joint angles (N, 8, 6) of the ideal geometry and the reachable mask (N, 8).
@@ -170,16 +204,15 @@ def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: fl
         # Wrist: W = (Rz(t1) Ry(t2 + t3))^T R R_M^T = Rx(t4) Ry(t5) Rx(t6).
         c23, s23 = np.cos(t2 + t3), np.sin(t2 + t3)
         R123 = np.empty((N, 3, 3))
-        R123[:, 0] = np.column_stack([c1 * c23, -s1, c1 * s23])
-        R123[:, 1] = np.column_stack([s1 * c23, c1, s1 * s23])
-        R123[:, 2] = np.column_stack([-s23, np.zeros(N), c23])
+        R123[:, 0, 0], R123[:, 0, 1], R123[:, 0, 2] = c1 * c23, -s1, c1 * s23
+        R123[:, 1, 0], R123[:, 1, 1], R123[:, 1, 2] = s1 * c23, c1, s1 * s23
+        R123[:, 2, 0], R123[:, 2, 1], R123[:, 2, 2] = -s23, 0.0, c23
         W = np.swapaxes(R123, 1, 2) @ R @ R_M.T
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message="Gimbal lock detected")
-            t456 = Rotation.from_matrix(W).as_euler("XYX")
+        t456 = _euler_xyx(W)
         flipped = t456 * np.array([1.0, -1.0, 1.0]) + np.array([np.pi, 0.0, np.pi])
-        theta[:, b] = np.column_stack([t1, t2, t3, t456])
-        theta[:, b + 1] = np.column_stack([t1, t2, t3, flipped])
+        theta[:, b, :3] = theta[:, b + 1, :3] = np.stack([t1, t2, t3], axis=-1)
+        theta[:, b, 3:] = t456
+        theta[:, b + 1, 3:] = flipped
         reach[:, b] = reach[:, b + 1] = ok
     theta[~reach] = np.nan
     return theta, reach
@@ -190,7 +223,7 @@ def _solutions(model: SerialModel, theta: Array, reach: Array, T_flange: Array) 
     q[~reach] = np.nan
     N = q.shape[0]
     flat = np.nan_to_num(q.reshape(-1, 6))
-    T = forward_kinematics(model.with_frames(np.eye(4), np.eye(4)), flat).reshape(N, 8, 4, 4)
+    T = flange_kinematics(model, flat).reshape(N, 8, 4, 4)
     residual = np.linalg.norm(T[..., :3, 3] - T_flange[:, None, :3, 3], axis=-1)
     residual[~reach] = np.nan
     within = model.within_limits(np.nan_to_num(q, nan=np.inf)) & reach
@@ -224,7 +257,7 @@ def _raise_unreachable(reach: Array) -> None:
 def _pose_error(T_target: Array, T: Array) -> Array:
     """(dp, dphi) taking T to T_target: position difference and world-frame rotation vector."""
     dR = T_target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], 1, 2)
-    dphi = Rotation.from_matrix(dR).as_rotvec()
+    dphi = rotvec_from_rotation(dR)
     return np.concatenate([T_target[:, :3, 3] - T[:, :3, 3], dphi], axis=1)
 
 
