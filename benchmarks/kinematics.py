@@ -3,7 +3,8 @@
     .venv/bin/python benchmarks/kinematics.py [--repeat 5]
 
 Prints the best of `repeat` runs, single-threaded BLAS (one core). Targets (issue 2):
-FK >= 1,000,000 poses/s, closed-form IK >= 50,000 poses/s.
+FK >= 1,000,000 poses/s, closed-form IK >= 50,000 poses/s; one pose per call (issue 14): FK
+<= 10 us, closed-form IK (all eight branches) <= 60 us.
 """
 
 from __future__ import annotations
@@ -42,6 +43,14 @@ def main() -> None:
         ("numerical IK (8 branches), 1,000", 1000, lambda: numerical_ik(calibrated, T_cal),
          None),
     ]
+    q1, T1 = q_fk[:1], forward_kinematics(model, q_fk[:1])
+    calls = 2000
+    single = [
+        ("FK, one pose per call", lambda: [forward_kinematics(model, q1) for _ in range(calls)],
+         10e-6),
+        ("closed-form IK, one pose per call", lambda: [closed_form_ik(model, T1)
+                                                       for _ in range(calls // 10)], 60e-6),
+    ]
     print(f"{'benchmark':<40}{'time':>10}{'poses/s':>14}{'target':>12}")
     for label, n, fn, target in rows:
         t = best_of(args.repeat, fn)
@@ -49,6 +58,11 @@ def main() -> None:
         verdict = "" if target is None else (f"{target:>10,.0f} " + ("ok" if rate >= target
                                                                      else "MISSED"))
         print(f"{label:<40}{t * 1e3:>8.1f} ms{rate:>14,.0f}  {verdict}")
+    for (label, fn, target), n in zip(single, (calls, calls // 10), strict=True):
+        per_call = best_of(args.repeat, fn) / n
+        verdict = "ok" if per_call <= target else "MISSED"
+        print(f"{label:<40}{per_call * 1e6:>8.1f} us{1 / per_call:>14,.0f}  "
+              f"{target * 1e6:>8.0f} us {verdict}")
 
 
 if __name__ == "__main__":

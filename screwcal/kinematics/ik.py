@@ -151,10 +151,19 @@ def _flange_targets(model: SerialModel, T_world_tool: ArrayLike) -> Array:
     T = np.asarray(T_world_tool, dtype=float)
     if T.ndim != 3 or T.shape[1:] != (4, 4):
         raise ValueError(f"IK targets must have shape (N, 4, 4); got {T.shape}")
-    return invert_transform(model.base) @ T @ invert_transform(model.tool)
+    if not np.array_equal(model.base, _EYE4):
+        T = invert_transform(model.base) @ T
+    if not np.array_equal(model.tool, _EYE4):
+        T = T @ invert_transform(model.tool)
+    return T
 
 
 _GIMBAL_TOL = 1e-12
+_EYE4 = np.eye(4)
+# Per arm branch (front up, front down, back up, back down): joint 1 turned by pi for "back",
+# the elbow's bend signed.
+_ARM_T1_OFFSET = np.array([0.0, 0.0, np.pi, np.pi])
+_ARM_ELBOW_SIGN = np.array([1.0, -1.0, 1.0, -1.0])
 
 
 def _euler_xyx(W: Array) -> Array:
@@ -186,34 +195,31 @@ def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: fl
     R_M = geo.home_flange[:3, :3]
     # Wrist centre: the flange carries the home offset (flange - wrist centre) rigidly.
     wc = T_flange[:, :3, 3] - R @ (R_M.T @ (geo.home_flange[:3, 3] - geo.wrist_home))
-    theta = np.full((N, 8, 6), np.nan)
-    reach = np.zeros((N, 8), bool)
     u, f = geo.upper_arm, geo.forearm
-    t1_front = np.arctan2(wc[:, 1], wc[:, 0])
-    for b in range(0, len(BRANCHES), 2):  # (shoulder, elbow); the wrist flip shares the arm
-        shoulder, elbow, _ = BRANCHES[b]
-        t1 = t1_front if shoulder == "front" else t1_front + np.pi
-        c1, s1 = np.cos(t1), np.sin(t1)
-        r = wc[:, 0] * c1 + wc[:, 1] * s1
-        d = (r - geo.shoulder_x) + 1j * (wc[:, 2] - geo.shoulder_z)
-        k = (np.abs(d) ** 2 - abs(u) ** 2 - abs(f) ** 2) / (2 * abs(u) * abs(f))
-        ok = np.abs(k) <= 1.0 + slack
-        bend = np.maximum(np.arccos(np.clip(k, -1, 1)), elbow_floor)
-        t3 = (1.0 if elbow == "up" else -1.0) * bend - np.angle(u) + np.angle(f)
-        t2 = np.angle(u + f * np.exp(-1j * t3)) - np.angle(d)
-        # Wrist: W = (Rz(t1) Ry(t2 + t3))^T R R_M^T = Rx(t4) Ry(t5) Rx(t6).
-        c23, s23 = np.cos(t2 + t3), np.sin(t2 + t3)
-        R123 = np.empty((N, 3, 3))
-        R123[:, 0, 0], R123[:, 0, 1], R123[:, 0, 2] = c1 * c23, -s1, c1 * s23
-        R123[:, 1, 0], R123[:, 1, 1], R123[:, 1, 2] = s1 * c23, c1, s1 * s23
-        R123[:, 2, 0], R123[:, 2, 1], R123[:, 2, 2] = -s23, 0.0, c23
-        W = np.swapaxes(R123, 1, 2) @ R @ R_M.T
-        t456 = _euler_xyx(W)
-        flipped = t456 * np.array([1.0, -1.0, 1.0]) + np.array([np.pi, 0.0, np.pi])
-        theta[:, b, :3] = theta[:, b + 1, :3] = np.stack([t1, t2, t3], axis=-1)
-        theta[:, b, 3:] = t456
-        theta[:, b + 1, 3:] = flipped
-        reach[:, b] = reach[:, b + 1] = ok
+    # The four arms (shoulder front/back x elbow up/down) at once, (N, 4); BRANCHES order.
+    t1 = np.arctan2(wc[:, 1], wc[:, 0])[:, None] + _ARM_T1_OFFSET
+    c1, s1 = np.cos(t1), np.sin(t1)
+    r = wc[:, 0, None] * c1 + wc[:, 1, None] * s1
+    d = (r - geo.shoulder_x) + 1j * (wc[:, 2, None] - geo.shoulder_z)
+    k = (np.abs(d) ** 2 - abs(u) ** 2 - abs(f) ** 2) / (2 * abs(u) * abs(f))
+    ok = np.abs(k) <= 1.0 + slack
+    bend = np.maximum(np.arccos(np.clip(k, -1, 1)), elbow_floor)
+    t3 = _ARM_ELBOW_SIGN * bend - np.angle(u) + np.angle(f)
+    t2 = np.angle(u + f * np.exp(-1j * t3)) - np.angle(d)
+    # Wrist: W = (Rz(t1) Ry(t2 + t3))^T R R_M^T = Rx(t4) Ry(t5) Rx(t6).
+    c23, s23 = np.cos(t2 + t3), np.sin(t2 + t3)
+    R123 = np.empty((N, 4, 3, 3))
+    R123[..., 0, 0], R123[..., 0, 1], R123[..., 0, 2] = c1 * c23, -s1, c1 * s23
+    R123[..., 1, 0], R123[..., 1, 1], R123[..., 1, 2] = s1 * c23, c1, s1 * s23
+    R123[..., 2, 0], R123[..., 2, 1], R123[..., 2, 2] = -s23, 0.0, c23
+    W = np.swapaxes(R123, -1, -2) @ (R @ R_M.T)[:, None]
+    t456 = _euler_xyx(W.reshape(-1, 3, 3)).reshape(N, 4, 3)
+    theta = np.empty((N, 4, 2, 6))
+    theta[..., :3] = np.stack([t1, t2, t3], axis=-1)[:, :, None]
+    theta[:, :, 0, 3:] = t456
+    theta[:, :, 1, 3:] = t456 * (1.0, -1.0, 1.0) + (np.pi, 0.0, np.pi)  # the wrist flipped
+    theta = theta.reshape(N, 8, 6)
+    reach = np.repeat(ok, 2, axis=1)
     theta[~reach] = np.nan
     return theta, reach
 
