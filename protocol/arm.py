@@ -1,4 +1,4 @@
-"""The measuring arm's serial line (../shared/spec/protocol.md): one probed point per line,
+"""The measuring arm's serial line (docs/protocol.md): one probed point per line,
 
     $PT,SEQ,LABEL,X,Y,Z*CS\\r\\n
 

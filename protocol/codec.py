@@ -1,4 +1,4 @@
-"""The controller wire protocol v1 (../shared/spec/protocol.md) as bytes in, messages out: no I/O.
+"""The controller wire protocol v1 (docs/protocol.md) as bytes in, messages out: no I/O.
 
 Every frame, both directions, is 80 ASCII bytes: a payload of 1-79 printable characters (no
 `#`), `#`, then spaces. Payloads are `SEQ VERB [args...]`; the thesis's data packets (Table 12)

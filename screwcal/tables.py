@@ -1,4 +1,4 @@
-"""Reading and writing the CSV files of the offline contract (../shared/spec/data-formats.md).
+"""Reading and writing the CSV files of the offline contract (docs/formats.md).
 
 Readers check everything at the edge and raise DataFileError naming the file, the line and the
 column; writers write to a temporary file and rename it, so a refused input writes nothing.

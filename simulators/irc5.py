@@ -1,4 +1,4 @@
-"""An ABB IRC5 emulator: the controller side of the wire protocol (../shared/spec/protocol.md)
+"""An ABB IRC5 emulator: the controller side of the wire protocol (docs/protocol.md)
 over real TCP, around a `World`.
 
 Like the RAPID server it stands in for (thesis 4.4, Algorithms 1-2), it serves one client at a

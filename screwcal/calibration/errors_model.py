@@ -49,7 +49,7 @@ from screwcal.kinematics.se3 import (
 ModelKind = Literal["frames", "joints", "thesis", "full"]
 THESIS_LINK_OFFSETS = ("J1pz", "J1px", "J2pz", "J4px")
 # Table 11's names of the joint offsets. Joint 3 turns about y in the usual frame; the thesis
-# still writes J3rz (../shared/seed/README.md): it is the joint-3 offset.
+# still writes J3rz (the thesis, Table 11): it is the joint-3 offset.
 THESIS_JOINT_OFFSETS = ("J1rz", "J2ry", "J3rz", "J4rx", "J5ry", "J6rx")
 
 

@@ -51,7 +51,7 @@ class MeasurementSet:
 
 
 def read_measurements_csv(path: str | Path, model: SerialModel) -> MeasurementSet:
-    """The measurement file of ../shared/spec/data-formats.md: q1..qn (deg), x, y, z (mm),
+    """The measurement file (docs/formats.md): q1..qn (deg), x, y, z (mm),
     optionally rx, ry, rz (deg) on every row, optional id."""
     table = read_numeric_csv(path, [*joint_columns(model.n_joints), "x", "y", "z"],
                              optional_groups=[["rx", "ry", "rz"]])

@@ -1,4 +1,4 @@
-"""`screwcal calibrate` and `screwcal compensate` (../shared/spec/data-formats.md).
+"""`screwcal calibrate` and `screwcal compensate` (docs/formats.md).
 
     screwcal calibrate --robot irb1600 --data measurements.csv --out result.json
                        [--model full|thesis|joints] [--solver lm|de] [--weight-mm W]

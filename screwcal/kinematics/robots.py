@@ -1,4 +1,4 @@
-"""Built-in nominal models, exactly as ../shared/spec/irb1600.md and irb120.md give them.
+"""Built-in nominal models, as ABB's product specifications give them (IRB 1600-6/1.2, IRB 120).
 
 Both are ABB 6R arms: joint 1 about +z, joints 2 and 3 about +y, a spherical wrist x-y-x, and the
 flange (tool0) at home with orientation Ry(+90 deg).
