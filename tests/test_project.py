@@ -89,3 +89,14 @@ def test_ruff_is_clean():
     ruff = shutil.which("ruff") or str(Path(sys.executable).with_name("ruff"))
     result = subprocess.run([ruff, "check", str(ROOT)], capture_output=True, text=True)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_the_package_stands_on_its_own():
+    """Users get the repository alone: nothing in the package, its README or docs points to the
+    development workspace's shared folder."""
+    places = [ROOT / "README.md", *(ROOT / "docs").rglob("*.md")]
+    for package in ALLOWED:
+        places += list((ROOT / package).rglob("*.py"))
+    offenders = [str(p.relative_to(ROOT)) for p in places
+                 if "../shared" in p.read_text(encoding="utf-8")]
+    assert not offenders, offenders
