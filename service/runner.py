@@ -347,6 +347,7 @@ class JobRunner:
         job_result["calibration" + suffix] = result_document(
             result, self.model.name, {"model": kind, "frames": "base", "poses": len(data),
                                       "job": self.job_id, "phase": "cal" + suffix})
+        job_result["warnings"] = _warnings(job_result)
         try:
             job_result["correction" + suffix] = self._plan_correction(result, suffix)
         finally:
@@ -474,6 +475,7 @@ def _warnings(job_result: dict) -> list[str]:
     out = []
     for suffix in ("", "_2"):
         est = job_result.get("estimation" + suffix)
+        out += [f"estimation{suffix}: {w}" for w in (est or {}).get("warnings", [])]
         if est and est["chi2_reduced"] > POOR_FIT_CHI2:
             out.append(f"poor fit in the estimation{suffix}: chi2/dof {est['chi2_reduced']:.1f} "
                        f"(> {POOR_FIT_CHI2:g}): the model misses something (compliance, a loose "
@@ -509,6 +511,7 @@ def _estimation_summary(result: CalibrationResult) -> dict:
         "rank": result.rank, "condition_number": result.condition_number,
         "chi2_reduced": result.chi2_reduced, "converged": result.converged,
         "noise": result.noise.to_dict() if result.noise is not None else None,
+        "warnings": result.warnings,
         "residual_before_mm": float(result.residuals_before.mean()),
         "residual_after_mm": float(result.residuals_after.mean()),
     }

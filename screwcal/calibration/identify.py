@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -43,6 +43,12 @@ from scipy.optimize import differential_evolution, least_squares
 from scipy.spatial.transform import Rotation
 
 from screwcal.calibration.alignment import align_frames
+from screwcal.calibration.diagnostics import (
+    MAX_OUTLIER_FRACTION,
+    data_quality,
+    loo_position_error,
+    pose_tests,
+)
 from screwcal.calibration.errors_model import (
     ErrorModel,
     ModelKind,
@@ -106,6 +112,7 @@ class NoiseEstimate:
     joint_std_deg: float | None
     iterations: int = 0
     converged: bool = True
+    note: str = ""  # how a level was chosen, when not simply estimated or fixed
 
     def to_dict(self) -> dict:
         out = {}
@@ -117,7 +124,30 @@ class NoiseEstimate:
             out[name] = {"value": value if measured else None, "unit": unit,
                          "estimated": std is not None, "std": std, "measured": measured}
         out["iterations"], out["converged"] = self.iterations, self.converged
+        out["note"] = self.note
         return out
+
+
+@dataclass(frozen=True)
+class Outlier:
+    """A pose whose residual says it does not belong."""
+
+    id: str
+    line: int | None  # in the measurement file, when known
+    residual_mm: float  # its position residual in the fit that flagged it
+    statistic: float  # T_i (chi-square)
+    threshold: float
+    rejected: bool
+
+    def describe(self) -> str:
+        where = f" (line {self.line})" if self.line else ""
+        return f"pose {self.id}{where} {self.residual_mm:.3f} mm, T {self.statistic:.0f} > " \
+               f"{self.threshold:.0f}"
+
+    def to_dict(self) -> dict:
+        return {"id": self.id, "line": self.line, "residual_mm": self.residual_mm,
+                "statistic": self.statistic, "threshold": self.threshold,
+                "rejected": self.rejected}
 
 
 @dataclass(frozen=True)
@@ -150,6 +180,22 @@ class CalibrationResult:
     degenerate: bool = False
     covariance: Array = field(default_factory=lambda: np.zeros((0, 0)))  # numeric units
     noise: NoiseEstimate | None = None  # the levels used (statistical weighting)
+    outliers: tuple[Outlier, ...] = ()  # rejected (and, with outliers="keep", kept) poses
+    diagnostics: dict = field(default_factory=dict)  # data_quality(): lag, drift, leverage, fit
+
+    @property
+    def warnings(self) -> list[str]:
+        """What the user must read: data-quality findings and the poses left out."""
+        out = [d["warning"] for d in self.diagnostics.values() if d.get("warning")]
+        rejected = [o for o in self.outliers if o.rejected]
+        if rejected:
+            out.append(f"{len(rejected)} poses rejected as outliers: " + ", ".join(
+                o.describe() for o in rejected[:10]))
+        kept = [o for o in self.outliers if not o.rejected]
+        if kept:
+            out.append(f"{len(kept)} poses look like outliers but were kept: " + ", ".join(
+                o.describe() for o in kept[:10]))
+        return out
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -213,13 +259,17 @@ class _Problem:
         out._whiten = whiten
         return out
 
+    def joint_jacobian(self, at: Array) -> Array:
+        """The residuals' Jacobian w.r.t. the joints (N, k, n) at x = `at`."""
+        model = self.errors.apply(at)
+        T = forward_kinematics(model, self.data.q)
+        return point_jacobian(spatial_jacobian(model, self.data.q), T)[:, :self.rows, :]
+
     def components(self, at: Array) -> Array:
         """The unit covariance components V_k (3, N, k, k) at x = `at`: position rows (mm^2),
         orientation rows (rad^2), and the joints' through the joint Jacobian (per rad^2)."""
         k = self.rows
-        model = self.errors.apply(at)
-        T = forward_kinematics(model, self.data.q)
-        Jq = point_jacobian(spatial_jacobian(model, self.data.q), T)[:, :k, :]
+        Jq = self.joint_jacobian(at)
         V = np.zeros((3, len(self.data), k, k))
         V[0, :, range(3), range(3)] = 1.0
         if k == 6:
@@ -327,9 +377,57 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
              weight_mm: float = 1.0, noise: NoiseModel | None = None,
              de_link_bounds_mm: tuple[float, float] = (0.0, 1.0), seed: int = 0,
              base_guess: Array | None = None,
-             link_offsets: Sequence[str] | None = None) -> CalibrationResult:
+             link_offsets: Sequence[str] | None = None,
+             outliers: Literal["reject", "keep"] = "reject") -> CalibrationResult:
     """Identify the error model `kind` of `nominal` from measured data. With unknown frames,
-    `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there."""
+    `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there.
+
+    Poses whose residual says they do not belong (data snooping, `diagnostics.pose_tests`) are
+    rejected one at a time, the worst first, and the fit repeated (`outliers="keep"`: listed,
+    kept); at most a tenth of the poses. The result lists them and the data-quality
+    diagnostics."""
+    started = time.perf_counter()
+    settings = dict(kind=kind, residual=residual, frames=frames, solver=solver,
+                    weighting=weighting, weight_mm=weight_mm, noise=noise,
+                    de_link_bounds_mm=de_link_bounds_mm, seed=seed, base_guess=base_guess,
+                    link_offsets=link_offsets)
+    found: list[Outlier] = []
+    current = data
+    limit = max(1, int(MAX_OUTLIER_FRACTION * len(data)))
+    while True:
+        result, problem, x = _identify_once(nominal, current, **settings)  # type: ignore[arg-type]
+        if result.residual_kind == "distance" or weighting != "statistical":
+            return replace(result, outliers=tuple(found), seconds=time.perf_counter() - started)
+        e, A = problem.raw(x)
+        assert A is not None
+        test = pose_tests(e, A, problem._whiten)
+        limit_T = test.threshold()
+        worst = int(np.argmax(test.statistic))
+        if test.statistic[worst] <= limit_T or outliers == "keep" or len(found) >= limit:
+            break
+        found.append(Outlier(current.ids[worst], current.line_of(worst),
+                             float(np.linalg.norm(e[worst, :3])), float(test.statistic[worst]),
+                             limit_T, rejected=True))
+        current = current.take(np.flatnonzero(np.arange(len(current)) != worst))
+    kept = [Outlier(current.ids[k], current.line_of(k), float(np.linalg.norm(e[k, :3])),
+                    float(test.statistic[k]), limit_T, rejected=False)
+            for k in np.flatnonzero(test.statistic > limit_T)]
+    stated = PRIOR_NOISE[0] if noise is None or noise.position_mm is None else noise.position_mm
+    quality = data_quality(e, problem.joint_jacobian(x), np.degrees(current.q), test,
+                           current.ids, None if result.noise is None or
+                           result.noise.position_std_mm is None else result.noise.position_mm,
+                           stated)
+    return replace(result, outliers=tuple(found + kept), diagnostics=quality,
+                   seconds=time.perf_counter() - started)
+
+
+def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind,
+                   residual: Residual | None, frames: Frames, solver: Literal["lm", "de"],
+                   weighting: str, weight_mm: float, noise: NoiseModel | None,
+                   de_link_bounds_mm: tuple[float, float], seed: int,
+                   base_guess: Array | None, link_offsets: Sequence[str] | None
+                   ) -> tuple[CalibrationResult, _Problem, Array]:
+    """One fit of all the poses given: the result, the final problem and its estimate."""
     started = time.perf_counter()
     noise = noise or NoiseModel()
     residual = residual or ("pose" if data.full_pose else "position")
@@ -433,9 +531,31 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     noise_used = None
     if estimate_noise:
         # Re-weighted at every estimate while the noise levels are found (variance components).
+        def solve(pr: _Problem, x_start: Array) -> tuple[Array, bool, str, int]:
+            return lm(pr, x_start, 1e-10)
+
         problem, x, noise_used, nfev_vce, (converged, message) = _estimate_noise(
-            problem, noise, x, lambda pr, x_start: lm(pr, x_start, 1e-10))
+            problem, noise, x, solve)
         nfev += nfev_vce
+        if noise.joint_deg is None and noise_used.joint_deg > 0.0:
+            # Is the joint component noise, or what the model misses (compliance, lag) soaked
+            # up, down-weighting the far poses that show the geometry? Keep the weighting that
+            # predicts left-out poses better (PRESS, from this one linearisation).
+            e, A = problem.raw(x)
+            assert A is not None
+            V = problem.components(x)
+            theta = _theta((noise_used.position_mm, noise_used.orientation_deg
+                            if problem.rows == 6 else 0.0, 0.0))
+            without = loo_position_error(e, A, _whitening(np.einsum("k,knij->nij", theta, V)))
+            with_joint = loo_position_error(e, A, problem._whiten)
+            if without < (1.0 - PRESS_MARGIN) * with_joint:
+                problem, x, noise_used, nfev_vce, (converged, message) = _estimate_noise(
+                    problem, replace(noise, joint_deg=0.0), x, solve)
+                nfev += nfev_vce
+                noise_used = replace(noise_used, note=(
+                    f"joint noise left out: it predicted left-out poses worse "
+                    f"({with_joint:.3f} vs {without:.3f} mm, leave-one-out): what it soaked up "
+                    "is model error, not noise"))
         if not noise_used.converged:
             message += "; noise levels did not settle (see noise)"
     elif statistical and not reweighted:
@@ -471,9 +591,11 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         min_singular_value=float(s[-1]), chi2_reduced=chi2, converged=bool(converged),
         message=str(message), n_evaluations=nfev, seconds=time.perf_counter() - started,
         residuals_before=before[0], residuals_after=after[0], rotation_before_deg=before[1],
-        rotation_after_deg=after[1], degenerate=degenerate, covariance=cov, noise=noise_used)
+        rotation_after_deg=after[1], degenerate=degenerate, covariance=cov, noise=noise_used
+    ), problem, x
 
 
+PRESS_MARGIN = 0.02  # the joint component is dropped only when that predicts clearly better
 VCE_MAX_ITER = 25
 VCE_TOL = 0.05  # relative change of every free component at convergence
 NEGLIGIBLE = 0.01  # a component under this share of the variance no longer shapes the weights

@@ -26,6 +26,7 @@ class MeasurementSet:
     positions_mm: Array  # (N, 3)
     rotations: Array | None = None  # (N, 3, 3) for full-pose data
     ids: tuple[str, ...] = ()
+    lines: tuple[int, ...] = ()  # the file line of each pose, when read from a file
 
     def __post_init__(self) -> None:
         N = len(self.q)
@@ -43,11 +44,15 @@ class MeasurementSet:
     def __len__(self) -> int:
         return len(self.q)
 
+    def line_of(self, k: int) -> int | None:
+        return self.lines[k] if self.lines else None
+
     def take(self, index: ArrayLike) -> MeasurementSet:
         idx = np.asarray(index)
         return MeasurementSet(self.q[idx], self.positions_mm[idx],
                               None if self.rotations is None else self.rotations[idx],
-                              tuple(np.asarray(self.ids, dtype=object)[idx]))
+                              tuple(np.asarray(self.ids, dtype=object)[idx]),
+                              tuple(np.asarray(self.lines, dtype=int)[idx]) if self.lines else ())
 
 
 def read_measurements_csv(path: str | Path, model: SerialModel) -> MeasurementSet:
@@ -64,4 +69,4 @@ def read_measurements_csv(path: str | Path, model: SerialModel) -> MeasurementSe
     rotations = None
     if "rx" in table.columns:
         rotations = rotation_from_euler_zyx_deg(table.take(["rx", "ry", "rz"]))
-    return MeasurementSet(q, table.take(["x", "y", "z"]), rotations, table.ids)
+    return MeasurementSet(q, table.take(["x", "y", "z"]), rotations, table.ids, table.lines)

@@ -86,6 +86,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
     if result.noise is not None:
         print("noise levels: " + _noise_line(result.noise.to_dict())
               + f"; chi2/dof {result.chi2_reduced:.2f}")
+    for warning in result.warnings:
+        print(f"warning: {warning}")
     if result.degenerate:
         print("warning: some requested parameters cannot be identified from these data; see "
               "removed_parameters in the result")
@@ -209,6 +211,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="default: pose for full-pose data, position otherwise")
     p.add_argument("--base-guess", metavar="SWEEPS_CSV",
                    help="start the base frame from the thesis's joint 1/joint 2 sweeps (4.6)")
+    p.add_argument("--outliers", choices=["reject", "keep"], default="reject",
+                   help="poses whose residual says they do not belong: left out of the fit "
+                   "(default) or kept; listed either way")
     p.add_argument("--noise-mm", type=float, default=None,
                    help="fix the measuring noise, 1 sigma (default: estimated from the data)")
     p.add_argument("--joint-noise-deg", type=float, default=None,

@@ -27,6 +27,7 @@ _EXPORTS = {
     "accuracy_per_point": "plots",
     "attained_vs_commanded": "plots",
     "build_report": "evaluate",
+    "calibration_residuals": "plots",
     "find_test_cube": "testcube",
     "performance_pose_list": "testcube",
     "point_metrics": "evaluate",

@@ -6,7 +6,8 @@ repository icelinker/Robot-Calibration-LaserTracker (commit 188abd2, folder
 generated_joints.txt`). `locate_dataset` finds it from an explicit folder or the
 `SCREWCAL_DATA_DIR` environment variable, and says where to get it when it is missing.
 
-Files of 1000 whitespace-separated rows: `measured_joints.txt` (6 joint angles, deg), three tool
+Files of 1000 whitespace-separated rows: `measured_joints.txt` (6 joint angles, deg, read back
+right after each move returned) and `commanded_joints.txt` (the targets sent), three tool
 reflectors `measured_SMR_{1,2,3}.txt` and three base reflectors `measured_base_{1,2,3}.txt`
 (mm, tracker frame). Row i of every file is pose i.
 
@@ -107,10 +108,18 @@ def _load(path: Path, columns: int) -> Array:
     return data
 
 
+JOINT_FILES = {"measured": "measured_joints.txt", "commanded": "commanded_joints.txt"}
+
+
 def read_tracker_dataset(folder: str | Path, drift_tol_mm: float = DRIFT_TOL_MM,
-                         rigidity_tol_mm: float = RIGIDITY_TOL_MM) -> TrackerData:
+                         rigidity_tol_mm: float = RIGIDITY_TOL_MM,
+                         joints: str = "measured") -> TrackerData:
+    """The data set with the joints read back from the controller (`measured`, read before the
+    arm had settled) or the targets sent with MoveAbsJ (`commanded`)."""
     folder = Path(folder)
-    q = _load(folder / "measured_joints.txt", 6)
+    if joints not in JOINT_FILES:
+        raise DataFileError(str(folder), f"joints are {' or '.join(JOINT_FILES)}, not {joints!r}")
+    q = _load(folder / JOINT_FILES[joints], 6)
     smr = np.stack([_load(folder / f"measured_SMR_{k}.txt", 3) for k in (1, 2, 3)], axis=1)
     base = np.stack([_load(folder / f"measured_base_{k}.txt", 3) for k in (1, 2, 3)], axis=1)
     if not len(q) == len(smr) == len(base):

@@ -15,7 +15,7 @@ import argparse
 
 import numpy as np
 
-from screwcal.calibration.identify import CalibrationResult, NoiseModel, identify
+from screwcal.calibration.identify import CalibrationResult, identify
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.errors import DataFileError
 from screwcal.kinematics.forward import forward_kinematics
@@ -28,7 +28,6 @@ from screwcal.studies.tracker_dataset import (
     read_tracker_dataset,
 )
 
-TRACKER_NOISE = NoiseModel(position_mm=0.05, joint_deg=0.0)
 MODELS = ("frames", "thesis", "full")
 
 
@@ -49,12 +48,17 @@ def run_study(dataset: TrackerData, seed: int = 0, full_pose: bool = True) -> di
     out: dict = {"poses": len(data), "calibration": len(cal), "validation": len(val),
                  "rejected_rows": len(dataset.rejected), "models": {}}
     for kind in MODELS:
-        result = identify(irb120(), cal, kind=kind, noise=TRACKER_NOISE)
+        result = identify(irb120(), cal, kind=kind)  # noise levels from the data
         e = position_errors(result, val)
+        noise = result.noise
         out["models"][kind] = {"mean": float(e.mean()), "max": float(e.max()),
                                "rms": float(np.sqrt(np.mean(e**2))), "rank": result.rank,
                                "chi2_reduced": result.chi2_reduced, "seconds": result.seconds,
-                               "converged": result.converged}
+                               "converged": result.converged,
+                               "noise_mm": noise.position_mm if noise else None,
+                               "joint_noise_deg": noise.joint_deg if noise else None,
+                               "outliers": sum(o.rejected for o in result.outliers),
+                               "warnings": result.warnings}
         if kind == "full":
             out["residual_analysis"] = residual_analysis(result, val)
     return out
@@ -79,12 +83,16 @@ def residual_analysis(result: CalibrationResult, val: MeasurementSet) -> dict:
 
 
 def format_study(s: dict) -> str:
-    lines = [f"IRB 120, laser tracker: {s['poses']} poses kept ({s['rejected_rows']} rejected), "
-             f"calibrate on {s['calibration']}, validate on {s['validation']} unseen",
-             f"  {'model':<8}{'mean':>9}{'RMS':>9}{'max':>9}{'rank':>6}{'chi2/dof':>10}  (mm)"]
+    lines = [f"IRB 120, laser tracker, {s.get('joints', 'measured')} joints: {s['poses']} poses "
+             f"kept ({s['rejected_rows']} rejected), calibrate on {s['calibration']}, validate "
+             f"on {s['validation']} unseen",
+             f"  {'model':<8}{'mean':>9}{'RMS':>9}{'max':>9}{'rank':>6}{'noise':>9}"
+             f"{'joint':>9}{'outliers':>9}   (mm; noise levels found: mm, deg +-)"]
     for kind, m in s["models"].items():
         lines.append(f"  {kind:<8}{m['mean']:>9.3f}{m['rms']:>9.3f}{m['max']:>9.3f}"
-                     f"{m['rank']:>6}{m['chi2_reduced']:>10.1f}")
+                     f"{m['rank']:>6}{m['noise_mm'] or 0:>9.3f}{m['joint_noise_deg'] or 0:>9.4f}"
+                     f"{m['outliers']:>9}")
+        lines += [f"    warning: {w}" for w in m["warnings"]]
     ra = s.get("residual_analysis")
     if ra:
         lines.append("  full model, held-out mean error by quartile (low -> high):")
@@ -102,6 +110,8 @@ def main() -> None:
     parser.add_argument("--data", default=None, metavar="DIR",
                         help=f"the irb120-laser-tracker folder (default: ${DATA_DIR_ENV})")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--joints", choices=["measured", "commanded", "both"], default="both",
+                        help="the joints read back (before the arm settled) or the targets sent")
     parser.add_argument("--position-only", action="store_true",
                         help="use reflector 1's position only, not the three-reflector frame")
     args = parser.parse_args()
@@ -109,9 +119,12 @@ def main() -> None:
         folder = locate_dataset(args.data)
     except DataFileError as err:
         parser.exit(2, f"error: {err}\n")
-    dataset = read_tracker_dataset(folder)
-    print(dataset.report())
-    print(format_study(run_study(dataset, args.seed, not args.position_only)))
+    for joints in (("measured", "commanded") if args.joints == "both" else (args.joints,)):
+        dataset = read_tracker_dataset(folder, joints=joints)
+        if joints == "measured" or args.joints != "both":
+            print(dataset.report())
+        study = run_study(dataset, args.seed, not args.position_only)
+        print(format_study({**study, "joints": joints}))
 
 
 if __name__ == "__main__":

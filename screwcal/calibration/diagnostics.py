@@ -1,0 +1,137 @@
+"""What the residuals of a fit say about the data: poses that do not belong (outliers), joint
+readings that lag the motion, drift over the acquisition, poses that add nothing, and a fit
+poorer than the instrument allows.
+
+Per pose i, with C_i its covariance, A_i its Jacobian and N = sum A^T C^-1 A, the residual's own
+covariance is Q_i = C_i - A_i N^-1 A_i^T; the pose's test statistic T_i = e_i^T Q_i^-1 e_i is
+chi-square with k degrees of freedom when the pose belongs (Baarda's data snooping, one pose at a
+time); its leverage h_i = tr(A_i N^-1 A_i^T C_i^-1) (0..k, mean p/N) says how much the fit leans on
+it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from scipy.special import chdtri, stdtr  # chi-square quantile, Student's t (not scipy.stats:
+
+# a tenth of its import time, and this runs with every calibration)
+from screwcal.kinematics.se3 import Array
+
+OUTLIER_ALPHA = 0.01  # family-wise: each pose tested at alpha / N
+MAX_OUTLIER_FRACTION = 0.1  # never reject more than this share of the poses
+LAG_MIN_CORRELATION = 0.3
+DRIFT_MIN_CORRELATION = 0.2
+SIGNIFICANCE = 1e-3
+LOW_LEVERAGE = 0.1  # a pose with less than this share of the mean leverage adds nothing
+
+
+@dataclass(frozen=True)
+class PoseTest:
+    """The fit's residual statistics per pose (N,)."""
+
+    statistic: Array  # T_i, chi-square with `dof` when the pose belongs
+    leverage: Array  # h_i
+    dof: int
+
+    def threshold(self, alpha: float = OUTLIER_ALPHA) -> float:
+        n = len(self.statistic)
+        return float(chdtri(self.dof, alpha / max(n, 1)))
+
+
+def pose_tests(e: Array, A: Array, W: Array) -> PoseTest:
+    """Per-pose statistics from the raw residuals e (N, k), their Jacobian A (N, k, p) and the
+    whitening W (N, k, k) (W^T W = C^-1)."""
+    Cinv = np.swapaxes(W, 1, 2) @ W
+    C = np.linalg.inv(Cinv)
+    CA = Cinv @ A
+    p = A.shape[-1]
+    Ninv = scipy.linalg.pinvh(A.reshape(-1, p).T @ CA.reshape(-1, p))
+    H = A @ Ninv @ np.swapaxes(A, 1, 2)  # A_i N^-1 A_i^T
+    Q = C - H
+    T = np.einsum("ni,nij,nj->n", e, np.linalg.pinv(Q, hermitian=True), e)
+    leverage = np.einsum("nij,nji->n", H, Cinv)
+    return PoseTest(T, leverage, e.shape[1])
+
+
+def _significant(x: Array, y: Array, min_r: float) -> tuple[float, bool]:
+    """Pearson's r, and whether it is at least `min_r` and significant (two-sided t-test)."""
+    ok = np.isfinite(x) & np.isfinite(y)
+    n = int(ok.sum())
+    if n < 10 or np.std(x[ok]) == 0 or np.std(y[ok]) == 0:
+        return 0.0, False
+    r = float(np.corrcoef(x[ok], y[ok])[0, 1])
+    if abs(r) < min_r:
+        return r, False
+    t = abs(r) * np.sqrt((n - 2) / max(1.0 - r * r, 1e-300))
+    return r, bool(2.0 * stdtr(n - 2, -t) < SIGNIFICANCE)
+
+
+def _ranks(x: Array) -> Array:
+    out = np.empty(len(x))
+    out[np.argsort(x, kind="stable")] = np.arange(len(x))
+    return out
+
+
+def data_quality(e: Array, Jq: Array, q_deg: Array, test: PoseTest, ids: tuple[str, ...],
+                 position_noise_mm: float | None, stated_noise_mm: float) -> dict:
+    """The diagnostics a user sees: each with a `warning` (a sentence, or None) and its figures.
+
+    e (N, k) residuals in acquisition order, Jq (N, k, n) their joint Jacobian, q_deg (N, n) the
+    joint readings, the pose tests, the estimated position noise (None when fixed) and the
+    instrument's stated noise.
+    """
+    out: dict = {}
+    # Joint readings that lag the motion: the joint error that would explain each residual,
+    # against the previous move of that joint.
+    dq = np.degrees((np.linalg.pinv(Jq) @ e[..., None])[..., 0])
+    step = np.vstack([np.full((1, q_deg.shape[1]), np.nan), np.diff(q_deg, axis=0)])
+    lag = []
+    for j in range(q_deg.shape[1]):
+        r, flagged = _significant(step[:, j], dq[:, j], LAG_MIN_CORRELATION)
+        lag.append({"joint": j + 1, "correlation": r, "flagged": flagged})
+    lagging = [d["joint"] for d in lag if d["flagged"]]
+    out["lag"] = {"per_joint": lag, "warning": None if not lagging else (
+        f"joint readings lag the motion (joints {lagging}: the residual follows the previous "
+        "move): wait for the robot to settle before reading the joints, or use the commanded "
+        "joints")}
+    # Drift: residual size against acquisition order.
+    size = np.linalg.norm(e[:, :3], axis=1)
+    rho, drift = _significant(np.arange(len(size), dtype=float), _ranks(size),
+                              DRIFT_MIN_CORRELATION)  # Spearman: Pearson on the ranks
+    out["drift"] = {"spearman": float(rho), "warning": None if not drift else (
+        f"the residuals {'grow' if rho > 0 else 'shrink'} with the acquisition order "
+        f"(Spearman {rho:+.2f}): the set-up drifted; check the base and the measuring system")}
+    # Poses that add nothing.
+    mean = float(test.leverage.mean())
+    idle = [ids[k] for k in np.flatnonzero(test.leverage < LOW_LEVERAGE * mean)]
+    out["leverage"] = {"mean": mean, "low": idle, "warning": None if not idle else (
+        f"{len(idle)} poses add almost nothing to the fit (leverage under "
+        f"{LOW_LEVERAGE:g} of the mean): {', '.join(idle[:10])}")}
+    # A fit poorer than the instrument: the noise the data need against what is stated.
+    ratio = None if position_noise_mm is None else position_noise_mm / stated_noise_mm
+    out["fit"] = {"position_noise_over_stated": ratio, "warning": None if ratio is None or
+                  ratio < 3.0 else (
+        f"the residuals need {position_noise_mm:.3g} mm of measuring noise, {ratio:.1f} times "
+        f"the instrument's {stated_noise_mm:g} mm: the model misses something (joint "
+        "compliance, a loose flange, drift) or the instrument is worse than stated")}
+    return out
+
+
+def loo_position_error(e: Array, A: Array, W: Array) -> float:
+    """Mean leave-one-pose-out position error (mm) of the weighted linear fit of residuals e
+    (N, k) with Jacobian A (N, k, p) and whitening W (N, k, k), from one solve: each pose's
+    residual had it been left out, (I - H_ii)^-1 r_i in whitened units (PRESS, by blocks)."""
+    p = A.shape[-1]
+    WA = W @ A
+    r = (W @ e[..., None])[..., 0]
+    flat = WA.reshape(-1, p)
+    Ninv = scipy.linalg.pinvh(flat.T @ flat)
+    r = r - (WA @ (Ninv @ (flat.T @ r.reshape(-1))))  # residuals after this weighting's step
+    H = WA @ Ninv @ np.swapaxes(WA, 1, 2)
+    k = e.shape[1]
+    r_loo = np.linalg.solve(np.eye(k) - H, r[..., None])
+    e_loo = np.linalg.solve(W, r_loo)[..., 0]
+    return float(np.linalg.norm(e_loo[:, :3], axis=1).mean())
