@@ -71,6 +71,7 @@ _EXPORTS = {
     "VCE_MAX_ITER": "identify",
     "VCE_TOL": "identify",
     "WORKING_REGION_DEG": "posesets",
+    "acquisition_order": "diagnostics",
     "after_zero": "correction",
     "align_frames": "alignment",
     "apply_virtual_joints": "virtual_joints",

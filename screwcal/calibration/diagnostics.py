@@ -22,7 +22,7 @@ from screwcal.kinematics.se3 import Array
 
 OUTLIER_ALPHA = 0.01  # family-wise: each pose tested at alpha / N
 MAX_OUTLIER_FRACTION = 0.1  # never reject more than this share of the poses
-LAG_MIN_CORRELATION = 0.3
+LAG_MIN_CORRELATION = 0.2
 DRIFT_MIN_CORRELATION = 0.2
 SIGNIFICANCE = 1e-3
 LOW_LEVERAGE = 0.1  # a pose with less than this share of the mean leverage adds nothing
@@ -75,28 +75,43 @@ def _ranks(x: Array) -> Array:
     return out
 
 
+def acquisition_order(ids: tuple[str, ...], lines: tuple[int, ...]) -> Array:
+    """(N,) True where a pose directly follows the one before it in the acquisition (its file
+    line, or a numeric id, one more): a subset of the poses (a calibration half) keeps only
+    those pairs, so that "the previous move" is the move the robot made."""
+    keys = list(lines) if lines else [int(i) if str(i).isdigit() else None for i in ids]
+    follows = np.zeros(len(keys), bool)
+    for k in range(1, len(keys)):
+        follows[k] = keys[k] is not None and keys[k - 1] is not None and \
+            keys[k] - keys[k - 1] == 1
+    return follows
+
+
 def data_quality(e: Array, Jq: Array, q_deg: Array, test: PoseTest, ids: tuple[str, ...],
-                 position_noise_mm: float | None, stated_noise_mm: float) -> dict:
+                 position_noise_mm: float | None, stated_noise_mm: float,
+                 follows: Array | None = None) -> dict:
     """The diagnostics a user sees: each with a `warning` (a sentence, or None) and its figures.
 
     e (N, k) residuals in acquisition order, Jq (N, k, n) their joint Jacobian, q_deg (N, n) the
-    joint readings, the pose tests, the estimated position noise (None when fixed) and the
-    instrument's stated noise.
+    joint readings, the pose tests, the estimated position noise (None when fixed), the
+    instrument's stated noise, and which poses directly follow the previous one (default: all).
     """
     out: dict = {}
     # Joint readings that lag the motion: the joint error that would explain each residual,
     # against the previous move of that joint.
     dq = np.degrees((np.linalg.pinv(Jq) @ e[..., None])[..., 0])
     step = np.vstack([np.full((1, q_deg.shape[1]), np.nan), np.diff(q_deg, axis=0)])
+    if follows is not None:
+        step[~follows] = np.nan
     lag = []
     for j in range(q_deg.shape[1]):
         r, flagged = _significant(step[:, j], dq[:, j], LAG_MIN_CORRELATION)
         lag.append({"joint": j + 1, "correlation": r, "flagged": flagged})
     lagging = [d["joint"] for d in lag if d["flagged"]]
     out["lag"] = {"per_joint": lag, "warning": None if not lagging else (
-        f"joint readings lag the motion (joints {lagging}: the residual follows the previous "
-        "move): wait for the robot to settle before reading the joints, or use the commanded "
-        "joints")}
+        f"the residual follows the previous move (joints {lagging}): joint readings taken "
+        "before the arm settled (they lag the motion), or backlash; wait for the robot to "
+        "settle, approach each pose from the same direction, or use the commanded joints")}
     # Drift: residual size against acquisition order.
     size = np.linalg.norm(e[:, :3], axis=1)
     rho, drift = _significant(np.arange(len(size), dtype=float), _ranks(size),

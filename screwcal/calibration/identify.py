@@ -45,6 +45,7 @@ from scipy.spatial.transform import Rotation
 from screwcal.calibration.alignment import align_frames
 from screwcal.calibration.diagnostics import (
     MAX_OUTLIER_FRACTION,
+    acquisition_order,
     data_quality,
     loo_position_error,
     pose_tests,
@@ -416,7 +417,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     quality = data_quality(e, problem.joint_jacobian(x), np.degrees(current.q), test,
                            current.ids, None if result.noise is None or
                            result.noise.position_std_mm is None else result.noise.position_mm,
-                           stated)
+                           stated, acquisition_order(current.ids, current.lines))
     return replace(result, outliers=tuple(found + kept), diagnostics=quality,
                    seconds=time.perf_counter() - started)
 

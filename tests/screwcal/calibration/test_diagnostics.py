@@ -1,0 +1,79 @@
+"""What the residuals say about the data: outliers, lagging joint readings, drift, and the
+choice of the joint-noise component."""
+
+import numpy as np
+import pytest
+
+from screwcal.calibration.identify import NoiseModel, identify
+from screwcal.calibration.measurements import MeasurementSet
+from screwcal.calibration.posesets import random_configurations
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.robots import irb1600
+from screwcal.studies.simulate import simulate_measurements
+
+
+def _truth():
+    return apply_virtual_joints(irb1600(), THESIS_TABLE11)
+
+
+def test_gross_errors_are_rejected_by_name_and_line(rng):
+    data = simulate_measurements(_truth(), random_configurations(60, rng), rng,
+                                 joint_noise_deg=0.0)
+    positions = data.positions_mm.copy()
+    positions[[7, 33]] += [2.0, -1.5, 1.0]  # two poses measured wrongly
+    bad = MeasurementSet(data.q, positions, data.rotations, data.ids,
+                         tuple(range(2, 62)))  # as read from a file: line = index + 2
+    r = identify(irb1600(), bad, kind="thesis", frames="known")
+    rejected = {o.id: o for o in r.outliers if o.rejected}
+    assert set(rejected) == {"8", "34"}
+    assert rejected["8"].line == 9 and rejected["8"].residual_mm > 1.0
+    assert any("rejected as outliers" in w and "line 9" in w for w in r.warnings)
+    clean = identify(irb1600(), data, kind="thesis", frames="known")
+    assert r.value("J2ry") == pytest.approx(clean.value("J2ry"), abs=0.01)
+    kept = identify(irb1600(), bad, kind="thesis", frames="known", outliers="keep")
+    assert {o.id for o in kept.outliers} >= {"8", "34"}
+    assert not any(o.rejected for o in kept.outliers)  # listed, never silently used
+
+
+def test_clean_data_have_no_outliers_and_no_warnings(rng):
+    data = simulate_measurements(_truth(), random_configurations(60, rng), rng)
+    r = identify(irb1600(), data, kind="thesis", frames="known")
+    assert not r.outliers and not r.warnings
+
+
+def test_joint_readings_that_lag_the_motion_are_reported(rng):
+    truth = _truth()
+    q = random_configurations(150, rng)
+    step = np.vstack([np.zeros((1, 6)), np.diff(q, axis=0)])
+    readings = q - 0.01 * step  # read before the arm settled: 1 % of the last move behind
+    T = forward_kinematics(truth, q)
+    data = MeasurementSet(readings, T[:, :3, 3] + rng.normal(0, 0.013, (150, 3)),
+                          T[:, :3, :3])
+    r = identify(irb1600(), data, kind="thesis", frames="known")
+    assert r.diagnostics["lag"]["warning"] and "commanded joints" in r.diagnostics["lag"][
+        "warning"]
+    settled = simulate_measurements(truth, q, rng, joint_noise_deg=0.0)
+    assert identify(irb1600(), settled, kind="thesis", frames="known").diagnostics["lag"][
+        "warning"] is None
+
+
+def test_drift_over_the_acquisition_is_reported(rng):
+    data = simulate_measurements(_truth(), random_configurations(120, rng), rng,
+                                 joint_noise_deg=0.0)
+    drift = np.linspace(0, 0.3, 120)[:, None] * np.array([1.0, 0.5, 0.0])
+    drifted = MeasurementSet(data.q, data.positions_mm + drift, data.rotations)
+    r = identify(irb1600(), drifted, kind="thesis", frames="known", outliers="keep")
+    assert r.diagnostics["drift"]["warning"] and "drifted" in r.diagnostics["drift"]["warning"]
+
+
+def test_joint_noise_is_kept_when_it_is_noise(rng):
+    """With real random joint error the joint component stays (it predicts better); the
+    choice is said when it is dropped."""
+    noisy = simulate_measurements(_truth(), random_configurations(200, rng), rng,
+                                  joint_noise_deg=0.05)
+    r = identify(irb1600(), noisy, kind="thesis", frames="known")
+    assert r.noise.joint_deg == pytest.approx(0.05, rel=0.25) and r.noise.note == ""
+    fixed = identify(irb1600(), noisy, kind="thesis", frames="known",
+                     noise=NoiseModel(0.013, None, 0.0))
+    assert fixed.noise.joint_deg == 0.0
