@@ -1,19 +1,30 @@
 """Initial guesses of the unknown frames: the measuring system's frame (base) and the measured
 point's offset from the flange (tool), from nominal kinematics and measured positions.
 
-Alternates a weighted Kabsch fit of the base (scipy's Rotation.align_vectors) with the linear
-least-squares tool offset, which converges in a few rounds when the robot's own errors are
+Alternates a Kabsch fit of the base (the rotation nearest the points' cross-covariance) with the
+linear least-squares tool offset, which converges in a few rounds when the robot's own errors are
 small next to the frames' (as they are: millimetres against metres).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, transform_from_rotation_translation
+
+
+def _nearest_rotation(M: Array) -> Array:
+    """The rotation nearest a 3x3 matrix (Frobenius): the chordal mean of rotations when M is
+    their average."""
+    U, _, Vt = np.linalg.svd(M)
+    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
+
+
+def _kabsch(a: Array, b: Array) -> Array:
+    """The rotation R minimising sum |a_i - R b_i|^2 for centred point sets (N, 3) (Kabsch)."""
+    return _nearest_rotation(a.T @ b)
 
 
 def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: Array | None = None,
@@ -33,8 +44,7 @@ def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: A
         if base is None:
             pts = p_f + R_f @ t_tool
             c_m, c_n = positions_mm.mean(axis=0), pts.mean(axis=0)
-            rot, _ = Rotation.align_vectors(positions_mm - c_m, pts - c_n)
-            R_b = rot.as_matrix()
+            R_b = _kabsch(positions_mm - c_m, pts - c_n)
             t_b = c_m - R_b @ c_n
         if not fit_tool:
             break
@@ -50,6 +60,6 @@ def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: A
     R_tool = np.eye(3)
     if rotations is not None:
         # R_meas = R_b R_f R_tool: average R_tool over poses.
-        R_tool = Rotation.from_matrix(np.swapaxes(R_f, 1, 2) @ R_b.T @ rotations).mean().as_matrix()
+        R_tool = _nearest_rotation((np.swapaxes(R_f, 1, 2) @ R_b.T @ rotations).mean(axis=0))
     return (transform_from_rotation_translation(R_b, t_b),
             transform_from_rotation_translation(R_tool, t_tool))

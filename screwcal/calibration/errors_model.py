@@ -32,7 +32,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.spatial.transform import Rotation
 
 from screwcal.calibration.virtual_joints import parse_name
 from screwcal.errors import ModelError
@@ -326,7 +325,7 @@ def _batched_frames(T0: Array, rotvec: Array, pos: Array) -> Array:
     """(P, 4, 4) frames [exp(rotvec) R0 | t0 + pos] for P parameter vectors."""
     P = len(rotvec)
     out = np.zeros((P, 4, 4))
-    out[:, :3, :3] = Rotation.from_rotvec(rotvec).as_matrix() @ T0[:3, :3]
+    out[:, :3, :3] = rotation_from_rotvec(rotvec) @ T0[:3, :3]
     out[:, :3, 3] = T0[:3, 3] + pos
     out[:, 3, 3] = 1.0
     return out

@@ -40,7 +40,6 @@ from typing import Literal
 import numpy as np
 import scipy.linalg
 from scipy.optimize import differential_evolution, least_squares
-from scipy.spatial.transform import Rotation
 
 from screwcal.calibration.alignment import align_frames
 from screwcal.calibration.diagnostics import (
@@ -693,7 +692,7 @@ def _pose_errors(model: SerialModel, data: MeasurementSet, residual: str
     if data.rotations is None:
         return pos, None
     dR = T[:, :3, :3] @ np.swapaxes(data.rotations, 1, 2)
-    return pos, np.degrees(Rotation.from_matrix(dR).magnitude())
+    return pos, np.degrees(np.linalg.norm(rotvec_from_rotation(dR), axis=-1))
 
 
 def _de_bounds(errors: ErrorModel, link_bounds_mm: tuple[float, float]

@@ -13,6 +13,7 @@ from __future__ import annotations
 import re
 from bisect import bisect_right
 from dataclasses import dataclass, field
+from functools import partial
 from typing import NamedTuple
 
 from screwcal.errors import DataFileError
@@ -48,6 +49,9 @@ class Token(NamedTuple):
 
 
 Aggregate = list  # nested lists of Token
+# A Token from a (text, start, end) tuple without NamedTuple's Python-level __new__: a module
+# of 10,000 targets holds 170,000 of them.
+_token = partial(tuple.__new__, Token)
 
 
 @dataclass
@@ -143,6 +147,8 @@ def _aggregate(code: str, text: str, pos: int, path: str, lines: _Lines) -> tupl
 
 def _split_arguments(args: str) -> list[str]:
     """Top-level comma-separated arguments (brackets and parentheses kept together)."""
+    if "(" not in args and "[" not in args:
+        return [a.strip() for a in args.split(",")]
     out, depth, start = [], 0, 0
     for i, c in enumerate(args):
         if c in "([":
@@ -182,8 +188,10 @@ def read_rapid_module(path: str, text: str) -> RapidModule:
         if m.group(4):
             plain = None if m.group(3) else _ROBTARGET.match(code, m.end())
             if plain:  # [[x,y,z],[q1..q4],[cf1,cf4,cf6,cfx],[extax]] in one match
-                tokens = [Token(plain.group(g), *plain.span(g)) for g in range(1, 12)]
-                extax = [Token(s.group(0), plain.start(12) + s.start(), plain.start(12) + s.end())
+                tokens = [_token((plain.group(g), plain.start(g), plain.end(g)))
+                          for g in range(1, 12)]
+                extax = [_token((s.group(0), plain.start(12) + s.start(),
+                                 plain.start(12) + s.end()))
                          for s in NUMBER.finditer(plain.group(12))]
                 value, end = [tokens[:3], tokens[3:7], tokens[7:11], extax], plain.end()
             else:

@@ -1,27 +1,34 @@
 """Pose conversions at the interfaces: (x, y, z, rx, ry, rz) in mm and degrees, 4x4 transforms,
 RAPID-style quaternions (w first).
 
-Orientation triples are (rx, ry, rz) with R = Rz(rz) Ry(ry) Rx(rx) (RAPID's EulerZYX), which is
-scipy's intrinsic "ZYX" sequence taken in the order (rz, ry, rx).
+Orientation triples are (rx, ry, rz) with R = Rz(rz) Ry(ry) Rx(rx) (RAPID's EulerZYX), scipy's
+intrinsic "ZYX" sequence taken in the order (rz, ry, rx). The conversions are written out (a few
+lines each, tested against scipy's Rotation): importing scipy.spatial costs a third of a second
+at every start of the command line (it brings the k-d tree and scipy.sparse), more than a whole
+`screwcal compensate` of a program needs otherwise.
 """
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.spatial.transform import Rotation
 
-from screwcal.kinematics.se3 import Array, transform_from_rotation_translation
+from screwcal.kinematics.se3 import Array, rotvec_from_rotation, transform_from_rotation_translation
+
+_GIMBAL_TOL = 1e-9  # cos(ry) under this: ry = +-90 deg, rx and rz not separable
 
 
 def rotation_from_euler_zyx_deg(rxyz_deg: ArrayLike) -> Array:
     """Rotation matrices from (..., 3) triples (rx, ry, rz) in degrees, R = Rz Ry Rx."""
-    rxyz = np.asarray(rxyz_deg, dtype=float)
-    flat = rxyz.reshape(-1, 3)
-    R = Rotation.from_euler("ZYX", flat[:, ::-1], degrees=True).as_matrix()
-    return R.reshape((*rxyz.shape[:-1], 3, 3))
+    a = np.radians(np.asarray(rxyz_deg, dtype=float))
+    cx, cy, cz = np.cos(a[..., 0]), np.cos(a[..., 1]), np.cos(a[..., 2])
+    sx, sy, sz = np.sin(a[..., 0]), np.sin(a[..., 1]), np.sin(a[..., 2])
+    R = np.empty((*a.shape[:-1], 3, 3))
+    R[..., 0, 0], R[..., 0, 1] = cz * cy, cz * sy * sx - sz * cx
+    R[..., 0, 2], R[..., 1, 0] = cz * sy * cx + sz * sx, sz * cy
+    R[..., 1, 1], R[..., 1, 2] = sz * sy * sx + cz * cx, sz * sy * cx - cz * sx
+    R[..., 2, 0], R[..., 2, 1], R[..., 2, 2] = -sy, cy * sx, cy * cx
+    return R
 
 
 def euler_zyx_deg_from_rotation(R: ArrayLike) -> Array:
@@ -30,11 +37,13 @@ def euler_zyx_deg_from_rotation(R: ArrayLike) -> Array:
     ry lies in [-90, 90]; at ry = +-90 (gimbal lock) rx is set to 0 and rz carries the rest.
     """
     R = np.asarray(R, dtype=float)
-    flat = R.reshape(-1, 3, 3)
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="Gimbal lock detected")
-        zyx = Rotation.from_matrix(flat).as_euler("ZYX", degrees=True)
-    return zyx[:, ::-1].reshape((*R.shape[:-2], 3))
+    cy = np.hypot(R[..., 0, 0], R[..., 1, 0])
+    ry = np.arctan2(-R[..., 2, 0], cy)
+    lock = cy < _GIMBAL_TOL
+    rx = np.where(lock, 0.0, np.arctan2(R[..., 2, 1], R[..., 2, 2]))
+    rz = np.where(lock, np.arctan2(-R[..., 0, 1], R[..., 1, 1]),
+                  np.arctan2(R[..., 1, 0], R[..., 0, 0]))
+    return np.degrees(np.stack([rx, ry, rz], axis=-1))
 
 
 def euler_zyx_deg_near(R: ArrayLike, reference_deg: ArrayLike) -> Array:
@@ -73,21 +82,55 @@ def pose_from_transform(T: ArrayLike) -> Array:
 
 
 def quaternion_wxyz_from_rotation(R: ArrayLike) -> Array:
-    """Unit quaternions (w, x, y, z), w >= 0 as RAPID's orient, from rotations (..., 3, 3)."""
+    """Unit quaternions (w, x, y, z), w >= 0 as RAPID's orient, from rotations (..., 3, 3)
+    (Shepperd's method: from the largest of w, x, y, z; w = 0 leaves the first non-zero of
+    x, y, z positive, as scipy's canonical form)."""
     R = np.asarray(R, dtype=float)
-    q = Rotation.from_matrix(R.reshape(-1, 3, 3)).as_quat(canonical=True, scalar_first=True)
+    flat = R.reshape(-1, 3, 3)
+    r = {(i, j): flat[:, i, j] for i in range(3) for j in range(3)}
+    trace = r[0, 0] + r[1, 1] + r[2, 2]
+    case = np.argmax(np.stack([trace, r[0, 0], r[1, 1], r[2, 2]], axis=1), axis=1)
+    q = np.empty((len(flat), 4))
+    for c, (big, a, b, d) in enumerate((
+            (1 + trace, r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]),
+            (1 + r[0, 0] - r[1, 1] - r[2, 2], r[2, 1] - r[1, 2], r[0, 1] + r[1, 0],
+             r[0, 2] + r[2, 0]),
+            (1 - r[0, 0] + r[1, 1] - r[2, 2], r[0, 2] - r[2, 0], r[0, 1] + r[1, 0],
+             r[1, 2] + r[2, 1]),
+            (1 - r[0, 0] - r[1, 1] + r[2, 2], r[1, 0] - r[0, 1], r[0, 2] + r[2, 0],
+             r[1, 2] + r[2, 1]))):
+        m = case == c
+        if not m.any():
+            continue
+        s = np.sqrt(np.maximum(big[m], 0.0)) * 2.0  # 4 |component|
+        order = ((0, 1, 2, 3), (1, 0, 2, 3), (2, 0, 1, 3), (3, 0, 1, 2))[c]
+        values = (s / 4.0, a[m] / s, b[m] / s, d[m] / s)
+        for slot, v in zip(order, values, strict=True):
+            q[m, slot] = v
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    first = np.argmax(np.abs(q[:, 1:]) > 1e-15, axis=1) + 1
+    sign = np.where(q[:, 0] != 0.0, np.sign(q[:, 0]),
+                    np.sign(q[np.arange(len(q)), first]))
+    q *= np.where(sign == 0, 1.0, sign)[:, None]
     return q.reshape((*R.shape[:-2], 4))
 
 
 def rotation_from_quaternion_wxyz(q_wxyz: ArrayLike) -> Array:
     """Rotation matrices from quaternions (..., 4) ordered (w, x, y, z); normalised first."""
     q = np.asarray(q_wxyz, dtype=float)
-    R = Rotation.from_quat(q.reshape(-1, 4), scalar_first=True).as_matrix()
-    return R.reshape((*q.shape[:-1], 3, 3))
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    R = np.empty((*q.shape[:-1], 3, 3))
+    R[..., 0, 0], R[..., 0, 1], R[..., 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), \
+        2 * (x * z + y * w)
+    R[..., 1, 0], R[..., 1, 1], R[..., 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), \
+        2 * (y * z - x * w)
+    R[..., 2, 0], R[..., 2, 1], R[..., 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), \
+        1 - 2 * (x * x + y * y)
+    return R
 
 
 def rotation_angle_deg(R_a: ArrayLike, R_b: ArrayLike) -> Array:
     """Angle in degrees of the relative rotation R_a^T R_b, shape (...)."""
     R_rel = np.swapaxes(np.asarray(R_a, float), -1, -2) @ np.asarray(R_b, float)
-    angle = Rotation.from_matrix(R_rel.reshape(-1, 3, 3)).magnitude()
-    return np.degrees(angle).reshape(R_rel.shape[:-2])
+    return np.degrees(np.linalg.norm(rotvec_from_rotation(R_rel), axis=-1))

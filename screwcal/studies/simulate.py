@@ -9,12 +9,11 @@ built from three holes `hole_spacing_mm` apart would have.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.se3 import Array
+from screwcal.kinematics.se3 import Array, rotation_from_rotvec
 
 NOISE_MM = 0.013
 JOINT_NOISE_DEG = 0.05
@@ -39,6 +38,6 @@ def simulate_measurements(truth: SerialModel, q: Array, rng: np.random.Generator
     rotations = None
     if full_pose:
         sigma = orientation_noise_rad(noise_mm, hole_spacing_mm)
-        rotations = Rotation.from_rotvec(rng.normal(0.0, sigma, (len(q), 3))).as_matrix() \
+        rotations = rotation_from_rotvec(rng.normal(0.0, sigma, (len(q), 3))) \
             @ T[:, :3, :3]
     return MeasurementSet(q.copy(), positions, rotations)
