@@ -137,11 +137,6 @@ def _frames(module: RapidModule) -> tuple[dict, dict]:
     return tools, wobjs
 
 
-def _number(value: float, decimals: int) -> str:
-    text = f"{value:.{decimals}f}"
-    return "0" if float(text) == 0.0 else text
-
-
 def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialModel, *,
                  tool: str = "tool0", wobj: str = "wobj0") -> tuple[str, FilterReport]:
     """The module's text with every declared robtarget compensated, and what was done.
@@ -227,21 +222,21 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
     quats = quaternion_wxyz_from_rotation(new_target[:, :3, :3])
     old_quats = numbers[idx, 3:7]
     quats *= np.where(np.sum(quats * old_quats, axis=1) < 0, -1.0, 1.0)[:, None]
-    edits: list[tuple[int, int, str]] = []
-    for row, k in enumerate(idx):
-        tokens = targets[k].tokens
-        values = [*(_number(v, TRANS_DECIMALS) for v in new_target[row, :3, 3]),
-                  *(_number(v, QUAT_DECIMALS) for v in quats[row]),
-                  *(str(int(c)) for c in new_conf[row])]
-        edits += [(tok.start, tok.end, v) for tok, v in zip(tokens, values, strict=True)]
+    # The new numbers as text, a row per target: x y z (mm), q1..q4, cf1 cf4 cf6 cfx.
+    trans = np.round(new_target[:, :3, 3], TRANS_DECIMALS) + 0.0  # + 0.0: no "-0.0"
+    quats = np.round(quats, QUAT_DECIMALS) + 0.0
+    rows = [[*(f"{v:.{TRANS_DECIMALS}f}" for v in tr), *(f"{v:.{QUAT_DECIMALS}f}" for v in qu),
+             *map(str, cf)]
+            for tr, qu, cf in zip(trans.tolist(), quats.tolist(), new_conf.tolist(), strict=True)]
     report.compensated = len(idx)
     report.max_position_change_mm = float(np.linalg.norm(
         new_target[:, :3, 3] - T_target[idx, :3, 3], axis=1).max())
     report.max_rotation_change_deg = float(rotation_angle_deg(
         new_target[:, :3, :3], T_target[idx, :3, :3]).max())
     out, last = [], 0
-    for start, end, value in sorted(edits):
-        out += [text[last:start], value]
-        last = end
+    for k, values in zip(idx.tolist(), rows, strict=True):  # targets are in file order
+        for tok, value in zip(targets[k].tokens, values, strict=True):
+            out += [text[last:tok.start], value]
+            last = tok.end
     out.append(text[last:])
     return "".join(out), report
