@@ -15,15 +15,18 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, FastAPI, Header, HTTPException, Query, Request, status
+from fastapi import APIRouter, Depends, FastAPI, Header, HTTPException, Path, Query, Request, status
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse, StreamingResponse
 
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.modelfile import model_file_from_model, parse_model, resolve_model
 from service.errors import ConflictError, NotFoundError, SafetyError
 from service.manager import JobManager
+from service.plans import LISTS_OF_KIND, plan_for
 from service.report import report_html
 from service.schemas import (
+    SQLITE_MAX_ID,
     GoAhead,
     JobCreate,
     JobPublic,
@@ -58,6 +61,9 @@ def manager_of(request: Request) -> JobManager:
 
 
 Auth = Annotated[None, Depends(authorised)]
+# Ids in paths are SQLite integers: a larger number names nothing, and gets a 422, not a 500.
+JobId = Annotated[int, Path(ge=1, le=SQLITE_MAX_ID, description="a job's id")]
+RobotId = Annotated[int, Path(ge=1, le=SQLITE_MAX_ID, description="a robot's id")]
 StoreDep = Annotated[Store, Depends(store_of)]
 ManagerDep = Annotated[JobManager, Depends(manager_of)]
 
@@ -85,6 +91,14 @@ def create_app(settings: ServiceSettings) -> FastAPI:
     async def conflict(_: Request, err: ConflictError) -> JSONResponse:
         return JSONResponse({"detail": str(err)}, status_code=409)
 
+    @app.exception_handler(RequestValidationError)
+    async def invalid(_: Request, err: RequestValidationError) -> JSONResponse:
+        """Every refused request gets its reasons, even when its input cannot be echoed back
+        (a NaN is not JSON): where and what, never the value."""
+        detail = [{"loc": list(e.get("loc", ())), "msg": str(e.get("msg", "")),
+                   "type": str(e.get("type", ""))} for e in err.errors()]
+        return JSONResponse({"detail": detail}, status_code=422)
+
     @app.exception_handler(SafetyError)
     async def unsafe(_: Request, err: SafetyError) -> JSONResponse:
         return JSONResponse({"detail": str(err)}, status_code=422)
@@ -107,7 +121,7 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         return store.robots()
 
     @robots.get("/{robot_id}", response_model=RobotPublic)
-    def get_robot(robot_id: int, store: StoreDep) -> dict:
+    def get_robot(robot_id: RobotId, store: StoreDep) -> dict:
         return store.robot(robot_id)
 
     jobs = APIRouter(prefix="/jobs", tags=["jobs"])
@@ -120,8 +134,20 @@ def create_app(settings: ServiceSettings) -> FastAPI:
 
     @jobs.post("", status_code=202, response_model=JobPublic)
     async def create_job(body: JobCreate, _: Auth, store: StoreDep, manager: ManagerDep) -> dict:
-        store.robot(body.robot_id)
-        job = store.add_job(body.robot_id, body.kind, body.mode, body.options.model_dump())
+        robot = store.robot(body.robot_id)
+        busy = manager.busy_with(body.robot_id)
+        if busy is not None:
+            raise ConflictError(f"robot {body.robot_id} is busy with job {busy}: wait for it to "
+                                f"end or abort it (screwcal job abort {busy})")
+        options = body.options.model_dump()
+        try:  # a job that cannot run is refused now, with the reason, not at run time
+            model = parse_model(robot["model"], f"robot {body.robot_id}")
+            for kind in LISTS_OF_KIND[body.kind]:
+                await asyncio.to_thread(plan_for, model, kind, options)
+        except ScrewcalError as err:
+            raise HTTPException(422, f"this job cannot run on robot {body.robot_id}: "
+                                f"{err}") from None
+        job = store.add_job(body.robot_id, body.kind, body.mode, options)
         manager.start(job["id"])
         return public(job, manager)
 
@@ -130,24 +156,24 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         return [public(j, manager) for j in store.jobs()]
 
     @jobs.get("/{job_id}", response_model=JobPublic)
-    def get_job(job_id: int, store: StoreDep, manager: ManagerDep) -> dict:
+    def get_job(job_id: JobId, store: StoreDep, manager: ManagerDep) -> dict:
         return public(store.job(job_id), manager)
 
     @jobs.post("/{job_id}/go", status_code=204)
-    async def go_ahead(job_id: int, body: GoAhead, _: Auth, manager: ManagerDep) -> None:
+    async def go_ahead(job_id: JobId, body: GoAhead, _: Auth, manager: ManagerDep) -> None:
         await manager.go(job_id, body.index)
 
     @jobs.post("/{job_id}/abort", status_code=204)
-    async def abort(job_id: int, _: Auth, manager: ManagerDep) -> None:
+    async def abort(job_id: JobId, _: Auth, manager: ManagerDep) -> None:
         await manager.abort(job_id)
 
     @jobs.get("/{job_id}/measurements", response_model=list[MeasurementPublic])
-    def measurements(job_id: int, store: StoreDep, phase: str | None = None) -> list[dict]:
+    def measurements(job_id: JobId, store: StoreDep, phase: str | None = None) -> list[dict]:
         store.job(job_id)
         return store.measurements(job_id, phase)
 
     @jobs.get("/{job_id}/result", response_model=JobResult)
-    def result(job_id: int, store: StoreDep) -> dict[str, Any]:
+    def result(job_id: JobId, store: StoreDep) -> dict[str, Any]:
         job = store.job(job_id)
         found = {k: v for k, v in (job["result"] or {}).items()
                  if not k.startswith("calibration")}  # the whole documents: GET .../model
@@ -158,7 +184,7 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         "the calibration result document (format screwcal-calibration) whose `model` is the "
         "robot as its controller reads it after the job's correction; `screwcal predict`, "
         "`compensate` and the RAPID filter read it")}})
-    def calibrated_model(job_id: int, store: StoreDep,
+    def calibrated_model(job_id: JobId, store: StoreDep,
                          round: Annotated[int, Query(ge=1, le=2)] = 1) -> dict[str, Any]:
         job = store.job(job_id)
         doc = (job["result"] or {}).get("calibration" + ("_2" if round == 2 else ""))
@@ -168,7 +194,7 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         return doc
 
     @jobs.get("/{job_id}/report", response_class=HTMLResponse)
-    async def report(job_id: int, store: StoreDep) -> str:
+    async def report(job_id: JobId, store: StoreDep) -> str:
         job = store.job(job_id)
         return await asyncio.to_thread(report_html, job, store.robot(job["robot_id"]))
 
@@ -176,7 +202,7 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         "content": {"text/event-stream": {}},
         "description": "server-sent events: measured, waiting, phase, paused, resumed, "
                        "corrected, done/failed/aborted, then end"}})
-    async def events(job_id: int, store: StoreDep, manager: ManagerDep) -> StreamingResponse:
+    async def events(job_id: JobId, store: StoreDep, manager: ManagerDep) -> StreamingResponse:
         store.job(job_id)
         bus = manager.events.of(job_id)
 

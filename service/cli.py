@@ -229,9 +229,22 @@ def _route_lines(corr: dict, suffix: str) -> list[str]:
     return lines
 
 
+def _write(path: str, text: str) -> None:
+    try:
+        Path(path).write_text(text, encoding="utf-8")
+    except OSError as err:
+        raise ServiceError(f"cannot write {path}: {err.strerror}") from None
+
+
 def _operator(args: argparse.Namespace) -> Operator:
+    token = args.token or os.environ.get("SCREWCAL_TOKEN", "")
+    if not token:
+        raise ServiceError("no token: pass --token or set SCREWCAL_TOKEN (the one the service "
+                           "was started with)")
+    if not token.isprintable() or any(c.isspace() for c in token):
+        raise ServiceError("the token has spaces or control characters: check SCREWCAL_TOKEN")
     return Operator(args.service or os.environ.get("SCREWCAL_SERVICE", "http://127.0.0.1:8080"),
-                    args.token or os.environ.get("SCREWCAL_TOKEN", ""))
+                    token)
 
 
 def run_job(args: argparse.Namespace) -> int:
@@ -245,6 +258,9 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
     try:
         if args.action == "robot-add":
             host, _, port = args.controller.rpartition(":")
+            if not host or not port.isdigit():
+                raise ServiceError(f"--controller is HOST:PORT (e.g. 127.0.0.1:4012), not "
+                                   f"{args.controller!r}")
             robot = op.add_robot(name=args.name, controller_host=host,
                                  controller_port=int(port), arm_url=args.arm, model=args.model)
             print(f"robot {robot['id']}: {robot['name']}")
@@ -270,11 +286,11 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
             print(result_table(op.result(args.id)))
         elif args.action == "model":
             doc = op.model(args.id, args.round)
-            Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+            _write(args.out, json.dumps(doc, indent=2) + "\n")
             print(f"job {args.id}: calibrated model -> {args.out} ({doc.get('model_note', '')}; "
                   "read by screwcal predict, compensate and compensate --rapid)")
         elif args.action == "report":
-            Path(args.out).write_text(op.report(args.id), encoding="utf-8")
+            _write(args.out, op.report(args.id))
             print(f"report -> {args.out}")
     except httpx.HTTPError as err:
         raise ServiceError(f"cannot reach the service: {err}") from None

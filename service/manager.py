@@ -5,7 +5,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 
-from service.errors import ConflictError
+from screwcal.errors import ScrewcalError
+from service.errors import ConflictError, ServiceError
 from service.events import EventBus
 from service.runner import JobRunner
 from service.settings import ServiceSettings
@@ -21,17 +22,27 @@ class JobManager:
         self.runners: dict[int, JobRunner] = {}
         self.tasks: dict[int, asyncio.Task[None]] = {}
 
-    def start(self, job_id: int) -> None:
-        runner = JobRunner(self.store, self.settings, self.events.of(job_id), job_id)
+    def start(self, job_id: int) -> bool:
+        """Run a job; one whose records cannot make a runner (a robot stored before its fields
+        were validated, say) fails with the reason instead. True when it runs."""
+        try:
+            runner = JobRunner(self.store, self.settings, self.events.of(job_id), job_id)
+        except (ScrewcalError, ServiceError, ValueError, KeyError, TypeError) as err:
+            self.store.set_job(job_id, state="failed", reason=f"cannot run: {err}")
+            return False
         self.runners[job_id] = runner
         self.tasks[job_id] = asyncio.create_task(runner.run(), name=f"job {job_id}")
+        return True
 
     def resume_unfinished(self) -> list[int]:
-        """After a restart (or a crash): every unfinished job goes on where its store says."""
-        ids = [j["id"] for j in self.store.jobs(UNFINISHED)]
-        for job_id in ids:
-            self.start(job_id)
-        return ids
+        """After a restart (or a crash): every unfinished job goes on where its store says;
+        start-up never dies on one bad record."""
+        return [j["id"] for j in self.store.jobs(UNFINISHED) if self.start(j["id"])]
+
+    def busy_with(self, robot_id: int) -> int | None:
+        """The unfinished job of this robot, if any."""
+        return next((j["id"] for j in self.store.jobs(UNFINISHED)
+                     if j["robot_id"] == robot_id), None)
 
     def runner(self, job_id: int) -> JobRunner:
         runner = self.runners.get(job_id)

@@ -62,3 +62,16 @@ def performance_plan(model: SerialModel, cycles: int = 30, edge_mm: float = 300.
                           commanded=tuple(float(v) for v in poses[k]))
               for k in range(line_points)]
     return plans
+
+
+def plan_for(model: SerialModel, kind: str, options: dict) -> list[PlannedPose]:
+    """A job's "cal" or "perf" list from its options (deterministic): what the job runs, and
+    what is built when the job is posted to refuse one that cannot run."""
+    if kind == "cal":
+        return calibration_plan(model, int(options.get("calibration_poses", 40)))
+    return performance_plan(model, int(options.get("cycles", 30)),
+                            float(options.get("cube_edge_mm", 300.0)),
+                            options.get("arm_position_mm"))
+
+
+LISTS_OF_KIND = {"performance": ("perf",), "calibration": ("cal",), "procedure": ("cal", "perf")}

@@ -64,7 +64,7 @@ from screwcal.performance.evaluate import PerformanceData, PointData, point_metr
 from screwcal.performance.straightness import straightness
 from service.errors import SafetyError
 from service.events import JobEvents
-from service.plans import PlannedPose, calibration_plan, performance_plan
+from service.plans import PlannedPose, plan_for
 from service.settings import ServiceSettings
 from service.store import Store
 
@@ -111,14 +111,7 @@ class JobRunner:
     def plan(self, kind: str) -> list[PlannedPose]:
         """The job's "cal" or "perf" list (deterministic from its options; built once)."""
         if kind not in self._plans:
-            if kind == "cal":
-                self._plans[kind] = calibration_plan(
-                    self.model, int(self.options.get("calibration_poses", 40)))
-            else:
-                self._plans[kind] = performance_plan(
-                    self.model, int(self.options.get("cycles", 30)),
-                    float(self.options.get("cube_edge_mm", 300.0)),
-                    self.options.get("arm_position_mm"))
+            self._plans[kind] = plan_for(self.model, kind, self.options)
         return self._plans[kind]
 
     @property
@@ -188,9 +181,14 @@ class JobRunner:
             self._set("done", "")
             await self.events.publish("done")
         except JobAborted:
-            self._set("aborted", "aborted by the operator")
-            await self.events.publish("aborted")
-        except (SafetyError, CorrectionRefusedError, ScrewcalError, ControllerError) as err:
+            await self._aborted()
+        except ControllerError as err:
+            if self.aborted.is_set():  # the controller's ERR 22 for the run we aborted
+                await self._aborted()
+            else:
+                self._set("failed", str(err))
+                await self.events.publish("failed", reason=str(err))
+        except (SafetyError, CorrectionRefusedError, ScrewcalError) as err:
             self._set("failed", str(err))
             await self.events.publish("failed", reason=str(err))
         except Exception as err:  # a job never stays "running" after its task ended
@@ -199,6 +197,10 @@ class JobRunner:
             raise
         finally:
             await self._disconnect()
+
+    async def _aborted(self) -> None:
+        self._set("aborted", "aborted by the operator")
+        await self.events.publish("aborted")
 
     def _set(self, state: str, reason: str) -> None:
         self.job = self.store.set_job(self.job_id, state=state, reason=reason)

@@ -2,19 +2,26 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+import re
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM
+from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM, FlangeError, MeasuringFlange
+
+SQLITE_MAX_ID = 2**63 - 1  # SQLite's INTEGER: a larger id can name nothing (and must not 500)
+HOSTNAME = re.compile(r"^(?=.{1,253}$)[A-Za-z0-9]([A-Za-z0-9.:-]*[A-Za-z0-9])?$")
+Id = Annotated[int, Field(ge=1, le=SQLITE_MAX_ID)]
 
 
 class RobotCreate(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     name: str = Field(min_length=1, max_length=80)
-    controller_host: str = Field("127.0.0.1", min_length=1)
+    controller_host: str = Field("127.0.0.1", min_length=1, max_length=253,
+                                 description="host name or IP address of the controller")
     controller_port: int = Field(4012, ge=1, le=65535)
-    arm_url: str = Field(description="pyserial URL of the measuring arm: a port, socket://...")
+    arm_url: str = Field(min_length=1, max_length=200,
+                         description="pyserial URL of the measuring arm: a port, socket://...")
     model: str | dict[str, Any] = Field("irb1600", description="built-in name or a model file")
     holes_mm: list[list[float]] = Field(
         default_factory=lambda: [list(h) for h in DEFAULT_HOLES_IN_FLANGE_MM],
@@ -25,6 +32,25 @@ class RobotCreate(BaseModel):
     def _three_points(cls, v: list[list[float]]) -> list[list[float]]:
         if len(v) != 3 or any(len(p) != 3 for p in v):
             raise ValueError("holes_mm must be three points of three coordinates")
+        try:  # the flange code's own checks: finite, apart, not in a line
+            MeasuringFlange.from_holes_in_flange(v)
+        except FlangeError as err:
+            raise ValueError(f"holes_mm cannot define the flange frame: {err}") from None
+        return v
+
+    @field_validator("controller_host")
+    @classmethod
+    def _host(cls, v: str) -> str:
+        if not HOSTNAME.match(v):
+            raise ValueError("a host name or an IP address (letters, digits, '.', '-', ':')")
+        return v
+
+    @field_validator("arm_url")
+    @classmethod
+    def _url(cls, v: str) -> str:
+        if any(c.isspace() or not c.isprintable() for c in v):
+            raise ValueError("a pyserial URL or port name, without spaces (e.g. "
+                             "socket://host:port, /dev/ttyUSB0, COM3)")
         return v
 
 
@@ -39,7 +65,7 @@ class RobotPublic(BaseModel):
 
 
 class JobOptions(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     model: Literal["thesis", "full", "joints"] = Field(
         "full", description="error model identified: full (every identifiable parameter, "
         "frames identified) or the thesis's virtual joints")
@@ -57,7 +83,7 @@ class JobOptions(BaseModel):
 
 class JobCreate(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    robot_id: int
+    robot_id: Id
     kind: Literal["performance", "calibration", "procedure"]
     mode: Literal["AUTO", "STEP"] = "AUTO"
     options: JobOptions = Field(default_factory=JobOptions)
@@ -77,7 +103,8 @@ class JobPublic(BaseModel):
 
 class GoAhead(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    index: int = Field(ge=0, description="the pose the operator lets the robot move to")
+    index: int = Field(ge=0, le=100_000, description="the pose the operator lets the robot "
+                       "move to")
 
 
 class MeasurementPublic(BaseModel):

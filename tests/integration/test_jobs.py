@@ -256,3 +256,19 @@ async def test_a_second_round_with_compensation(service, rig):
     assert perf["perf_after"]["overall"]["ap_mm_mean"] < 0.15
     assert perf["perf_after_2"]["overall"]["ap_mm_mean"] < 0.15  # 30 poses, 30 parameters
     assert (await service.get(f"/jobs/{job_id}/model", params={"round": 2})).status_code == 200
+
+
+async def test_aborting_an_auto_job_mid_move_ends_aborted(service, rig):
+    """The controller answers the aborted run with ERR 22: that is the operator's abort, not a
+    controller failure."""
+    rig.emu.settings.time_scale = 0.05  # moves take a few ms: the abort lands mid-list
+    robot = await add_robot(service, rig)
+    job_id = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "calibration", "options": FAST})).json()["id"]
+    async with asyncio.timeout(30):
+        while len((await service.get(f"/jobs/{job_id}/measurements")).json()) < 3:
+            await asyncio.sleep(0.01)
+    assert (await service.post(f"/jobs/{job_id}/abort", headers=AUTH)).status_code == 204
+    job = await wait_state(service, job_id)
+    assert job["state"] == "aborted", job["reason"]
+    assert job["reason"] == "aborted by the operator"
