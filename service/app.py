@@ -15,9 +15,13 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, FastAPI, Header, HTTPException, Path, Query, Request, status
+from fastapi import APIRouter, Depends, FastAPI, HTTPException, Path, Query, Request, status
 from fastapi.exceptions import RequestValidationError
+from fastapi.openapi.docs import get_swagger_ui_html
 from fastapi.responses import HTMLResponse, JSONResponse, StreamingResponse
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from fastapi.staticfiles import StaticFiles
+from swagger_ui_bundle import swagger_ui_path
 
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.modelfile import model_file_from_model, parse_model, resolve_model
@@ -41,14 +45,20 @@ from service.store import Store
 TERMINAL = ("done", "failed", "aborted")
 
 
-def authorised(request: Request, authorization: Annotated[str | None, Header()] = None) -> None:
-    """Requests that move a robot or change data carry the settings' bearer token."""
-    if not authorization or not authorization.startswith("Bearer "):
+BEARER = HTTPBearer(auto_error=False, description="the service's token (--token or "
+                    "SCREWCAL_TOKEN)")
+
+
+def authorised(request: Request,
+               credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(BEARER)]
+               ) -> None:
+    """Requests that move a robot or change data carry the settings' bearer token (declared in
+    the OpenAPI, so that /docs' "Authorize" works)."""
+    if credentials is None or credentials.scheme.lower() != "bearer":
         raise HTTPException(status.HTTP_401_UNAUTHORIZED, "bearer token required",
                             headers={"WWW-Authenticate": "Bearer"})
     token = request.app.state.settings.token
-    given = authorization.removeprefix("Bearer ")
-    if not token or not secrets.compare_digest(given, token):
+    if not token or not secrets.compare_digest(credentials.credentials.encode(), token.encode()):
         raise HTTPException(status.HTTP_403_FORBIDDEN, "token refused")
 
 
@@ -80,8 +90,19 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         store.close()
 
     app = FastAPI(title="screwcal job service", version="1", lifespan=lifespan,
+                  docs_url=None, redoc_url=None,
                   description="Sequences performance and calibration pose lists, persists every "
                               "measurement, runs the estimation per job (mm and degrees).")
+    # /docs from the files installed with the package: a cell network has no internet.
+    app.mount("/static/swagger", StaticFiles(directory=str(swagger_ui_path)), name="swagger")
+    app.openapi_version = "3.0.3"  # what the bundled Swagger UI (4.15) renders
+
+    @app.get("/docs", include_in_schema=False)
+    def docs() -> HTMLResponse:
+        return get_swagger_ui_html(openapi_url=str(app.openapi_url), title=f"{app.title} - docs",
+                                   swagger_js_url="/static/swagger/swagger-ui-bundle.js",
+                                   swagger_css_url="/static/swagger/swagger-ui.css",
+                                   swagger_favicon_url="/static/swagger/favicon-32x32.png")
 
     @app.exception_handler(NotFoundError)
     async def not_found(_: Request, err: NotFoundError) -> JSONResponse:
