@@ -70,7 +70,7 @@ async def main_async(robots: int) -> None:
         app = create_app(ServiceSettings(db_path=Path(tmp) / "bench.db", token=TOKEN))
         async with app.router.lifespan_context(app):
             async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
-                                         base_url="http://service") as http:
+                                         base_url="http://service", headers=AUTH) as http:
                 one = await run_jobs(http, 1)
                 many = await run_jobs(http, robots)
     print(f"{'one 40-pose calibration job, REST to result':<48}{one:>7.2f} s   target 2 s "

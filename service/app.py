@@ -9,13 +9,14 @@ and 403 always when no token is configured).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import secrets
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, FastAPI, HTTPException, Path, Query, Request, status
+from fastapi import APIRouter, Depends, FastAPI, Header, HTTPException, Path, Query, Request, status
 from fastapi.exceptions import RequestValidationError
 from fastapi.openapi.docs import get_swagger_ui_html
 from fastapi.responses import HTMLResponse, JSONResponse, StreamingResponse
@@ -49,17 +50,31 @@ BEARER = HTTPBearer(auto_error=False, description="the service's token (--token 
                     "SCREWCAL_TOKEN)")
 
 
+def _check_token(request: Request, credentials: HTTPAuthorizationCredentials | None,
+                 accepted: tuple[str, ...]) -> None:
+    if credentials is None or credentials.scheme.lower() != "bearer":
+        raise HTTPException(status.HTTP_401_UNAUTHORIZED, "bearer token required",
+                            headers={"WWW-Authenticate": "Bearer"})
+    given = credentials.credentials.encode()
+    if not any(t and secrets.compare_digest(given, t.encode()) for t in accepted):
+        raise HTTPException(status.HTTP_403_FORBIDDEN, "token refused")
+
+
 def authorised(request: Request,
                credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(BEARER)]
                ) -> None:
     """Requests that move a robot or change data carry the settings' bearer token (declared in
     the OpenAPI, so that /docs' "Authorize" works)."""
-    if credentials is None or credentials.scheme.lower() != "bearer":
-        raise HTTPException(status.HTTP_401_UNAUTHORIZED, "bearer token required",
-                            headers={"WWW-Authenticate": "Bearer"})
-    token = request.app.state.settings.token
-    if not token or not secrets.compare_digest(credentials.credentials.encode(), token.encode()):
-        raise HTTPException(status.HTTP_403_FORBIDDEN, "token refused")
+    _check_token(request, credentials, (request.app.state.settings.token,))
+
+
+def may_read(request: Request,
+             credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(BEARER)]
+             ) -> None:
+    """Reads (hosts, arm URLs, every measurement) need a token too: the service's, or the
+    read-only one."""
+    settings = request.app.state.settings
+    _check_token(request, credentials, (settings.token, settings.read_token))
 
 
 def store_of(request: Request) -> Store:
@@ -71,6 +86,7 @@ def manager_of(request: Request) -> JobManager:
 
 
 Auth = Annotated[None, Depends(authorised)]
+Read = Annotated[None, Depends(may_read)]
 # Ids in paths are SQLite integers: a larger number names nothing, and gets a 422, not a 500.
 JobId = Annotated[int, Path(ge=1, le=SQLITE_MAX_ID, description="a job's id")]
 RobotId = Annotated[int, Path(ge=1, le=SQLITE_MAX_ID, description="a robot's id")]
@@ -138,11 +154,11 @@ def create_app(settings: ServiceSettings) -> FastAPI:
                                body.arm_url, doc, body.holes_mm)
 
     @robots.get("", response_model=list[RobotPublic])
-    def list_robots(store: StoreDep) -> list[dict]:
+    def list_robots(_: Read, store: StoreDep) -> list[dict]:
         return store.robots()
 
     @robots.get("/{robot_id}", response_model=RobotPublic)
-    def get_robot(robot_id: RobotId, store: StoreDep) -> dict:
+    def get_robot(robot_id: RobotId, _: Read, store: StoreDep) -> dict:
         return store.robot(robot_id)
 
     jobs = APIRouter(prefix="/jobs", tags=["jobs"])
@@ -161,6 +177,11 @@ def create_app(settings: ServiceSettings) -> FastAPI:
             raise ConflictError(f"robot {body.robot_id} is busy with job {busy}: wait for it to "
                                 f"end or abort it (screwcal job abort {busy})")
         options = body.options.model_dump()
+        source = options.get("frame_from_job")
+        if source is not None and not (store.job(source)["result"] or {}).get("base"):
+            raise HTTPException(422, f"job {source} has no identified robot base frame to "
+                                "measure in: choose a calibration or procedure job that ran "
+                                "its estimation")
         try:  # a job that cannot run is refused now, with the reason, not at run time
             model = parse_model(robot["model"], f"robot {body.robot_id}")
             for kind in LISTS_OF_KIND[body.kind]:
@@ -173,11 +194,11 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         return public(job, manager)
 
     @jobs.get("", response_model=list[JobPublic])
-    def list_jobs(store: StoreDep, manager: ManagerDep) -> list[dict]:
+    def list_jobs(_: Read, store: StoreDep, manager: ManagerDep) -> list[dict]:
         return [public(j, manager) for j in store.jobs()]
 
     @jobs.get("/{job_id}", response_model=JobPublic)
-    def get_job(job_id: JobId, store: StoreDep, manager: ManagerDep) -> dict:
+    def get_job(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep) -> dict:
         return public(store.job(job_id), manager)
 
     @jobs.post("/{job_id}/go", status_code=204)
@@ -189,12 +210,13 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         await manager.abort(job_id)
 
     @jobs.get("/{job_id}/measurements", response_model=list[MeasurementPublic])
-    def measurements(job_id: JobId, store: StoreDep, phase: str | None = None) -> list[dict]:
+    def measurements(job_id: JobId, _: Read, store: StoreDep,
+                     phase: str | None = None) -> list[dict]:
         store.job(job_id)
         return store.measurements(job_id, phase)
 
     @jobs.get("/{job_id}/result", response_model=JobResult)
-    def result(job_id: JobId, store: StoreDep) -> dict[str, Any]:
+    def result(job_id: JobId, _: Read, store: StoreDep) -> dict[str, Any]:
         job = store.job(job_id)
         found = {k: v for k, v in (job["result"] or {}).items()
                  if not k.startswith("calibration")}  # the whole documents: GET .../model
@@ -205,7 +227,7 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         "the calibration result document (format screwcal-calibration) whose `model` is the "
         "robot as its controller reads it after the job's correction; `screwcal predict`, "
         "`compensate` and the RAPID filter read it")}})
-    def calibrated_model(job_id: JobId, store: StoreDep,
+    def calibrated_model(job_id: JobId, _: Read, store: StoreDep,
                          round: Annotated[int, Query(ge=1, le=2)] = 1) -> dict[str, Any]:
         job = store.job(job_id)
         doc = (job["result"] or {}).get("calibration" + ("_2" if round == 2 else ""))
@@ -215,27 +237,42 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         return doc
 
     @jobs.get("/{job_id}/report", response_class=HTMLResponse)
-    async def report(job_id: JobId, store: StoreDep) -> str:
+    async def report(job_id: JobId, _: Read, store: StoreDep) -> str:
         job = store.job(job_id)
         return await asyncio.to_thread(report_html, job, store.robot(job["robot_id"]))
 
     @jobs.get("/{job_id}/events", response_class=StreamingResponse, responses={200: {
         "content": {"text/event-stream": {}},
-        "description": "server-sent events: measured, waiting, phase, paused, resumed, "
-                       "corrected, done/failed/aborted, then end"}})
-    async def events(job_id: JobId, store: StoreDep, manager: ManagerDep) -> StreamingResponse:
+        "description": "server-sent events: first the job's state, then measured, waiting, "
+                       "phase, paused, resumed, corrected, warning, done/failed/aborted, then "
+                       "end; each event has an id, and Last-Event-ID resumes after it"}})
+    async def events(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep,
+                     last_event_id: Annotated[str | None, Header(alias="Last-Event-ID")] = None
+                     ) -> StreamingResponse:
         store.job(job_id)
         bus = manager.events.of(job_id)
+        boot = manager.events.boot
+        start = 0  # Last-Event-ID "BOOT-SEQ" of this run: go on after it; else from the start
+        if last_event_id and last_event_id.startswith(f"{boot}-"):
+            with contextlib.suppress(ValueError):
+                start = int(last_event_id.split("-", 1)[1]) + 1
+
+        def frame(event: dict, seq: int | None) -> str:
+            head = f"id: {boot}-{seq}\n" if seq is not None else ""
+            return f"{head}data: {json.dumps(event)}\n\n"
 
         async def stream() -> AsyncIterator[str]:
-            sent = 0
+            # First the job as it stands (a client that re-attaches, or comes after a restart,
+            # knows where it is and what it waits for), then the events.
+            yield frame({"kind": "state", **public(store.job(job_id), manager)}, None)
+            sent = start
             while True:
                 while sent < len(bus.items):
-                    yield f"data: {json.dumps(bus.items[sent])}\n\n"
+                    yield frame(bus.items[sent], sent)
                     sent += 1
                 state = store.job(job_id)["state"]
                 if state in TERMINAL and sent >= len(bus.items):
-                    yield f"data: {json.dumps({'kind': 'end', 'state': state})}\n\n"
+                    yield frame({"kind": "end", "state": state}, None)
                     return
                 if not await bus.wait_beyond(sent, 1.0):
                     yield ": keep-alive\n\n"

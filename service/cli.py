@@ -128,24 +128,45 @@ class Operator:
               out: Callable[[str], None] = print) -> str:
         """Follow the job's events to its end; in STEP mode ask before every move. Returns the
         final state (or 'waiting' when the operator declined a move: the job waits)."""
+        asked: set[tuple[str, int]] = set()
+
+        def ask_for(waiting: dict, joints: list | None, note: str = "") -> bool:
+            """Prompt for the pose the job waits for now; False when the operator declines."""
+            key = (waiting["phase"], waiting["index"])
+            if key in asked:
+                return True
+            asked.add(key)
+            where = f" (joints {joints})" if joints is not None else ""
+            answer = ask(f"{note + '. ' if note else ''}robot will move to {key[0]} pose "
+                         f"{key[1]}{where}: go? [y/N] ")
+            if answer.strip().lower() != "y":
+                return False
+            self.go(job_id, key[1])
+            return True
+
         with self.http.stream("GET", f"/jobs/{job_id}/events", timeout=None) as r:
             for line in r.iter_lines():
                 if not line.startswith("data: "):
                     continue
                 event = json.loads(line[len("data: "):])
                 kind = event["kind"]
-                if kind == "measured":
+                if kind == "state":  # where the job stands when we attach
+                    out(f"job {job_id}: {event['state']} {event.get('reason', '')}".rstrip())
+                    waiting = event.get("waiting_for")
+                    if waiting and not ask_for(waiting, None):
+                        out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
+                        return "waiting"
+                elif kind == "measured":
                     bar = "#" * int(30 * event["done"] / event["total"])
                     out(f"{event['phase']:<12} [{bar:<30}] pose {event['done']} of "
                         f"{event['total']}")
                 elif kind == "waiting":
-                    note = f"{event['note']}. " if event.get("note") else ""
-                    answer = ask(f"{note}robot will move to {event['phase']} pose "
-                                 f"{event['index']} (joints {event['joints_deg']}): go? [y/N] ")
-                    if answer.strip().lower() != "y":
+                    waiting = {"phase": event["phase"], "index": event["index"]}
+                    if self.job(job_id)["waiting_for"] != waiting:
+                        continue  # history: the job has gone past this pose
+                    if not ask_for(waiting, event["joints_deg"], event.get("note", "")):
                         out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
                         return "waiting"
-                    self.go(job_id, event["index"])
                 elif kind in ("phase", "paused", "resumed", "corrected", "failed", "warning"):
                     out(f"{kind}: " + ", ".join(f"{k}={v}" for k, v in event.items()
                                                if k not in ("kind", "seq", "time")))
@@ -183,6 +204,8 @@ def result_table(result: dict, times: bool = True) -> str:
         if est.get("removed"):
             lines.append("    not separable from these data (not corrected): " + ", ".join(
                 r["name"] for r in est["removed"]))
+    if result.get("frame_note"):
+        lines.append(f"  frame: {result['frame_note']}")
     for suffix in ("", "_2"):
         lines += _route_lines(result.get("correction" + suffix) or {}, suffix)
     for warning in result.get("warnings", []):
@@ -270,6 +293,8 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                                        "correction": args.correction}
             if args.arm_position:
                 options["arm_position_mm"] = args.arm_position
+            if args.frame_from_job:
+                options["frame_from_job"] = args.frame_from_job
             job = op.start(robot_id=args.robot, kind=args.kind, mode=args.mode, options=options)
             print(f"job {job['id']} started ({job['kind']}, {job['mode']})")
             if not args.no_watch:
@@ -329,6 +354,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     default="compensate", help="procedure's correction route (default "
                     "compensate: the later lists' joint targets; zero: ZERO, thesis 4.5)")
     st.add_argument("--arm-position", type=float, nargs=3, metavar=("X", "Y", "Z"))
+    st.add_argument("--frame-from-job", type=int, metavar="JOB",
+                    help="performance: measure in the base frame an earlier job identified")
     st.add_argument("--no-watch", action="store_true")
     for name, text in (("watch", "follow a job (STEP: answer the prompts)"),
                        ("abort", "abort a job"), ("result", "print a job's result table")):

@@ -29,8 +29,12 @@ class JobEvents:
 
 
 class EventBus:
+    """The jobs' events of this service run. `boot` tells this run's event ids from those of a
+    run before a restart (whose events are gone; the store keeps the facts)."""
+
     def __init__(self) -> None:
         self._jobs: dict[int, JobEvents] = {}
+        self.boot = f"{time.time_ns():x}"
 
     def of(self, job_id: int) -> JobEvents:
         return self._jobs.setdefault(job_id, JobEvents())

@@ -433,7 +433,13 @@ class JobRunner:
     def evaluate(self) -> None:
         job_result = dict(self.job["result"] or {})
         base = job_result.get("base")
-        if base is None:  # a performance job alone: the measuring frame from its own data
+        source = self.options.get("frame_from_job")
+        if base is None and source is not None:  # the frame an earlier calibration identified
+            base = (self.store.job(int(source))["result"] or {})["base"]
+            job_result["base"] = base
+            job_result["frame_note"] = (f"accuracy measured in the robot base frame identified "
+                                        f"by job {source}'s calibration")
+        elif base is None:  # a performance job alone: the measuring frame from its own data
             fit = identify(self.model, self.measurement_set("perf_before"), kind="frames",
                            frames="base")
             base = fit.model.base.tolist()

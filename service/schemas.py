@@ -79,6 +79,10 @@ class JobOptions(BaseModel):
     cube_edge_mm: float = Field(300.0, gt=0, le=2000)
     arm_position_mm: tuple[float, float, float] | None = Field(
         None, description="where the arm stands in the robot frame, to keep the cube in reach")
+    frame_from_job: Id | None = Field(
+        None, description="performance: measure accuracy in the robot base frame that this "
+        "earlier job's calibration identified (default: a frame fitted to the job's own data, "
+        "which hides what such a frame absorbs)")
 
 
 class JobCreate(BaseModel):

@@ -14,8 +14,11 @@ class ServiceSettings(BaseSettings):
     db_path: Path = Field(Path("screwcal.db"), description="the SQLite database file")
     host: str = Field("127.0.0.1", description="bind address: loopback unless told otherwise")
     port: int = 8080
-    token: str = Field("", description="bearer token required to move a robot or change data; "
-                                       "empty refuses every such request")
+    token: str = Field("", description="bearer token required to move a robot or change data, "
+                                       "and to read; empty refuses every such request")
+    read_token: str = Field("", description="a second token that may only read (jobs, "
+                                            "measurements, results, reports), e.g. for a "
+                                            "dashboard; empty: none")
     reconnect_interval_s: float = 0.5  # a paused job retries its links this often
     arm_timeout_s: float = 10.0  # waiting for the three holes of one pose
     pose_timeout_s: float = 120.0  # waiting for one pose of a running list

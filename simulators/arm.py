@@ -14,6 +14,7 @@ import asyncio
 import contextlib
 import json
 import os
+import uuid
 from pathlib import Path
 from typing import Protocol
 
@@ -39,30 +40,44 @@ class WorldFileWriter:
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
+        self.run = uuid.uuid4().hex  # a restarted emulator counts its arrivals from 0 again
 
     def __call__(self, world: World) -> None:
-        doc = {"arrivals": world.arrivals, "holes_mm": world.true_holes_mm().tolist()}
+        doc = {"run": self.run, "arrivals": world.arrivals,
+               "holes_mm": world.true_holes_mm().tolist()}
         tmp = self.path.with_suffix(".tmp")
         tmp.write_text(json.dumps(doc))
         os.replace(tmp, self.path)
 
 
 class WorldFileSource:
-    """A HoleSource reading the file a `WorldFileWriter` keeps."""
+    """A HoleSource reading the file a `WorldFileWriter` keeps. Its arrival count only grows:
+    when the irc5 emulator is restarted alone (a new run in the file, counting from 0 again),
+    the new run's arrivals are added to what this arm has seen, so it never waits for a count
+    the new run will not reach."""
 
     def __init__(self, path: str | Path, poll_s: float = 0.02):
         self.path, self.poll_s = Path(path), poll_s
         self._doc: dict = {"arrivals": 0, "holes_mm": None}
+        self._run: str | None = None
+        self._base = 0  # arrivals seen in earlier runs
+        self._count = 0
 
     def _read(self) -> None:
         with contextlib.suppress(FileNotFoundError, json.JSONDecodeError):
             self._doc = json.loads(self.path.read_text())
+        run = self._doc.get("run")
+        if run != self._run:
+            if self._run is not None:
+                self._base = self._count
+            self._run = run
+        self._count = self._base + int(self._doc["arrivals"])
 
     async def wait_arrival(self, after: int) -> int:
         while True:
             self._read()
-            if self._doc["arrivals"] > after:
-                return int(self._doc["arrivals"])
+            if self._count > after:
+                return self._count
             await asyncio.sleep(self.poll_s)
 
     def true_holes_mm(self) -> Array | None:

@@ -383,8 +383,8 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there.
 
     Poses whose residual says they do not belong (data snooping, `diagnostics.pose_tests`) are
-    rejected one at a time, the worst first, and the fit repeated (`outliers="keep"`: listed,
-    kept); at most a tenth of the poses. The result lists them and the data-quality
+    rejected, the worst first, and the fit repeated (`outliers="keep"`: listed, kept); at most
+    a tenth of the poses. The result lists them and the data-quality
     diagnostics."""
     started = time.perf_counter()
     settings = dict(kind=kind, residual=residual, frames=frames, solver=solver,
@@ -402,13 +402,16 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         assert A is not None
         test = pose_tests(e, A, problem._whiten)
         limit_T = test.threshold()
-        worst = int(np.argmax(test.statistic))
-        if test.statistic[worst] <= limit_T or outliers == "keep" or len(found) >= limit:
+        worst = float(test.statistic.max())
+        if worst <= limit_T or outliers == "keep" or len(found) >= limit:
             break
-        found.append(Outlier(current.ids[worst], current.line_of(worst),
-                             float(np.linalg.norm(e[worst, :3])), float(test.statistic[worst]),
-                             limit_T, rejected=True))
-        current = current.take(np.flatnonzero(np.arange(len(current)) != worst))
+        # The clearly worst first (within half of the worst statistic, above the limit): one
+        # at a time would be a refit per outlier, and a gross one masks the others anyway.
+        drop = np.flatnonzero((test.statistic > limit_T) & (test.statistic >= 0.5 * worst))
+        drop = drop[np.argsort(-test.statistic[drop])][:limit - len(found)]
+        found += [Outlier(current.ids[k], current.line_of(k), float(np.linalg.norm(e[k, :3])),
+                          float(test.statistic[k]), limit_T, rejected=True) for k in drop]
+        current = current.take(np.setdiff1d(np.arange(len(current)), drop))
     kept = [Outlier(current.ids[k], current.line_of(k), float(np.linalg.norm(e[k, :3])),
                     float(test.statistic[k]), limit_T, rejected=False)
             for k in np.flatnonzero(test.statistic > limit_T)]

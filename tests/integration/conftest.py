@@ -58,7 +58,7 @@ async def service(tmp_path):
                                      pose_timeout_s=10.0))
     async with app.router.lifespan_context(app):
         async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
-                                     base_url="http://service") as http:
+                                     base_url="http://service", headers=AUTH) as http:
             yield http
 
 

@@ -22,7 +22,7 @@ async def http(tmp_path):
     app = create_app(ServiceSettings(db_path=tmp_path / "jobs.db", token=TOKEN))
     async with app.router.lifespan_context(app):
         async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
-                                     base_url="http://service") as client:
+                                     base_url="http://service", headers=AUTH) as client:
             yield client
 
 
@@ -86,7 +86,7 @@ async def test_a_second_job_on_a_busy_robot_is_refused(tmp_path, rig):
     rig.emu.settings.time_scale = 0.05  # the first job is still measuring
     async with app.router.lifespan_context(app):
         async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
-                                     base_url="http://service") as http:
+                                     base_url="http://service", headers=AUTH) as http:
             robot = await add_robot(http, rig)
             first = await http.post("/jobs", headers=AUTH, json={
                 "robot_id": robot, "kind": "calibration", "options": FAST})
@@ -109,7 +109,7 @@ async def test_a_bad_stored_record_fails_its_job_and_the_service_still_starts(tm
     app = create_app(ServiceSettings(db_path=db, token=TOKEN))
     async with app.router.lifespan_context(app):
         async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
-                                     base_url="http://service") as http:
+                                     base_url="http://service", headers=AUTH) as http:
             state = (await http.get(f"/jobs/{job['id']}")).json()
     assert state["state"] == "failed" and "cannot run" in state["reason"]
     assert JobManager  # the manager's start() is what refused it
@@ -131,3 +131,22 @@ def test_report_to_a_folder_that_does_not_exist(capsys, monkeypatch):
     monkeypatch.setattr("service.cli.Operator.report", lambda self, job_id: "<html/>")
     assert main(["job", "--token", "t", "report", "1", "--out", "/nonexistent/r.html"]) == 2
     assert "cannot write /nonexistent/r.html" in capsys.readouterr().err
+
+
+async def test_reads_need_a_token_too(tmp_path):
+    """Hosts, arm URLs and every measurement are not for anyone on the network: reads need
+    the service's token or the read-only one, which may not change anything."""
+    app = create_app(ServiceSettings(db_path=tmp_path / "jobs.db", token=TOKEN,
+                                     read_token="reader"))
+    async with app.router.lifespan_context(app):
+        async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
+                                     base_url="http://service") as http:
+            assert (await http.post("/robots", headers=AUTH, json=GOOD_ROBOT)).status_code == 201
+            for path in ("/robots", "/robots/1", "/jobs"):
+                assert (await http.get(path)).status_code == 401
+                assert (await http.get(path, headers={"Authorization": "Bearer x"})
+                        ).status_code == 403
+                reader = {"Authorization": "Bearer reader"}
+                assert (await http.get(path, headers=reader)).status_code == 200
+            assert (await http.post("/robots", headers=reader, json=GOOD_ROBOT)
+                    ).status_code == 403

@@ -272,3 +272,29 @@ async def test_aborting_an_auto_job_mid_move_ends_aborted(service, rig):
     job = await wait_state(service, job_id)
     assert job["state"] == "aborted", job["reason"]
     assert job["reason"] == "aborted by the operator"
+
+
+async def test_a_performance_job_measures_in_an_earlier_jobs_frame(service, rig):
+    """Alone, a performance job fits a frame to its own data (and reads low, 15 mm for a
+    robot that is 52 mm off); with frame_from_job it measures in the frame a calibration
+    identified, and says which."""
+    robot = await add_robot(service, rig)
+    cal = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "calibration", "options": FAST})).json()["id"]
+    assert (await wait_state(service, cal))["state"] == "done"
+    alone = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "performance", "options": FAST})).json()["id"]
+    await wait_state(service, alone)
+    framed = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "performance",
+        "options": {**FAST, "frame_from_job": cal}})).json()["id"]
+    await wait_state(service, framed)
+    a = (await service.get(f"/jobs/{alone}/result")).json()
+    f = (await service.get(f"/jobs/{framed}/result")).json()
+    assert "its own data" in a["frame_note"] and f"job {cal}" in f["frame_note"]
+    ap_alone = a["performance"]["perf_before"]["overall"]["ap_mm_mean"]
+    ap_framed = f["performance"]["perf_before"]["overall"]["ap_mm_mean"]
+    assert ap_framed > 2 * ap_alone  # the own-data frame hides most of the error
+    bad = await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "performance", "options": {**FAST, "frame_from_job": 999}})
+    assert bad.status_code == 404

@@ -50,3 +50,72 @@ def test_demo_runs_the_whole_procedure(tmp_path, capsys):
     assert (tmp_path / "report.html").stat().st_size > 10_000
     assert (tmp_path / "accuracy_per_point.png").exists()
     assert (tmp_path / "straightness.png").exists()
+
+
+async def test_watch_reattaches_to_a_step_job_at_the_pose_it_waits_for(tmp_path, rig):
+    """A second `job watch` prompts for the pose the job waits for, not pose 0 of the
+    history (it exited on 409 before)."""
+    settings = ServiceSettings(db_path=tmp_path / "jobs.db", token=TOKEN, port=0)
+    with service(settings) as url, Operator(url, TOKEN) as op:
+        host, port = rig.address
+        robot = await asyncio.to_thread(op.add_robot, name="cell", controller_host=host,
+                                        controller_port=port, arm_url=rig.arm.url)
+        job = await asyncio.to_thread(op.start, robot_id=robot["id"], kind="calibration",
+                                      mode="STEP", options={**FAST, "calibration_poses": 12})
+        answers = iter(["y", "y", "y", "n"])
+        state = await asyncio.to_thread(op.watch, job["id"], lambda _: next(answers),
+                                        lambda _: None)
+        assert state == "waiting"
+        prompts: list[str] = []
+
+        def ask(prompt: str) -> str:
+            prompts.append(prompt)
+            return "y"
+
+        state = await asyncio.to_thread(op.watch, job["id"], ask, lambda _: None)
+        assert state == "done"
+        assert prompts[0].startswith("robot will move to cal pose 3")
+        assert len(prompts) == 9  # poses 3..11, each once
+
+
+async def test_events_carry_ids_and_resume_after_the_last_one(service, rig):
+    from tests.integration.conftest import AUTH, add_robot
+    from tests.integration.test_jobs import wait_state
+
+    robot = await add_robot(service, rig)
+    job_id = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "calibration", "options": FAST})).json()["id"]
+    await wait_state(service, job_id)
+
+    async def read(headers: dict) -> list[tuple[str | None, dict]]:
+        out, last_id = [], None
+        async with service.stream("GET", f"/jobs/{job_id}/events", headers=headers) as r:
+            async for line in r.aiter_lines():
+                if line.startswith("id: "):
+                    last_id = line[4:]
+                elif line.startswith("data: "):
+                    import json
+
+                    out.append((last_id, json.loads(line[6:])))
+                    last_id = None
+        return out
+
+    every = await read({})
+    assert every[0][1]["kind"] == "state" and every[0][1]["state"] == "done"
+    assert every[-1][1]["kind"] == "end"
+    ids = [i for i, _ in every if i is not None]
+    assert len(ids) == len(set(ids)) >= 30  # every event has its own id
+    middle = ids[len(ids) // 2]
+    resumed = await read({"Last-Event-ID": middle})
+    assert resumed[0][1]["kind"] == "state"
+    assert [i for i, _ in resumed if i is not None] == ids[len(ids) // 2 + 1:]
+
+
+def test_the_same_seed_prints_the_same_table(tmp_path, capsys):
+    def table() -> str:
+        assert main(["demo", "--seed", "5", "--cycles", "2", "--poses", "30", "--out",
+                     str(tmp_path)]) == 0
+        out = capsys.readouterr().out
+        return out[out.index("ISO 9283"):out.index("report:")]
+
+    assert table() == table()

@@ -38,7 +38,7 @@ async def test_sigkill_mid_job_then_restart_resumes_without_loss(tmp_path, rig):
     db = tmp_path / "jobs.db"
     proc, url = start_service(db)
     try:
-        async with httpx.AsyncClient(base_url=url) as http:
+        async with httpx.AsyncClient(base_url=url, headers=AUTH) as http:
             host, port = rig.address
             robot = (await http.post("/robots", headers=AUTH, json={
                 "name": "cell", "controller_host": host, "controller_port": port,
@@ -53,7 +53,7 @@ async def test_sigkill_mid_job_then_restart_resumes_without_loss(tmp_path, rig):
         before = committed(db, job_id)
         assert 8 <= len(before) < 30
         proc, url = start_service(db)
-        async with httpx.AsyncClient(base_url=url) as http:
+        async with httpx.AsyncClient(base_url=url, headers=AUTH) as http:
             async with asyncio.timeout(60):
                 while (job := (await http.get(f"/jobs/{job_id}")).json())["state"] not in (
                         "done", "failed"):

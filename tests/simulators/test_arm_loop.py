@@ -104,3 +104,24 @@ async def test_drain_over_socket_then_each_pose_gets_its_own_holes(client, emula
     holes = await asyncio.to_thread(reader.read_holes, 2.0)
     np.testing.assert_allclose(holes.points_mm, emulator.world.true_holes_mm(), atol=6 * 0.013)
     reader.close()
+
+
+async def test_an_arm_process_follows_an_irc5_emulator_restarted_alone(tmp_path):
+    """The restarted irc5 emulator counts its arrivals from 0 again: the arm following its
+    world file must not wait for the old count (it stalled before)."""
+    from simulators.truth import make_world
+
+    path = tmp_path / "world.json"
+    source = WorldFileSource(path, poll_s=0.001)
+    first = make_world(None, None)
+    writer = WorldFileWriter(path)
+    for k in range(3):
+        await first.set_joints(np.zeros(6) + k)
+        writer(first)
+    seen = await asyncio.wait_for(source.wait_arrival(0), 1)
+    assert seen == 3
+    restarted = make_world(None, None)  # a new process: arrivals from 0, a new writer
+    again = WorldFileWriter(path)
+    await restarted.set_joints(np.ones(6))
+    again(restarted)
+    assert await asyncio.wait_for(source.wait_arrival(seen), 1) == 4
