@@ -264,7 +264,8 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         async def stream() -> AsyncIterator[str]:
             # First the job as it stands (a client that re-attaches, or comes after a restart,
             # knows where it is and what it waits for), then the events.
-            yield frame({"kind": "state", **public(store.job(job_id), manager)}, None)
+            job = public(store.job(job_id), manager)
+            yield frame({**job, "kind": "state", "job_kind": job["kind"]}, None)
             sent = start
             while True:
                 while sent < len(bus.items):

@@ -39,3 +39,36 @@ async def test_a_dead_arm_pauses_the_job_until_it_is_back(service, rig):
     job = await wait_state(service, job_id, timeout_s=30)
     assert job["state"] == "done", job["reason"]
     assert len((await service.get(f"/jobs/{job_id}/measurements")).json()) == 30
+
+
+async def _run_with(service, rig, fault) -> dict:
+    """A calibration job with `fault` done to it after a few poses: it must end done, every
+    pose measured once."""
+    rig.emu.settings.time_scale = 0.02
+    robot = await add_robot(service, rig)
+    job_id = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "calibration", "options": FAST})).json()["id"]
+    async with asyncio.timeout(30):
+        while len((await service.get(f"/jobs/{job_id}/measurements")).json()) < 5:
+            await asyncio.sleep(0.01)
+    await fault()
+    job = await wait_state(service, job_id, timeout_s=60)
+    assert job["state"] == "done", job["reason"]
+    measured = (await service.get(f"/jobs/{job_id}/measurements")).json()
+    assert sorted(m["idx"] for m in measured) == list(range(30))  # none lost, none twice
+    return job
+
+
+async def test_the_controller_emulator_restarted_alone_mid_list(service, rig):
+    await _run_with(service, rig, rig.restart_controller)
+
+
+async def test_the_arm_restarted_alone_mid_list(service, rig):
+    host, port = rig.arm.url.removeprefix("socket://").split(":")
+
+    async def restart_arm() -> None:
+        await rig.arm.stop()
+        await asyncio.sleep(0.2)
+        await rig.arm.start(host, int(port))
+
+    await _run_with(service, rig, restart_arm)

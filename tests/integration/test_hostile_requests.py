@@ -150,3 +150,15 @@ async def test_reads_need_a_token_too(tmp_path):
                 assert (await http.get(path, headers=reader)).status_code == 200
             assert (await http.post("/robots", headers=reader, json=GOOD_ROBOT)
                     ).status_code == 403
+
+
+def test_a_poor_fit_or_a_worse_robot_is_a_warning_not_a_silent_done():
+    from service.runner import _warnings
+
+    result = {"estimation": {"chi2_reduced": 40.0, "warnings": ["poses rejected"]},
+              "performance": {"perf_before": {"overall": {"ap_mm_mean": 2.47}},
+                              "perf_after": {"overall": {"ap_mm_mean": 3.73}}}}
+    warnings = _warnings(result)
+    assert any("poor fit" in w for w in warnings)
+    assert any("got worse" in w and "2.470 -> 3.730" in w for w in warnings)
+    assert any("poses rejected" in w for w in warnings)

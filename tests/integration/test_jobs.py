@@ -177,7 +177,9 @@ async def test_abort_stops_a_step_job(service, rig):
 
 async def test_auth_and_bad_requests(service, rig):
     body = {"name": "x", "arm_url": "loop://"}
-    assert (await service.post("/robots", json=body)).status_code == 401
+    no_token = {"Authorization": ""}  # the fixture's client sends the token by default
+    assert (await service.post("/robots", json=body, headers=no_token)).status_code == 401
+    assert (await service.get("/jobs", headers=no_token)).status_code == 401  # reads too
     assert (await service.post("/robots", json=body,
                                headers={"Authorization": "Bearer nope"})).status_code == 403
     r = await service.post("/robots", headers=AUTH, json={**body, "controller_port": 0})
@@ -291,7 +293,7 @@ async def test_a_performance_job_measures_in_an_earlier_jobs_frame(service, rig)
     await wait_state(service, framed)
     a = (await service.get(f"/jobs/{alone}/result")).json()
     f = (await service.get(f"/jobs/{framed}/result")).json()
-    assert "its own data" in a["frame_note"] and f"job {cal}" in f["frame_note"]
+    assert "performance data itself" in a["frame_note"] and f"job {cal}" in f["frame_note"]
     ap_alone = a["performance"]["perf_before"]["overall"]["ap_mm_mean"]
     ap_framed = f["performance"]["perf_before"]["overall"]["ap_mm_mean"]
     assert ap_framed > 2 * ap_alone  # the own-data frame hides most of the error
