@@ -20,17 +20,19 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.calibration.errors_model import Param
 from screwcal.errors import JointLimitError, ScrewcalError, UnreachableError
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.ik import local_ik, numerical_ik
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
+
+if TYPE_CHECKING:  # a type only: compensating a program needs none of the error models
+    from screwcal.calibration.errors_model import Param
 
 PLAUSIBLE_OFFSET_DEG = 5.0
 # A compensated joint moves by its offset plus what the other joints' errors ask of it (J4 and

@@ -162,8 +162,19 @@ def _split_arguments(args: str) -> list[str]:
     return [a.strip() for a in out]
 
 
+# `MoveL p10, v100, z10, tool1 \WObj:=wobj1;` and the like: most instructions, in one match.
+_SIMPLE_MOTION = re.compile(
+    r"\s*([A-Za-z]\w*)\s*,\s*[A-Za-z]\w*\s*,\s*[A-Za-z]\w*\s*,\s*([A-Za-z]\w*)"
+    r"(?:\s*\\WObj\s*:=\s*([A-Za-z]\w*))?\s*$")
+
+
 def _motion(match: re.Match[str], lines: _Lines) -> Motion:
     name = match.group(1)
+    simple = None if name.lower().startswith(("movec", "triggc")) else \
+        _SIMPLE_MOTION.match(match.group(2))
+    if simple:
+        return Motion(lines.of(match.start()), name, [simple.group(1)], simple.group(2),
+                      simple.group(3) or "wobj0")
     positional, wobj = [], "wobj0"
     for arg in _split_arguments(match.group(2)):
         head, *options = re.split(r"\s*\\", arg)  # `v100 \V:=500`: positional, then options
@@ -190,10 +201,8 @@ def read_rapid_module(path: str, text: str) -> RapidModule:
             if plain:  # [[x,y,z],[q1..q4],[cf1,cf4,cf6,cfx],[extax]] in one match
                 tokens = [_token((plain.group(g), plain.start(g), plain.end(g)))
                           for g in range(1, 12)]
-                extax = [_token((s.group(0), plain.start(12) + s.start(),
-                                 plain.start(12) + s.end()))
-                         for s in NUMBER.finditer(plain.group(12))]
-                value, end = [tokens[:3], tokens[3:7], tokens[7:11], extax], plain.end()
+                # the external axes are never rewritten: not tokenised
+                value, end = [tokens[:3], tokens[3:7], tokens[7:11], []], plain.end()
             else:
                 value, end = _aggregate(code, text, m.end(), path, lines)
             if not _END.match(code, end):

@@ -76,7 +76,7 @@ def solution_for_confdata(model: SerialModel, T_flange: ArrayLike, conf: ArrayLi
     T = np.asarray(T_flange, float)
     conf = np.atleast_2d(np.asarray(conf, int))
     sol = closed_form_ik(model.with_frames(base=np.eye(4), tool=np.eye(4)), T,
-                         require_all=False)
+                         require_all=False, check=False)
     N = T.shape[0]
     centre = np.zeros((N, 6))
     centre[:, [0, 3, 5]] = (conf[:, :3] + 0.5) * QUADRANT_RAD
