@@ -195,7 +195,7 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
 
     W = np.array([f[0] for f in frames])
     Ttool = np.array([f[1] for f in frames])
-    numbers = np.array([[float(tok.text) for tok in t.tokens] for t in targets])
+    numbers = np.array([[tok.text for tok in t.tokens] for t in targets]).astype(float)
     T_target = np.tile(np.eye(4), (len(targets), 1, 1))
     T_target[:, :3, :3] = rotation_from_quaternion_wxyz(numbers[:, 3:7])
     T_target[:, :3, 3] = numbers[:, :3]

@@ -199,8 +199,9 @@ def read_rapid_module(path: str, text: str) -> RapidModule:
         if m.group(4):
             plain = None if m.group(3) else _ROBTARGET.match(code, m.end())
             if plain:  # [[x,y,z],[q1..q4],[cf1,cf4,cf6,cfx],[extax]] in one match
-                tokens = [_token((plain.group(g), plain.start(g), plain.end(g)))
-                          for g in range(1, 12)]
+                tokens = [_token((text, *span))  # the groups and their spans, in one go
+                          for text, span in zip(plain.groups()[:11], plain.regs[1:12],
+                                                strict=True)]
                 # the external axes are never rewritten: not tokenised
                 value, end = [tokens[:3], tokens[3:7], tokens[7:11], []], plain.end()
             else:
