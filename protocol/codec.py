@@ -268,11 +268,26 @@ def _integer(tok: str, seq: int, what: str, lo: int = 0, hi: int = MAX_SEQ) -> i
     return int(tok)
 
 
-def _six(args: list[str], seq: int) -> Six:
+# What a value may be: a RAPID num is a 32-bit float, and no robot turns a joint more than ten
+# times or reaches 100 m; a larger number is a broken peer, never a target.
+MAX_JOINT_DEG = 3600.0
+MAX_POSITION_MM = 100_000.0
+MAX_ANGLE_DEG = 360.0
+
+
+def _six(args: list[str], seq: int, bounds: tuple[float, ...]) -> Six:
     if len(args) != 6:
         raise PayloadError(f"expected 6 values, got {len(args)}", BAD_ARGUMENTS, seq)
-    a, b, c, d, e, f = (_number(t, seq) for t in args)
+    a, b, c, d, e, f = values = tuple(_number(t, seq) for t in args)
+    for k, (v, bound) in enumerate(zip(values, bounds, strict=True)):
+        if abs(v) > bound:
+            raise PayloadError(f"value {k + 1} is {args[k]}: beyond +-{bound:g}", BAD_ARGUMENTS,
+                               seq)
     return (a, b, c, d, e, f)
+
+
+_JOINT_BOUNDS = (MAX_JOINT_DEG,) * 6
+_POSE_BOUNDS = (MAX_POSITION_MM,) * 3 + (MAX_ANGLE_DEG,) * 3
 
 
 def _choice(tok: str, options: tuple[str, ...], seq: int, what: str) -> str:
@@ -304,7 +319,7 @@ def parse_payload(payload: str) -> Message:
             raise PayloadError(f"a {verb} packet has FLAG IDX and 6 values", BAD_ARGUMENTS, seq)
         flag = _integer(args[0], seq, "FLAG", 0, 2)
         idx = _integer(args[1], seq, "IDX", 0, MAX_LIST - 1)
-        values = _six(args[2:], seq)
+        values = _six(args[2:], seq, _JOINT_BOUNDS if verb == "j" else _POSE_BOUNDS)
         return Joints(seq, flag, idx, values) if verb == "j" else Pose(seq, flag, idx, values)
     match verb:
         case "HELO":
@@ -323,8 +338,11 @@ def parse_payload(payload: str) -> Message:
                              _integer(args[5], seq, "LASTSEQ", 0, MAX_SEQ))
         case "LOAD":
             need(2)
-            return Load(seq, _choice(args[0], ("CAL", "PERF"), seq, "list"),  # type: ignore[arg-type]
-                        _integer(args[1], seq, "N", 0, MAX_SEQ))
+            name = _choice(args[0], ("CAL", "PERF"), seq, "list")
+            if _INT.match(args[1]) and int(args[1]) > MAX_LIST:  # any length of digits
+                raise PayloadError(f"a list holds at most {MAX_LIST} poses, not {args[1]}",
+                                   LIST_TOO_LONG, seq)
+            return Load(seq, name, _integer(args[1], seq, "N", 0, MAX_LIST))  # type: ignore[arg-type]
         case "RUN":
             need(2)
             return Run(seq, _choice(args[0], ("CAL", "PERF"), seq, "list"),  # type: ignore[arg-type]
@@ -333,7 +351,7 @@ def parse_payload(payload: str) -> Message:
             need(1)
             return Go(seq, _integer(args[0], seq, "IDX", 0, MAX_LIST - 1))
         case "MOVJ" | "ZERO":
-            values = _six(args, seq)
+            values = _six(args, seq, _JOINT_BOUNDS)
             return MovJ(seq, values) if verb == "MOVJ" else Zero(seq, values)
         case "HOME" | "ABRT" | "BYE":
             need(0)

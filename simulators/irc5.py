@@ -257,11 +257,14 @@ class _Session:
                 await self.send(Err(msg.seq, BAD_ARGUMENTS, f"list incomplete at {k}"))
                 return
             expected_flag = 2 if k == msg.count - 1 else (0 if k == 0 else 1)
-            if not isinstance(item, Joints | Pose) or item.seq != msg.seq or item.idx != k \
-                    or item.flag != expected_flag:
+            if not isinstance(item, Joints | Pose):
+                # Any other request mid-LOAD: refused, the partial list discarded, nothing
+                # moves (never run the request: it could start a list or a move).
+                await self.send(Err(item.seq, WRONG_STATE, "LOAD incomplete"))
+                await self.send(Err(msg.seq, WRONG_STATE, f"LOAD discarded at packet {k}"))
+                return
+            if item.seq != msg.seq or item.idx != k or item.flag != expected_flag:
                 problem = problem or (BAD_ARGUMENTS, f"packet {k} out of order")
-                if not isinstance(item, Joints | Pose):
-                    await self.handle(item)
                 continue
             q = np.array(item.values) if isinstance(item, Joints) else \
                 emu.joints_for_pose(item.values, near)
