@@ -11,14 +11,20 @@ from service.settings import ServiceSettings
 from tests.integration.conftest import FAST, TOKEN
 
 
+async def _step_job(op: Operator, rig) -> tuple[dict, dict]:
+    """A robot cell on the rig and a 12-pose STEP calibration job started on it."""
+    host, port = rig.address
+    robot = await asyncio.to_thread(op.add_robot, name="cell", controller_host=host,
+                                    controller_port=port, arm_url=rig.arm.url)
+    job = await asyncio.to_thread(op.start, robot_id=robot["id"], kind="calibration",
+                                  mode="STEP", options={**FAST, "calibration_poses": 12})
+    return robot, job
+
+
 async def test_operator_answers_step_prompts_and_reads_the_result(tmp_path, rig):
     settings = ServiceSettings(db_path=tmp_path / "jobs.db", token=TOKEN, port=0)
     with service(settings) as url, Operator(url, TOKEN) as op:
-        host, port = rig.address
-        robot = await asyncio.to_thread(op.add_robot, name="cell", controller_host=host,
-                                        controller_port=port, arm_url=rig.arm.url)
-        job = await asyncio.to_thread(op.start, robot_id=robot["id"], kind="calibration",
-                                      mode="STEP", options={**FAST, "calibration_poses": 12})
+        robot, job = await _step_job(op, rig)
         prompts, lines = [], []
 
         def ask(prompt: str) -> str:
@@ -57,11 +63,7 @@ async def test_watch_reattaches_to_a_step_job_at_the_pose_it_waits_for(tmp_path,
     history (it exited on 409 before)."""
     settings = ServiceSettings(db_path=tmp_path / "jobs.db", token=TOKEN, port=0)
     with service(settings) as url, Operator(url, TOKEN) as op:
-        host, port = rig.address
-        robot = await asyncio.to_thread(op.add_robot, name="cell", controller_host=host,
-                                        controller_port=port, arm_url=rig.arm.url)
-        job = await asyncio.to_thread(op.start, robot_id=robot["id"], kind="calibration",
-                                      mode="STEP", options={**FAST, "calibration_poses": 12})
+        _, job = await _step_job(op, rig)
         answers = iter(["y", "y", "y", "n"])
         state = await asyncio.to_thread(op.watch, job["id"], lambda _: next(answers),
                                         lambda _: None)
