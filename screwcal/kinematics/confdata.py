@@ -59,12 +59,16 @@ def _arm_bits(model: SerialModel, q: Array) -> Array:
     return 4 * behind_axis1 + 2 * behind_lower_arm
 
 
+def _quadrants(q: Array) -> Array:
+    """cf1, cf4, cf6 (..., 3) of joint readings (..., 6) rad: floor(angle / 90 deg)."""
+    return np.floor(np.degrees(q[..., [0, 3, 5]]) / 90.0 + 1e-9).astype(int)
+
+
 def confdata(model: SerialModel, q: ArrayLike) -> Array:
     """(N, 4) integers cf1, cf4, cf6, cfx of joint readings q (N, 6) rad of a 6R ABB-type arm."""
     q = np.atleast_2d(np.asarray(q, float))
-    quadrants = np.floor(np.degrees(q[:, [0, 3, 5]]) / 90.0 + 1e-9).astype(int)
     cfx = _arm_bits(model, q) + (q[:, 4] < 0.0)
-    return np.column_stack([quadrants, cfx]).astype(int)
+    return np.column_stack([_quadrants(q), cfx]).astype(int)
 
 
 def solution_for_confdata(model: SerialModel, T_flange: ArrayLike, conf: ArrayLike,
@@ -87,8 +91,7 @@ def solution_for_confdata(model: SerialModel, T_flange: ArrayLike, conf: ArrayLi
     partner = [noflip.index(sol.branches.index((b[0], b[1], "noflip"))) for b in sol.branches]
     arm = _arm_bits(model, np.nan_to_num(q[:, noflip].reshape(-1, 6))).reshape(N, 4)[:, partner]
     cfx = arm + (q[:, :, 4] < 0.0)
-    quadrants = np.floor(np.degrees(np.nan_to_num(q[:, :, [0, 3, 5]])) / 90.0 + 1e-9)
-    got = np.concatenate([quadrants, cfx[..., None]], axis=-1).astype(int)
+    got = np.concatenate([_quadrants(np.nan_to_num(q)), cfx[..., None]], axis=-1)
     match = sol.valid & np.all(got == conf[:, None, :], axis=-1)
     none = ~match.any(axis=1)
     if strict and none.any():
