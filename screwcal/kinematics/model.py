@@ -14,7 +14,7 @@ units (degrees) live in the names of the accessors that return them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -156,7 +156,12 @@ class SerialModel:
 
     def with_frames(self, base: ArrayLike | None = None, tool: ArrayLike | None = None
                     ) -> SerialModel:
-        """Copy with another base and/or tool transform."""
-        return replace(self,
-                       base=self.base if base is None else np.asarray(base, float),
-                       tool=self.tool if tool is None else np.asarray(tool, float))
+        """Copy with another base and/or tool transform. Only the new frames are checked (the
+        rest of the model is already valid): a solver or IK call strips frames often."""
+        changes = {}
+        for name, value in (("base", base), ("tool", tool)):
+            if value is not None:
+                frame = _frozen(value, (4, 4), f"model '{self.name}', {name}")
+                _check_rigid(frame, f"model '{self.name}', {name}")
+                changes[name] = frame
+        return self.derived(**changes)

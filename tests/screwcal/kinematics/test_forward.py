@@ -148,3 +148,19 @@ def test_revolute_axis_displacement_has_rank_four(rng):
     cols = ParameterLayout(6).joint_slice(2)
     axis_cols = J[:, :, cols.start:cols.start + 6].reshape(-1, 6)
     assert np.linalg.matrix_rank(axis_cols, tol=1e-8 * np.abs(axis_cols).max()) == 4
+
+
+def test_with_frames_checks_the_new_frames_only():
+    import pytest
+
+    from screwcal.errors import ModelError
+
+    model = irb1600()
+    bad = np.eye(4)
+    bad[:3, :3] *= 2.0
+    with pytest.raises(ModelError, match="base: the rotation part"):
+        model.with_frames(base=bad)
+    with pytest.raises(ModelError, match="tool: every value must be a finite"):
+        model.with_frames(tool=np.full((4, 4), np.nan))
+    moved = model.with_frames(base=np.eye(4))
+    assert moved.axis_dirs is model.axis_dirs and not moved.base.flags.writeable
