@@ -18,11 +18,13 @@ import asyncio
 import contextlib
 import itertools
 import socket
+from collections import deque
 from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from protocol import codec
+from protocol.bounded import Mailbox
 from protocol.codec import (
     Abrt,
     Ack,
@@ -46,6 +48,7 @@ from protocol.codec import (
     Zero,
 )
 from protocol.errors import (
+    ControllerBusyError,
     ControllerError,
     FramingError,
     LinkLostError,
@@ -72,8 +75,13 @@ class Timeouts:
     reply_s: float = 2.0  # ACK/ERR of an idle controller (1 s by the spec, plus margin)
     pose_s: float = 120.0  # one pose of a running list: motion plus margin
     motion_s: float = 120.0  # DONE of MOVJ / HOME / ZERO
+    # STAT after this long without sending, while the controller waits for us (idle, or a
+    # STEP/ZERO wait for the operator): its idle time-out (60 s by default) drops a quiet owner.
+    keepalive_s: float = 20.0
 
 
+MAX_UNSOLICITED = 1000  # frames for no pending request, per connection, before the drop
+ROUTE_LIMIT = 4 * codec.MAX_LIST + 16  # frames queued unread for one request (a whole run fits)
 _LOST = object()
 
 
@@ -82,16 +90,23 @@ class ControllerClient:
         self.host, self.port = host, port
         self.timeouts = timeouts or Timeouts()
         self._seq = itertools.count(1)
-        self._routes: dict[int, asyncio.Queue[Any]] = {}
+        self._routes: dict[int, Mailbox[Any]] = {}
         self._reader: asyncio.StreamReader | None = None
         self._writer: asyncio.StreamWriter | None = None
         self._reader_task: asyncio.Task[None] | None = None
+        self._keepalive_task: asyncio.Task[None] | None = None
+        self._loaded: dict[str, int] = {}  # list -> length this connection LOADed
+        self._last_send = 0.0
+        self._operator_waits = 0
         self.lost: ProtocolError | None = None
-        self.unexpected: list[Message] = []  # frames for no pending request
+        self.unexpected: deque[Message] = deque(maxlen=50)  # the latest frames for no request
+        self.unexpected_count = 0
 
     # -- connection ------------------------------------------------------------------------------
     async def connect(self) -> None:
-        """Open the link and say HELO."""
+        """Open the link and say HELO. On any failure nothing is left open (a stale socket
+        would hold the controller's one session)."""
+        await self.close()
         try:
             self._reader, self._writer = await asyncio.wait_for(
                 asyncio.open_connection(self.host, self.port), self.timeouts.connect_s)
@@ -99,23 +114,33 @@ class ControllerClient:
             raise LinkLostError(f"cannot connect to the controller at {self.host}:{self.port}: "
                                 f"{err or 'timed out'}") from None
         self._routes.clear()
+        self._loaded.clear()
+        self.unexpected.clear()
+        self.unexpected_count = 0
         sock = self._writer.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
         self.lost = None
         self._reader_task = asyncio.create_task(self._read_loop())
-        seq = self._next_seq()
-        reply = await self._request(Helo(seq), seq, self.timeouts.reply_s)
-        self._expect_ack(reply, "HELO")
+        try:
+            seq = self._next_seq()
+            reply = await self._request(Helo(seq), seq, self.timeouts.reply_s)
+            self._expect_ack(reply, "HELO")
+        except BaseException:
+            await self.close()
+            raise
+        self._keepalive_task = asyncio.create_task(self._keep_alive())
 
     async def close(self) -> None:
         """Close the link; every pending wait fails with LinkLostError."""
-        if self.lost is None:
-            self._fail(LinkLostError("the link was closed"))
-        if self._reader_task is not None:
-            self._reader_task.cancel()
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await self._reader_task
+        self._fail(LinkLostError("the link was closed"))
+        current = asyncio.current_task()
+        for task in (self._keepalive_task, self._reader_task):
+            if task is not None and task is not current:
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError, Exception):
+                    await task
+        self._keepalive_task = self._reader_task = None
         if self._writer is not None:
             self._writer.close()
             with contextlib.suppress(Exception):
@@ -134,7 +159,8 @@ class ControllerClient:
 
     async def reconnect(self, attempts: int = 8, first_delay_s: float = 0.05,
                         max_delay_s: float = 5.0) -> StatReply:
-        """After a drop: connect again with exponential back-off, HELO, then STAT. The
+        """After a drop: connect again with exponential back-off (also while the controller
+        still says busy: it may not have noticed the old link's end yet), HELO, then STAT. The
         interrupted request stays failed; nothing is re-sent."""
         await self.close()
         delay = first_delay_s
@@ -162,17 +188,21 @@ class ControllerClient:
         assert self._reader is not None
         try:
             while data := await self._reader.read(4096):
-                while True:  # until every whole frame is handled (errors come one call late)
+                while self.lost is None:  # until every whole frame is handled
                     try:
                         for msg in decoder.feed(data):
                             self._route(msg)
-                    except PayloadError as err:  # the controller sent nonsense: not fatal
-                        self.unexpected.append(Err(err.seq or 1, err.code, str(err)[:40]))
+                            if self.lost is not None:
+                                break
+                    except PayloadError as err:  # the controller sent nonsense
+                        self._malformed(err)
                     data = b""
                     if decoder.pending_bytes < codec.FRAME_LEN:
                         break
+                if self.lost is not None:
+                    return  # dropped (a flood): read no more
             self._fail(LinkLostError("the controller closed the connection"))
-        except FramingError as err:
+        except FramingError as err:  # what came before the bad frame is still delivered
             self._fail(LinkLostError(f"bad frame from the controller ({err}); link dropped"))
             if self._writer is not None:
                 self._writer.transport.abort()
@@ -180,21 +210,53 @@ class ControllerClient:
             self._fail(LinkLostError(f"connection lost: {err}"))
 
     def _route(self, msg: Message) -> None:
+        if msg.seq == 0 and isinstance(msg, Err) and msg.code == codec.BUSY:
+            self._drop(ControllerBusyError(msg.text))
+            return
         queue = self._routes.get(msg.seq)
         if queue is None:
-            self.unexpected.append(msg)
-        else:
-            queue.put_nowait(msg)
+            self._unsolicited(msg)
+        elif not queue.offer(msg):
+            self._drop(LinkLostError(f"the controller sent over {ROUTE_LIMIT} frames for "
+                                     f"request {msg.seq}; link dropped"))
 
-    def _fail(self, err: ProtocolError) -> None:
+    def _malformed(self, err: PayloadError) -> None:
+        """A well-framed payload that is no valid message: the pending request it names fails
+        with the cause; otherwise it counts as unsolicited."""
+        if err.seq is not None and err.seq in self._routes:
+            self._routes[err.seq].force(err)
+        else:
+            self._unsolicited(Err(err.seq or 0, err.code, str(err)[:40]))
+
+    def _unsolicited(self, msg: Message) -> None:
+        self.unexpected.append(msg)
+        self.unexpected_count += 1
+        if self.unexpected_count > MAX_UNSOLICITED:
+            self._drop(LinkLostError(f"the controller sent over {MAX_UNSOLICITED} frames that "
+                                     "answer no request; link dropped"))
+
+    def _fail(self, err: ProtocolError, distrust: bool = False) -> None:
+        """The link is lost (the first cause is kept): every pending wait fails with it, after
+        what already arrived unless the controller is not to be trusted."""
+        if self.lost is not None:
+            return
         self.lost = err
         for queue in self._routes.values():
-            queue.put_nowait(_LOST)
+            while distrust and not queue.empty():
+                queue.get_nowait()
+            queue.force(_LOST)
+
+    def _drop(self, err: ProtocolError) -> None:
+        """Fail the link and cut the connection (a controller that cannot be trusted)."""
+        self._fail(err, distrust=True)
+        if self._writer is not None:
+            self._writer.transport.abort()
 
     async def _send(self, *messages: Message) -> None:
         if self.lost is not None or self._writer is None:
             raise self.lost or LinkLostError("not connected")
         self._writer.write(b"".join(codec.encode(m) for m in messages))
+        self._last_send = asyncio.get_running_loop().time()
         try:
             await self._writer.drain()
         except (ConnectionError, OSError) as err:
@@ -209,15 +271,49 @@ class ControllerClient:
             raise LinkTimeoutError(f"no {what} for request {seq} within {timeout_s:g} s") from None
         if item is _LOST:
             raise self.lost or LinkLostError("link lost")
+        if isinstance(item, PayloadError):
+            raise PayloadError(f"malformed reply to request {seq} (waiting for {what}): {item}",
+                               item.code, seq)
         return item
 
+    def _open_route(self, seq: int) -> None:
+        self._routes[seq] = Mailbox(ROUTE_LIMIT)
+
     async def _request(self, msg: Message, seq: int, timeout_s: float) -> Message:
-        self._routes[seq] = asyncio.Queue()
+        self._open_route(seq)
         try:
             await self._send(msg)
             return await self._get(seq, timeout_s, "reply")
         finally:
             self._routes.pop(seq, None)
+
+    async def _operator_go(self, on_wait: Callable[[int], Awaitable[None]], idx: int) -> None:
+        """The operator's go-ahead for `idx` (keep-alive STATs go on meanwhile), then GO."""
+        self._operator_waits += 1
+        try:
+            await on_wait(idx)
+        finally:
+            self._operator_waits -= 1
+        await self._send(Go(self._next_seq(), idx))
+
+    async def _keep_alive(self) -> None:
+        """STAT whenever nothing was sent for `keepalive_s` and the controller waits for us
+        (idle, or waiting for the operator); not while it moves (it reads nothing then, and its
+        idle clock stops). A failed STAT marks the link lost."""
+        interval = self.timeouts.keepalive_s
+        loop = asyncio.get_running_loop()
+        while self.lost is None:
+            quiet = loop.time() - self._last_send
+            if quiet < interval:
+                await asyncio.sleep(interval - quiet)
+            elif self._routes and not self._operator_waits:
+                await asyncio.sleep(interval / 4)  # a request runs: the controller is busy
+            else:
+                try:
+                    await self.stat()
+                except ProtocolError as err:
+                    self._drop(LinkLostError(f"keep-alive STAT failed: {err}"))
+                    return
 
     @staticmethod
     def _expect_ack(reply: Message, verb: str) -> None:
@@ -239,7 +335,8 @@ class ControllerClient:
     async def load(self, list_name: codec.Lists,
                    joints_deg: Sequence[Sequence[float]] | None = None, *,
                    poses: Sequence[Sequence[float]] | None = None) -> None:
-        """Replace a list with joint targets (`j` packets) or task-space targets (`p`)."""
+        """Replace a list with joint targets (`j` packets) or task-space targets (`p`). The
+        client remembers its length: `run` holds the controller to it."""
         if (joints_deg is None) == (poses is None):
             raise ValueError("give either joint targets or task-space poses")
         items = list(joints_deg if joints_deg is not None else poses)  # type: ignore[arg-type]
@@ -248,43 +345,59 @@ class ControllerClient:
         if not 1 <= n <= codec.MAX_LIST:
             raise ValueError(f"a list holds 1..{codec.MAX_LIST} poses, got {n}")
         seq = self._next_seq()
-        packets = [kind(seq, 2 if k == n - 1 else (0 if k == 0 else 1), k,
-                        tuple(float(v) for v in item))  # type: ignore[arg-type]
+        packets = [kind(seq, _flag(k, n), k, tuple(float(v) for v in item))  # type: ignore[arg-type]
                    for k, item in enumerate(items)]
-        self._routes[seq] = asyncio.Queue()
+        self._loaded.pop(list_name, None)  # unknown until the ACK
+        self._open_route(seq)
         try:
             await self._send(Load(seq, list_name, n), *packets)
             self._expect_ack(await self._get(seq, self.timeouts.reply_s + 0.01 * n, "ACK LOAD"),
                              "LOAD")
+            self._loaded[list_name] = n
         finally:
             self._routes.pop(seq, None)
 
     async def run(self, list_name: codec.Lists, mode: codec.Modes = "AUTO",
                   on_wait: Callable[[int], Awaitable[None]] | None = None,
                   count: int | None = None) -> AsyncIterator[MeasuredPose]:
-        """Run a loaded list; yields each pose as its `j` and `p` packets arrive, checking
-        FLAG and IDX. In STEP mode `on_wait(idx)` is awaited before GO is sent for each pose (it
-        raises to refuse). `count`, when known, also checks the last FLAG."""
+        """Run the list this connection loaded; yields each pose as its `j` and `p` packets
+        arrive. The run must report exactly the loaded poses, in order, each once, with the
+        FLAGs of its length (0 first, 1 between, 2 last), then DONE: anything else is a
+        SequenceError. In STEP mode `on_wait(idx)` is awaited before GO is sent for each pose
+        (it raises to refuse), and a pose reported before its GO is a SequenceError. `count`,
+        if given, must be the loaded length."""
         if mode == "STEP" and on_wait is None:
             raise ValueError("STEP mode needs on_wait: the operator's go-ahead")
+        loaded = self._loaded.get(list_name)
+        if loaded is None:
+            raise SequenceError(f"no {list_name} list loaded on this connection: load() it "
+                                "first (the run is held to the length of its LOAD)")
+        if count is not None and count != loaded:
+            raise ValueError(f"count {count} is not the loaded {list_name} list's {loaded}")
         seq = self._next_seq()
-        self._routes[seq] = asyncio.Queue()
+        self._open_route(seq)
         try:
             await self._send(Run(seq, list_name, mode))
             self._expect_ack(await self._get(seq, self.timeouts.reply_s, "ACK RUN"), "RUN")
-            expected, pending = 0, None
+            expected, pending, released = 0, None, -1
             while True:
                 msg = await self._get(seq, self.timeouts.pose_s, f"pose {expected}")
                 if isinstance(msg, Wait):
-                    if msg.idx != expected:
+                    if on_wait is None:
+                        raise SequenceError(f"WAIT {msg.idx} during an AUTO run")
+                    if msg.idx != expected or pending is not None:
                         raise SequenceError(f"WAIT {msg.idx} while pose {expected} is next")
-                    assert on_wait is not None
-                    await on_wait(msg.idx)
-                    await self._send(Go(self._next_seq(), msg.idx))
+                    if released == expected:
+                        raise SequenceError(f"WAIT {msg.idx} repeated: GO {msg.idx} was sent")
+                    await self._operator_go(on_wait, msg.idx)
+                    released = expected
                 elif isinstance(msg, Joints):
-                    self._check_packet(msg, expected, count)
                     if pending is not None:
                         raise SequenceError(f"j packet {msg.idx} repeated before its p packet")
+                    _check_packet(msg, expected, loaded)
+                    if mode == "STEP" and released != expected:
+                        raise SequenceError(f"pose {msg.idx} reported before its GO: the "
+                                            "controller moved without the go-ahead")
                     pending = msg
                 elif isinstance(msg, Pose):
                     if pending is None or pending.idx != msg.idx or pending.flag != msg.flag:
@@ -292,8 +405,8 @@ class ControllerClient:
                     yield MeasuredPose(msg.idx, msg.flag, pending.values, msg.values)
                     expected, pending = expected + 1, None
                 elif isinstance(msg, Done) and msg.verb == "RUN":
-                    if count is not None and expected != count:
-                        raise SequenceError(f"run ended after {expected} of {count} poses")
+                    if pending is not None or expected != loaded:
+                        raise SequenceError(f"run ended after {expected} of {loaded} poses")
                     return
                 elif isinstance(msg, Err):
                     raise ControllerError(msg.code, msg.text, msg.seq)
@@ -302,58 +415,44 @@ class ControllerClient:
         finally:
             self._routes.pop(seq, None)
 
-    @staticmethod
-    def _check_packet(msg: Joints, expected: int, count: int | None) -> None:
-        if msg.idx < expected:
-            raise SequenceError(f"pose {msg.idx} repeated (expected {expected})")
-        if msg.idx > expected:
-            raise SequenceError(f"pose {expected} missing (got {msg.idx})")
-        first = msg.idx == 0
-        last = count is not None and msg.idx == count - 1
-        want = 2 if last else (0 if first else 1)
-        if count is None and msg.flag == 2:
-            return  # the last pose of a list whose length the caller did not give
-        if msg.flag != want:
-            raise SequenceError(f"pose {msg.idx} has FLAG {msg.flag}, expected {want}")
-
-    async def heartbeat(self, interval_s: float = 5.0) -> None:
-        """Send STAT whenever the link has been idle for `interval_s` (the spec's heartbeat);
-        run it as a task. It returns (and the link is marked lost) when a STAT fails."""
-        while self.lost is None:
-            await asyncio.sleep(interval_s)
-            if self._routes:  # a request is pending: the link is not idle
-                continue
-            try:
-                await self.stat()
-            except ProtocolError as err:
-                if self.lost is None:
-                    self._fail(LinkLostError(f"heartbeat failed: {err}"))
-                return
-
     async def go(self, idx: int) -> None:
         await self._send(Go(self._next_seq(), idx))
 
     async def _motion(self, msg: MovJ | Home | Zero, verb: str,
                       on_wait: Callable[[int], Awaitable[None]] | None = None
                       ) -> MeasuredPose | None:
+        """MOVJ/HOME: ACK, one `j 2 0` and one `p 2 0`, DONE. ZERO: ACK, at most one WAIT 0
+        (answered only through `on_wait`), DONE. Anything else is a SequenceError."""
         seq = msg.seq
-        self._routes[seq] = asyncio.Queue()
+        reports = verb != "ZERO"
+        self._open_route(seq)
         try:
             await self._send(msg)
             self._expect_ack(await self._get(seq, self.timeouts.reply_s, f"ACK {verb}"), verb)
-            joints, result = None, None
+            joints, result, released = None, None, False
             while True:
                 reply = await self._get(seq, self.timeouts.motion_s, f"DONE {verb}")
-                if isinstance(reply, Joints):
-                    joints = reply
-                elif isinstance(reply, Pose) and joints is not None:
-                    result = MeasuredPose(reply.idx, reply.flag, joints.values, reply.values)
-                elif isinstance(reply, Wait) and on_wait is not None:
-                    await on_wait(reply.idx)
-                    await self._send(Go(self._next_seq(), reply.idx))
+                if isinstance(reply, Joints | Pose):
+                    if not reports or (reply.flag, reply.idx) != (2, 0):
+                        raise SequenceError(f"{verb} reply: unexpected {reply}")
+                    if isinstance(reply, Joints):
+                        if joints is not None:
+                            raise SequenceError(f"{verb} reply: j packet repeated")
+                        joints = reply
+                    elif joints is None or result is not None:
+                        raise SequenceError(f"{verb} reply: p packet without its j packet")
+                    else:
+                        result = MeasuredPose(0, 2, joints.values, reply.values)
                 elif isinstance(reply, Wait):
-                    raise SequenceError(f"{verb} waits for the operator; give on_wait")
+                    if verb != "ZERO" or reply.idx != 0 or released:
+                        raise SequenceError(f"{verb} reply: unexpected WAIT {reply.idx}")
+                    if on_wait is None:
+                        raise SequenceError(f"{verb} waits for the operator; give on_wait")
+                    await self._operator_go(on_wait, 0)
+                    released = True
                 elif isinstance(reply, Done) and reply.verb == verb:
+                    if reports and result is None:
+                        raise SequenceError(f"{verb} finished without reporting the pose")
                     return result
                 elif isinstance(reply, Err):
                     raise ControllerError(reply.code, reply.text, reply.seq)
@@ -364,14 +463,12 @@ class ControllerClient:
 
     async def movj(self, joints_deg: Sequence[float]) -> MeasuredPose:
         result = await self._motion(MovJ(self._next_seq(), tuple(joints_deg)), "MOVJ")  # type: ignore[arg-type]
-        if result is None:
-            raise SequenceError("MOVJ finished without reporting the pose")
+        assert result is not None  # _motion checked it
         return result
 
     async def home(self) -> MeasuredPose:
         result = await self._motion(Home(self._next_seq()), "HOME")
-        if result is None:
-            raise SequenceError("HOME finished without reporting the pose")
+        assert result is not None  # _motion checked it
         return result
 
     async def zero(self, joints_deg: Sequence[float],
@@ -387,3 +484,20 @@ class ControllerClient:
     async def bye(self) -> None:
         seq = self._next_seq()
         self._expect_ack(await self._request(Bye(seq), seq, self.timeouts.reply_s), "BYE")
+
+
+def _flag(idx: int, count: int) -> int:
+    """A packet's FLAG: 2 for the last of the list (also a list of one), 0 first, 1 between."""
+    return 2 if idx == count - 1 else (0 if idx == 0 else 1)
+
+
+def _check_packet(msg: Joints, expected: int, count: int) -> None:
+    if msg.idx < expected:
+        raise SequenceError(f"pose {msg.idx} repeated (expected {expected})")
+    if msg.idx >= count:
+        raise SequenceError(f"pose {msg.idx} after the last of {count}")
+    if msg.idx > expected:
+        raise SequenceError(f"pose {expected} missing (got {msg.idx})")
+    if msg.flag != _flag(msg.idx, count):
+        raise SequenceError(f"pose {msg.idx} has FLAG {msg.flag}, expected "
+                            f"{_flag(msg.idx, count)} in a list of {count}")

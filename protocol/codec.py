@@ -32,6 +32,7 @@ _INT = re.compile(r"[0-9]+\Z")
 
 # ERR codes (protocol.md)
 BAD_FRAME, UNKNOWN_VERB, BAD_ARGUMENTS, WRONG_STATE, LIST_TOO_LONG, VERSION = 10, 11, 12, 13, 14, 15
+BUSY = 16  # another client owns the controller: sent with SEQ 0, then the connection closes
 OUT_OF_LIMITS, MOTION_ERROR, ABORTED, NOT_ALLOWED = 20, 21, 22, 23
 
 Six = tuple[float, float, float, float, float, float]
@@ -177,14 +178,15 @@ def _num(value: float, decimals: int) -> str:
     return "0." + "0" * decimals if float(text) == 0.0 else text  # no "-0.0000"
 
 
-def _check_seq(seq: int) -> None:
-    if not 1 <= seq <= MAX_SEQ:
-        raise ValueError(f"SEQ must be 1..{MAX_SEQ}, got {seq}")
+def _check_seq(msg: Message) -> None:
+    low = 0 if isinstance(msg, Err) else 1  # SEQ 0 is the controller's alone (the busy ERR)
+    if not low <= msg.seq <= MAX_SEQ:
+        raise ValueError(f"SEQ must be {low}..{MAX_SEQ}, got {msg.seq}")
 
 
 def payload_of(msg: Message) -> str:
     """The payload text of a message (without framing)."""
-    _check_seq(msg.seq)
+    _check_seq(msg)
     s = msg.seq
     match msg:
         case Helo():
@@ -302,8 +304,10 @@ def parse_payload(payload: str) -> Message:
     if payload != payload.strip(" ") or "  " in payload:
         raise PayloadError("tokens must be separated by single spaces", BAD_FRAME)
     tokens = payload.split(" ")
-    if not _INT.match(tokens[0]) or not 1 <= int(tokens[0]) <= MAX_SEQ:
-        raise PayloadError(f"SEQ must be an integer 1..{MAX_SEQ}, got '{tokens[0]}'", BAD_FRAME)
+    if not _INT.match(tokens[0]) or not 0 <= int(tokens[0]) <= MAX_SEQ or (
+            int(tokens[0]) == 0 and tokens[1:2] != ["ERR"]):
+        raise PayloadError(f"SEQ must be an integer 1..{MAX_SEQ} (0 only on the controller's "
+                           f"busy ERR), got '{tokens[0]}'", BAD_FRAME)
     seq = int(tokens[0])
     if len(tokens) < 2:
         raise PayloadError("no verb", UNKNOWN_VERB, seq)

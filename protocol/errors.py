@@ -4,6 +4,7 @@
     ├── FramingError        an 80-byte frame is malformed: the connection must be dropped
     ├── PayloadError        a well-framed payload is not a valid message (carries the ERR code)
     ├── ControllerError     the controller answered ERR CODE TEXT
+    │   └── ControllerBusyError  ERR 16: another client owns the controller (also a LinkLostError)
     ├── SequenceError       data packets missing, repeated or out of order
     ├── LinkLostError       the connection dropped; every pending wait fails with it
     ├── LinkTimeoutError    a reply did not come in time
@@ -39,12 +40,21 @@ class ControllerError(ProtocolError):
         self.seq = seq
 
 
-class SequenceError(ProtocolError):
-    """Data packets of a list arrived missing, repeated or out of order."""
-
-
 class LinkLostError(ProtocolError):
     """The connection to the controller dropped."""
+
+
+class ControllerBusyError(ControllerError, LinkLostError):
+    """`0 ERR 16 busy`: another client owns the controller, which closed this connection.
+    Try again when that client has left (`ControllerClient.reconnect` does, with back-off)."""
+
+    def __init__(self, text: str = "busy"):
+        ProtocolError.__init__(self, f"the controller is busy ({text}): another client owns it")
+        self.code, self.text, self.seq = 16, text, 0
+
+
+class SequenceError(ProtocolError):
+    """Data packets of a list arrived missing, repeated or out of order."""
 
 
 class LinkTimeoutError(ProtocolError):

@@ -241,7 +241,8 @@ class JobRunner:
             self.client = ControllerClient(self.robot["controller_host"],
                                            self.robot["controller_port"],
                                            Timeouts(pose_s=self.settings.pose_timeout_s))
-            await self.client.connect()
+            # a few quick tries: the controller may not yet have seen the last client leave
+            await self.client.reconnect(attempts=3, first_delay_s=0.05)
         if self.arm is None:
             self.arm = await asyncio.to_thread(ArmReader, self.robot["arm_url"])
 

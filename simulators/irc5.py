@@ -1,9 +1,12 @@
 """An ABB IRC5 emulator: the controller side of the wire protocol (docs/protocol.md)
 over real TCP, around a `World`.
 
-Like the RAPID server it stands in for (thesis 4.4, Algorithms 1-2), it serves one client at a
-time and keeps listening after a client leaves; it handles one request at a time and reads
-nothing while a move runs (requests wait, decoded but unhandled, until the move ends); it refuses
+Like the RAPID server it stands in for (thesis 4.4, Algorithms 1-2), one client owns it at a
+time: another connection gets `0 ERR 16 busy` and is closed; an owner that sends nothing for
+`idle_timeout_s` (STAT counts) while the controller waits for it, or that does not read what the
+controller sends within `send_timeout_s`, is dropped; it keeps listening after a client leaves.
+It handles one request at a time and reads nothing while a move runs (requests wait, decoded
+but unhandled, in a bounded inbox until the move ends; beyond it TCP holds the rest); it refuses
 targets outside the joint limits before any motion (lists at LOAD time); it reports joints as
 its encoders read them and tool0 as the NOMINAL kinematics of those joints (CRobT), rounded like
 32-bit nums. Motion is a joint-space move at `speed_deg_s`, scaled by `time_scale` (0: instant).
@@ -18,9 +21,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from protocol import codec
+from protocol.bounded import Mailbox
 from protocol.codec import (
     ABORTED,
     BAD_ARGUMENTS,
+    BUSY,
     LIST_TOO_LONG,
     NOT_ALLOWED,
     OUT_OF_LIMITS,
@@ -54,6 +59,7 @@ from simulators.faults import FaultPlan
 from simulators.world import World
 
 LOAD_TIMEOUT_S = 5.0
+INBOX_LIMIT = 64  # requests read ahead of the one being handled
 
 
 @dataclass
@@ -64,6 +70,8 @@ class EmulatorSettings:
     # A real IRC5 stops after ZERO (WAIT 0) while a person enters the offsets on the
     # FlexPendant; by default the emulator applies ZERO itself and sends no WAIT.
     zero_wait: bool = False
+    idle_timeout_s: float = 60.0  # the owner's silence while the controller waits for it
+    send_timeout_s: float = 10.0  # a peer that reads nothing for this long is dropped
 
 
 class _SessionEndedError(Exception):
@@ -78,8 +86,9 @@ class IRC5Emulator:
         self.state, self.mode, self.list_name = "IDLE", "AUTO", "NONE"
         self.idx = self.count = self.last_seq = 0
         self.sessions = 0
+        self.refused = 0  # connections turned away busy
         self._server: asyncio.base_events.Server | None = None
-        self._session_lock = asyncio.Lock()
+        self._owner: _Session | None = None
 
     # -- server ------------------------------------------------------------------------------
     async def start(self, host: str = "127.0.0.1", port: int = 0) -> tuple[str, int]:
@@ -94,15 +103,19 @@ class IRC5Emulator:
             await self._server.wait_closed()
 
     async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        async with self._session_lock:  # one client at a time, like the RAPID server
-            self.sessions += 1
-            session = _Session(self, reader, writer)
-            try:
-                await session.run()
-            finally:
-                session.close()
-                if self.state in ("MOVING", "WAITING"):
-                    self.state = "IDLE"  # the run stops with the link
+        if self._owner is not None:  # one owner at a time: the others are told, not queued
+            self.refused += 1
+            await _refuse(reader, writer)
+            return
+        self.sessions += 1
+        session = self._owner = _Session(self, reader, writer)
+        try:
+            await session.run()
+        finally:
+            session.close()
+            self._owner = None
+            if self.state in ("MOVING", "WAITING"):
+                self.state = "IDLE"  # the run stops with the link
 
     # -- state ---------------------------------------------------------------------------------
     def stat(self, seq: int) -> StatReply:
@@ -130,13 +143,29 @@ class IRC5Emulator:
         return travel / self.settings.speed_deg_s * self.settings.time_scale
 
 
+async def _refuse(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+    """`0 ERR 16 busy`, then close. What the peer already sent is read and dropped first (a
+    close with unread data resets the connection, and the peer would lose the refusal)."""
+    writer.write(codec.encode(Err(0, BUSY, "busy")))
+    with contextlib.suppress(Exception):
+        writer.write_eof()
+        async with asyncio.timeout(1.0):
+            for _ in range(64):  # at most 256 kB, then it is cut
+                if not await reader.read(4096):
+                    break
+    if reader.at_eof():
+        writer.close()
+    else:
+        writer.transport.abort()
+
+
 class _Session:
     """One client connection: decoded requests are queued, handled one at a time."""
 
     def __init__(self, emu: IRC5Emulator, reader: asyncio.StreamReader,
                  writer: asyncio.StreamWriter):
         self.emu, self.reader, self.writer = emu, reader, writer
-        self.inbox: asyncio.Queue[Message | Exception] = asyncio.Queue()
+        self.inbox: Mailbox[Message | Exception] = Mailbox(INBOX_LIMIT)
         self.faults = emu.settings.faults
         self._reader_task = asyncio.create_task(self._read())
 
@@ -147,16 +176,16 @@ class _Session:
                 while True:  # until every whole frame is handled (errors come one call late)
                     try:
                         for msg in decoder.feed(data):
-                            self.inbox.put_nowait(msg)
+                            await self.inbox.put(msg)  # full: stop reading (back-pressure)
                     except PayloadError as err:
-                        self.inbox.put_nowait(err)
+                        await self.inbox.put(err)
                     data = b""
                     if decoder.pending_bytes < codec.FRAME_LEN:
                         break
         except (FramingError, ConnectionError) as err:
-            self.inbox.put_nowait(err if isinstance(err, FramingError) else _SessionEndedError())
+            self.inbox.force(err if isinstance(err, FramingError) else _SessionEndedError())
             return
-        self.inbox.put_nowait(_SessionEndedError())
+        self.inbox.force(_SessionEndedError())
 
     def close(self) -> None:
         self._reader_task.cancel()
@@ -178,8 +207,9 @@ class _Session:
             else:
                 self.writer.write(f)
         try:
-            await self.writer.drain()
-        except ConnectionError:
+            await asyncio.wait_for(self.writer.drain(), self.emu.settings.send_timeout_s)
+        except (ConnectionError, TimeoutError):  # gone, or not reading: drop it
+            self.writer.transport.abort()
             raise _SessionEndedError() from None
 
     async def _usable(self, item: Message | Exception) -> Message | None:
@@ -195,9 +225,17 @@ class _Session:
         return item  # type: ignore[return-value]
 
     async def next_request(self) -> Message:
-        while (msg := await self._usable(await self.inbox.get())) is None:
-            pass
-        return msg
+        """The next request; an owner silent for the idle time is dropped (a half frame, or
+        nothing at all, holds the controller no longer)."""
+        while True:
+            try:
+                item = await asyncio.wait_for(self.inbox.get(),
+                                              self.emu.settings.idle_timeout_s)
+            except TimeoutError:
+                self.writer.transport.abort()
+                raise _SessionEndedError() from None
+            if (msg := await self._usable(item)) is not None:
+                return msg
 
     async def run(self) -> None:
         try:

@@ -1,11 +1,18 @@
 """The emulator (and the rules the RAPID module keeps) against a peer that does not follow
-the protocol: nothing moves out of turn, the session and the server survive (issue 12,
-points 1, 2 and 6)."""
+the protocol: nothing moves out of turn, the session and the server survive, one client owns
+the controller at a time, and nothing a peer sends or leaves unread grows without bound
+(issue 12, server side)."""
 
 import asyncio
+import contextlib
+import random
+
+import pytest
 
 from protocol.client import ControllerClient, Timeouts
 from protocol.codec import FRAME_LEN, frame
+from protocol.errors import ControllerBusyError, LinkTimeoutError
+from simulators.irc5 import INBOX_LIMIT
 from tests.simulators.conftest import targets
 
 
@@ -17,6 +24,7 @@ async def _exchange(emulator, payloads: list[str], replies: int) -> list[str]:
         data = await asyncio.wait_for(reader.readexactly(replies * FRAME_LEN), 10)
     finally:
         writer.close()
+        await writer.wait_closed()
     return [data[k:k + FRAME_LEN].decode().split("#")[0]
             for k in range(0, len(data), FRAME_LEN)]
 
@@ -24,7 +32,7 @@ async def _exchange(emulator, payloads: list[str], replies: int) -> list[str]:
 async def _still_serves(emulator) -> None:
     async with asyncio.timeout(10):
         c = ControllerClient(*emulator.address, Timeouts(pose_s=5))
-        await c.connect()
+        await c.reconnect(first_delay_s=0.01)  # busy until the server has seen the last leave
         await c.load("CAL", targets(2))
         got = [p async for p in c.run("CAL", "AUTO", count=2)]
         assert [p.idx for p in got] == [0, 1]
@@ -67,4 +75,87 @@ async def test_a_list_too_long_and_numbers_beyond_reason(emulator):
     assert out[1].startswith("2 ERR 14")
     assert out[2].startswith("3 ERR 12")
     assert out[3].startswith("4 ERR 12")
+    await _still_serves(emulator)
+
+
+async def _closed_by_server(reader: asyncio.StreamReader, within_s: float) -> bytes:
+    """Everything the server sent until it closed the connection (fails if it does not)."""
+    async with asyncio.timeout(within_s):
+        return await reader.read(-1)
+
+
+async def test_a_second_client_is_told_busy_and_the_owner_goes_on(emulator, client):
+    for hello in (b"", frame("1 HELO 1")):  # whether it spoke or not
+        reader, writer = await asyncio.open_connection(*emulator.address)
+        writer.write(hello)
+        assert await _closed_by_server(reader, 2) == frame("0 ERR 16 busy")
+        writer.close()
+    with pytest.raises(ControllerBusyError):
+        await ControllerClient(*emulator.address, Timeouts(reply_s=1)).connect()
+    assert (await client.stat()).state == "IDLE" and emulator.refused == 3
+
+
+@pytest.mark.parametrize("sent", [b"", frame("1 HELO 1") + frame("2 STAT")[:40]])
+async def test_a_silent_owner_or_half_a_frame_is_dropped_after_the_idle_time(emulator, sent):
+    emulator.settings.idle_timeout_s = 0.3
+    reader, writer = await asyncio.open_connection(*emulator.address)
+    writer.write(sent)
+    got = await _closed_by_server(reader, 3)
+    assert got == (frame("1 ACK HELO 1") if sent else b"")
+    writer.close()
+    await _still_serves(emulator)
+
+
+async def test_a_client_that_failed_to_connect_does_not_hold_the_controller(emulator):
+    bad = ControllerClient(*emulator.address, Timeouts(reply_s=1e-6))  # HELO times out
+    with pytest.raises(LinkTimeoutError):
+        await bad.connect()
+    assert bad._writer is None and emulator.settings.idle_timeout_s == 60
+    async with asyncio.timeout(3):  # well before the controller's idle time-out
+        await _still_serves(emulator)
+
+
+async def test_a_peer_that_does_not_read_is_dropped_with_bounded_memory(emulator):
+    emulator.settings.send_timeout_s = 0.3
+    _reader, writer = await asyncio.open_connection(*emulator.address)
+    flood = b"".join(frame(f"{k} STAT") for k in range(1, 1001))
+    inbox, buffered = 0, 0
+    with pytest.raises(ConnectionError):  # the server cuts it
+        async with asyncio.timeout(20):
+            while True:
+                writer.write(flood)  # 1000 requests at a time, replies never read
+                await writer.drain()
+                if (owner := emulator._owner) is not None:
+                    inbox = max(inbox, owner.inbox.qsize())
+                    buffered = max(buffered, owner.writer.transport.get_write_buffer_size())
+    assert emulator._owner is None and inbox <= INBOX_LIMIT and buffered < 1 << 20
+    writer.transport.abort()
+    await _still_serves(emulator)
+
+
+async def test_random_bytes_connect_storms_and_many_clients(emulator):
+    rng = random.Random(12)
+    moves = emulator.world.arrivals
+
+    async def hostile(k: int) -> None:
+        with contextlib.suppress(ConnectionError, TimeoutError):
+            reader, writer = await asyncio.open_connection(*emulator.address)
+            if k % 3 == 0:  # a storm: connect and leave at once
+                writer.transport.abort()
+                return
+            writer.write(bytes(rng.randrange(256) for _ in range(rng.randrange(1, 400))))
+            await writer.drain()
+            async with asyncio.timeout(2):
+                await reader.read(-1)  # the server ends it: bad frame, or busy
+            writer.close()
+
+    emulator.settings.idle_timeout_s = 1.0
+    await asyncio.gather(*(hostile(k) for k in range(60)))
+    assert emulator.world.arrivals == moves  # nothing moved
+    clients = [ControllerClient(*emulator.address, Timeouts(reply_s=2)) for _ in range(12)]
+    results = await asyncio.gather(*(c.connect() for c in clients), return_exceptions=True)
+    assert sum(r is None for r in results) == 1  # one owner at a time
+    assert all(isinstance(r, ControllerBusyError) for r in results if r is not None)
+    for c in clients:
+        await c.close()
     await _still_serves(emulator)

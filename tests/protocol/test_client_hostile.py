@@ -1,0 +1,258 @@
+"""The client against controllers that misbehave (issue 12, points 7-11): every wrong reply is a
+specific error or a time-out, never a hang, never a skipped or duplicated pose accepted; a
+failed connect leaves nothing open; what a controller can send unasked is bounded."""
+
+from __future__ import annotations
+
+import asyncio
+
+import pytest
+
+from protocol.client import MAX_UNSOLICITED, ControllerClient, Timeouts
+from protocol.errors import (
+    ControllerBusyError,
+    ControllerError,
+    LinkLostError,
+    LinkTimeoutError,
+    PayloadError,
+    SequenceError,
+)
+from tests.protocol.fake_controller import FakeController, Reply, packets, well_behaved
+
+FAST = Timeouts(connect_s=2, reply_s=0.5, pose_s=1, motion_s=1, keepalive_s=30)
+Q = [[0.0] * 6, [1.0] * 6, [2.0] * 6]
+
+
+async def _client(script) -> tuple[FakeController, ControllerClient]:
+    fake = FakeController(script)
+    client = ControllerClient(*await fake.start(), FAST)
+    await client.connect()
+    return fake, client
+
+
+def _run_replies(body):
+    """A script whose RUN reply is `body(seq)` (the rest well-behaved)."""
+    def script(seq: int, verb: str, args: list[str]) -> list[Reply]:
+        return [f"{seq} ACK RUN", *body(seq)] if verb == "RUN" else well_behaved(seq, verb, args)
+    return script
+
+
+RUNS = {
+    "a pose after the last": (2, lambda s: [*packets(s, 0, 0), *packets(s, 2, 1),
+                                            *packets(s, 2, 2), f"{s} DONE RUN"], "after the last"),
+    "two FLAG 2": (3, lambda s: [*packets(s, 2, 0)], "FLAG 2, expected 0"),
+    "no FLAG 2": (2, lambda s: [*packets(s, 0, 0), *packets(s, 1, 1), f"{s} DONE RUN"],
+                  "FLAG 1, expected 2"),
+    "DONE with no pose": (2, lambda s: [f"{s} DONE RUN"], "after 0 of 2"),
+    "a skipped pose": (3, lambda s: [*packets(s, 0, 0), *packets(s, 2, 2)], "pose 1 missing"),
+    "a repeated pose": (3, lambda s: [*packets(s, 0, 0), *packets(s, 0, 0)], "repeated"),
+    "a j packet twice": (2, lambda s: [packets(s, 0, 0)[0]] * 2, "repeated before its p"),
+    "a p packet alone": (2, lambda s: [packets(s, 0, 0)[1]], "without its j"),
+    "WAIT in AUTO": (2, lambda s: [f"{s} WAIT 0"], "WAIT 0 during an AUTO run"),
+    "an ACK in the run": (1, lambda s: [f"{s} ACK LOAD"], "unexpected"),
+}
+
+
+@pytest.mark.parametrize("case", RUNS)
+async def test_a_run_that_breaks_its_list_is_a_sequence_error(case):
+    n, body, message = RUNS[case]
+    fake, client = await _client(_run_replies(body))
+    await client.load("CAL", Q[:n])
+    got = []
+    with pytest.raises(SequenceError, match=message):
+        async with asyncio.timeout(5):
+            async for pose in client.run("CAL", "AUTO"):
+                got.append(pose.idx)
+    assert got == list(range(len(got)))  # never a pose accepted out of order or twice
+    await client.close()
+    await fake.stop()
+
+
+async def test_a_run_is_held_to_the_length_of_its_load():
+    fake, client = await _client(_run_replies(lambda s: []))
+    with pytest.raises(SequenceError, match="no CAL list loaded"):
+        _ = [p async for p in client.run("CAL")]
+    await client.load("CAL", Q[:2])
+    with pytest.raises(ValueError, match="count 3"):
+        _ = [p async for p in client.run("CAL", count=3)]
+    assert "RUN" not in fake.sent_verbs()  # refused before anything was sent
+    await client.close()
+    await fake.stop()
+
+
+async def test_step_wait_twice_asks_the_operator_once_and_sends_one_go():
+    def script(seq, verb, args):
+        if verb == "RUN":
+            script.run_seq = seq
+            return [f"{seq} ACK RUN", f"{seq} WAIT 0"]
+        if verb == "GO":
+            return [f"{script.run_seq} WAIT 0"]  # asks again for the pose it was given
+        return well_behaved(seq, verb, args)
+
+    fake, client = await _client(script)
+    await client.load("CAL", Q[:2])
+    asked = []
+
+    async def operator(idx):
+        asked.append(idx)
+
+    with pytest.raises(SequenceError, match="WAIT 0 repeated"):
+        async with asyncio.timeout(5):
+            _ = [p async for p in client.run("CAL", "STEP", on_wait=operator)]
+    assert asked == [0] and fake.sent_verbs().count("GO") == 1
+    await client.close()
+    await fake.stop()
+
+
+async def test_a_pose_reported_before_its_go_is_refused():
+    fake, client = await _client(_run_replies(lambda s: [*packets(s, 0, 0)]))
+    await client.load("CAL", Q[:2])
+
+    async def operator(idx):
+        raise AssertionError("never asked")
+
+    with pytest.raises(SequenceError, match="before its GO"):
+        _ = [p async for p in client.run("CAL", "STEP", on_wait=operator)]
+    await client.close()
+    await fake.stop()
+
+
+MOTIONS = {
+    "a j packet twice": lambda s: [f"{s} ACK MOVJ", packets(s, 2, 0)[0], packets(s, 2, 0)[0]],
+    "a mis-flagged packet": lambda s: [f"{s} ACK MOVJ", *packets(s, 0, 0)],
+    "a p packet twice": lambda s: [f"{s} ACK MOVJ", *packets(s, 2, 0), packets(s, 2, 0)[1]],
+    "DONE without the pose": lambda s: [f"{s} ACK MOVJ", f"{s} DONE MOVJ"],
+    "a WAIT": lambda s: [f"{s} ACK MOVJ", f"{s} WAIT 0"],
+    "another verb's DONE": lambda s: [f"{s} ACK MOVJ", f"{s} DONE RUN"],
+}
+
+
+@pytest.mark.parametrize("case", MOTIONS)
+async def test_a_movj_reply_out_of_shape_is_a_sequence_error(case):
+    def script(seq, verb, args):
+        return MOTIONS[case](seq) if verb == "MOVJ" else well_behaved(seq, verb, args)
+
+    fake, client = await _client(script)
+    with pytest.raises(SequenceError):
+        async with asyncio.timeout(5):
+            await client.movj([0] * 6)
+    await client.close()
+    await fake.stop()
+
+
+async def test_zero_reports_no_pose_and_waits_once():
+    def script(seq, verb, args):
+        if verb == "ZERO":
+            return [f"{seq} ACK ZERO", f"{seq} WAIT 0", f"{seq} WAIT 0"]
+        return well_behaved(seq, verb, args)
+
+    fake, client = await _client(script)
+    asked = []
+
+    async def operator(idx):
+        asked.append(idx)
+
+    with pytest.raises(SequenceError, match="WAIT 0"):
+        await client.zero([0] * 6, on_wait=operator)
+    assert asked == [0]
+    with pytest.raises(SequenceError, match="give on_wait"):  # only an operator answers it
+        await client.zero([0] * 6)
+    await client.close()
+    await fake.stop()
+
+
+async def test_a_flood_of_unsolicited_frames_is_bounded_and_drops_the_controller():
+    def script(seq, verb, args):
+        if verb == "STAT":
+            return [b"".join(_frames(f"{900000 + k} ACK STAT" for k in range(5000))),
+                    f"{seq} STAT IDLE AUTO NONE 0 0 0"]
+        return well_behaved(seq, verb, args)
+
+    fake, client = await _client(script)
+    with pytest.raises(LinkLostError, match="answer no request"):
+        await client.stat()
+    assert client.unexpected_count == MAX_UNSOLICITED + 1 and len(client.unexpected) <= 50
+    await asyncio.wait_for(fake.client_closed.wait(), 2)
+    await client.close()
+    await fake.stop()
+
+
+async def test_frames_flooding_a_pending_request_drop_the_controller():
+    def script(seq, verb, args):
+        if verb == "RUN":
+            return [f"{seq} ACK RUN", f"{seq} WAIT 0",
+                    b"".join(_frames(f"{seq} DONE MOVJ" for _ in range(3000)))]
+        return well_behaved(seq, verb, args)
+
+    fake, client = await _client(script)
+    await client.load("CAL", Q[:1])
+
+    async def slow_operator(idx):
+        await asyncio.sleep(0.3)
+
+    with pytest.raises(LinkLostError, match="frames for request"):
+        _ = [p async for p in client.run("CAL", "STEP", on_wait=slow_operator)]
+    assert "GO" not in fake.sent_verbs()  # the go-ahead never reached a flooding controller
+    await client.close()
+    await fake.stop()
+
+
+@pytest.mark.parametrize(("helo", "error"), [([], LinkTimeoutError),
+                                             (["{seq} ERR 15 version"], ControllerError),
+                                             (["0 ERR 16 busy"], ControllerBusyError)])
+async def test_a_failed_connect_leaves_nothing_open(helo, error):
+    def script(seq, verb, args):
+        return [r.format(seq=seq) for r in helo] if verb == "HELO" else \
+            well_behaved(seq, verb, args)
+
+    fake = FakeController(script)
+    address = await fake.start()
+    client = ControllerClient(*address, FAST)
+    with pytest.raises(error):
+        await client.connect()
+    await asyncio.wait_for(fake.client_closed.wait(), 2)  # the socket was closed
+    assert client._reader_task is None and client._keepalive_task is None
+    fake.client_closed.clear()
+    with pytest.raises(error):
+        async with ControllerClient(*address, FAST):
+            raise AssertionError("never entered")
+    await asyncio.wait_for(fake.client_closed.wait(), 2)
+    await fake.stop()
+
+
+async def test_busy_is_a_lost_link_that_reconnect_retries():
+    def script(seq, verb, args):
+        if verb == "HELO":
+            script.helos += 1
+            if script.helos < 3:
+                return ["0 ERR 16 busy"]
+        return well_behaved(seq, verb, args)
+
+    script.helos = 0
+    fake = FakeController(script)
+    client = ControllerClient(*await fake.start(), FAST)
+    with pytest.raises(LinkLostError, match="busy"):
+        await client.connect()
+    stat = await client.reconnect(first_delay_s=0.01)
+    assert stat.state == "IDLE" and fake.connections == 3
+    await client.close()
+    await fake.stop()
+
+
+async def test_a_malformed_reply_to_a_pending_request_says_so():
+    def script(seq, verb, args):
+        if verb == "STAT":
+            return [f"{seq} STAT IDLE AUTO NONE 0 0 x"]
+        return well_behaved(seq, verb, args)
+
+    fake, client = await _client(script)
+    with pytest.raises(PayloadError, match="malformed reply to request"):
+        await client.stat()
+    assert client.lost is None  # the link goes on: the frame was whole
+    await client.close()
+    await fake.stop()
+
+
+def _frames(payloads):
+    from protocol.codec import frame
+    return (frame(p) for p in payloads)
