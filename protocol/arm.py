@@ -7,6 +7,11 @@ with 4 decimals in the arm's frame; CS is the XOR of every byte between `$` and 
 upper-case hex digits (NMEA 0183). A point out of the arm's reach is not measured, and the stream
 says so with the same framing: `$NM,SEQ,LABEL,REASON*CS`.
 
+The reading is strict, exactly as written above: a line must end in CR LF, the checksum must be
+two upper-case hex digits, every coordinate must have exactly 4 decimals and lie within
+`MAX_COORD_MM` of the arm's origin (no portable arm reaches further; a larger number is a
+corrupted line, not a measurement). Anything else is an `ArmProblem`, never a point.
+
 `ArmLineDecoder` is the codec (bytes in, items out, no I/O): good lines become `ArmPoint` or
 `ArmNotMeasured`; a line with a bad checksum, a bad field or a gap in SEQ becomes an `ArmProblem`
 that is reported and never used as a measurement. `ArmReader` reads it through
@@ -25,9 +30,12 @@ import serial
 from protocol.errors import ArmLineError, LinkTimeoutError
 
 HOLE_LABELS = ("P1", "P2", "P3")
-_NUMBER = re.compile(r"-?[0-9]+\.[0-9]{1,6}\Z")
+_NUMBER = re.compile(r"-?[0-9]{1,5}\.[0-9]{4}\Z")
 _LABEL = re.compile(r"[A-Za-z0-9_]{1,16}\Z")
+_SEQ = re.compile(r"[1-9][0-9]{0,8}\Z")
+_CHECKSUM = re.compile(r"[0-9A-F]{2}\Z")
 MAX_LINE = 200
+MAX_COORD_MM = 5000.0
 
 
 @dataclass(frozen=True)
@@ -73,28 +81,34 @@ def encode_not_measured(seq: int, label: str, reason: str) -> bytes:
 
 
 def parse_line(raw: bytes) -> ArmPoint | ArmNotMeasured:
-    """One line (with or without CRLF) -> an item, or ArmLineError saying what is wrong."""
+    """One CRLF-terminated line -> an item, or ArmLineError saying what is wrong."""
+    if not raw.endswith(b"\r\n"):
+        raise ArmLineError("line does not end in CR LF")
     try:
-        text = raw.decode("ascii").rstrip("\r\n")
+        text = raw[:-2].decode("ascii")
     except UnicodeDecodeError:
         raise ArmLineError("not ASCII") from None
     if not text.startswith("$") or "*" not in text:
         raise ArmLineError("not a $...*CS line")
     body, _, cs = text[1:].rpartition("*")
-    if len(cs) != 2 or checksum(body) != cs:
-        raise ArmLineError(f"bad checksum {cs!r} (expected {checksum(body)})")
+    if not _CHECKSUM.match(cs) or checksum(body) != cs:
+        raise ArmLineError(f"bad checksum {cs!r} (expected {checksum(body)}, two upper-case "
+                           "hex digits)")
     fields = body.split(",")
     if fields[0] == "PT" and len(fields) == 6:
         _, seq, label, *xyz = fields
         if not all(_NUMBER.match(v) for v in xyz):
-            raise ArmLineError(f"bad coordinate in {xyz}")
+            raise ArmLineError(f"bad coordinate in {xyz} (mm with exactly 4 decimals)")
         point = (float(xyz[0]), float(xyz[1]), float(xyz[2]))
+        if max(abs(v) for v in point) > MAX_COORD_MM:
+            raise ArmLineError(f"coordinate beyond {MAX_COORD_MM:g} mm in {xyz}: no arm "
+                               "reaches there")
     elif fields[0] == "NM" and len(fields) == 4:
         _, seq, label, reason = fields
         point = None
     else:
         raise ArmLineError(f"unknown sentence or field count: {fields[0]!r}, {len(fields)} fields")
-    if not seq.isdigit() or int(seq) < 1:
+    if not _SEQ.match(seq):
         raise ArmLineError(f"bad SEQ {seq!r}")
     if not _LABEL.match(label):
         raise ArmLineError(f"bad LABEL {label!r}")
@@ -192,10 +206,12 @@ class ArmReader:
         self.port.write(b"MEASURE\r\n")
 
     def read_holes(self, timeout_s: float = 5.0) -> HoleSet:
-        """The next complete P1, P2, P3 triple. Problems are kept in `problems` and restart
-        the triple; a not-measured hole raises ArmLineError; silence raises LinkTimeoutError."""
+        """The next complete triple P1, P2, P3, in that order. A problem line, a label out of
+        order or repeated, or a foreign label breaks the triple: it is kept in `problems` and
+        the next P1 starts afresh. A not-measured hole raises ArmLineError; silence raises
+        LinkTimeoutError."""
         deadline = time.monotonic() + timeout_s
-        got: dict[str, ArmPoint] = {}
+        got: list[ArmPoint] = []
         while time.monotonic() < deadline:
             for item in self.read_items(max(0.0, deadline - time.monotonic())):
                 if isinstance(item, ArmProblem):
@@ -203,12 +219,16 @@ class ArmReader:
                     got.clear()
                 elif isinstance(item, ArmNotMeasured):
                     raise ArmLineError(f"hole {item.label} not measured: {item.reason}")
-                elif item.label in HOLE_LABELS:
-                    if item.label == "P1":
-                        got.clear()
-                    got[item.label] = item
-                    if len(got) == 3 and list(got) == list(HOLE_LABELS):
-                        return HoleSet(tuple(got[k].xyz_mm for k in HOLE_LABELS),
-                                       tuple(got[k].seq for k in HOLE_LABELS))
+                elif item.label == HOLE_LABELS[len(got)]:
+                    got.append(item)
+                    if len(got) == len(HOLE_LABELS):
+                        return HoleSet(tuple(p.xyz_mm for p in got), tuple(p.seq for p in got))
+                else:
+                    expected = HOLE_LABELS[len(got)]
+                    self.problems.append(ArmProblem(
+                        f"label {item.label} where {expected} was expected: the triple "
+                        f"{'-'.join(p.label for p in got) or '(none)'} is not used",
+                        encode_point(item.seq, item.label, item.xyz_mm)))
+                    got = [item] if item.label == HOLE_LABELS[0] else []
         raise LinkTimeoutError(f"no complete P1-P3 set from the arm at {self.url} within "
                                f"{timeout_s:g} s")

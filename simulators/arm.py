@@ -124,7 +124,7 @@ class ArmEmulator:
     # -- serving -----------------------------------------------------------------------------
     async def start(self, host: str = "127.0.0.1", port: int = 0, pty: bool = False
                     ) -> tuple[str, int]:
-        self._server = await asyncio.start_server(self._serve, host, port)
+        self._server = await asyncio.start_server(self._serve, host, port, limit=1024)
         if pty:
             master, slave = os.openpty()
             os.set_blocking(master, False)
@@ -179,8 +179,8 @@ class ArmEmulator:
             while await reader.readline():  # any line asks for a probe now
                 self._send(writer, self.probe())
                 await writer.drain()
-        except ConnectionError:
-            pass
+        except (ConnectionError, ValueError):  # gone, or a line beyond the stream's limit:
+            pass  # not a request, the peer is dropped
         finally:
             self._clients.pop(writer, None)
             writer.close()

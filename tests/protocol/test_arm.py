@@ -12,6 +12,7 @@ from protocol.arm import (
     checksum,
     encode_not_measured,
     encode_point,
+    parse_line,
 )
 from protocol.errors import ArmLineError, LinkTimeoutError
 
@@ -76,9 +77,48 @@ def test_reader_over_loop_url():
                        + b"".join(encode_point(k + 2, f"P{k + 1}", (k, 0, 0)) for k in range(3)))
         holes = arm.read_holes(timeout_s=2)
         np.testing.assert_allclose(holes.points_mm, [[0, 0, 0], [1, 0, 0], [2, 0, 0]])
-        assert len(arm.problems) == 1
+        assert len(arm.problems) == 2  # the lone P3 and the junk line
         with pytest.raises(LinkTimeoutError):
             arm.read_holes(timeout_s=0.2)
         arm.port.write(encode_not_measured(5, "P1", "OUT_OF_REACH"))
         with pytest.raises(ArmLineError, match="P1 not measured"):
             arm.read_holes(timeout_s=2)
+
+
+def _line(body: str, cs: str | None = None, end: bytes = b"\r\n") -> bytes:
+    return f"${body}*{checksum(body) if cs is None else cs}".encode() + end
+
+
+# a body whose checksum has a hex letter in it, for the lower-case case
+LETTERED = next(b for k in range(1, 99) if not checksum(
+    b := f"PT,{k},P1,1.0000,2.0000,3.0000").isdigit())
+
+
+@pytest.mark.parametrize(("line", "reason"), [
+    (_line("PT,1,P1,1.0000,2.0000,3.0000", end=b"\n"), "CR LF"),  # LF only
+    (_line(LETTERED, checksum(LETTERED).lower()), "checksum"),
+    (_line("PT,1,P1,100.0,-20.5000,3.2500"), "4 decimals"),
+    (_line("PT,1,P1,100.00000,-20.5000,3.2500"), "4 decimals"),
+    (_line("PT,1,P1,100.0000,-20.5000,9000.0000"), "beyond"),
+    (_line("PT,1,P1,1000000000000.0000,0.0000,0.0000"), "coordinate"),
+    (_line("PT,01,P1,1.0000,2.0000,3.0000"), "bad SEQ"),
+])
+def test_the_line_is_read_exactly_as_the_spec_writes_it(line, reason):
+    with pytest.raises(ArmLineError, match=reason):
+        parse_line(line)
+    assert isinstance(parse_line(_line("PT,1,P1,1.0000,2.0000,3.0000")), ArmPoint)
+
+
+@pytest.mark.parametrize(("labels", "used"), [
+    (["P1", "P2", "P2", "P3", "P1", "P2", "P3"], (5, 6, 7)),  # P2 twice: that triple is void
+    (["P1", "P9", "P2", "P3", "P1", "P2", "P3"], (5, 6, 7)),  # a foreign label inside
+    (["P1", "P2", "P1", "P2", "P3"], (3, 4, 5)),  # a restart at P1 starts a new triple
+    (["P2", "P3", "P1", "P2", "P3"], (3, 4, 5)),  # the tail of an earlier triple
+])
+def test_read_holes_takes_only_a_clean_p1_p2_p3_triple(labels, used):
+    with ArmReader("loop://") as arm:
+        arm.port.write(b"".join(encode_point(k + 1, lab, (k, 0, 0))
+                                for k, lab in enumerate(labels)))
+        holes = arm.read_holes(2.0)
+        assert holes.seqs == used
+        assert arm.problems  # what was skipped is said

@@ -1,6 +1,7 @@
 """The arm emulator measures the true robot that the IRC5 emulator moves."""
 
 import asyncio
+import contextlib
 
 import numpy as np
 import pytest
@@ -125,3 +126,21 @@ async def test_an_arm_process_follows_an_irc5_emulator_restarted_alone(tmp_path)
     await restarted.set_joints(np.ones(6))
     again(restarted)
     assert await asyncio.wait_for(source.wait_arrival(seen), 1) == 4
+
+
+async def test_a_100_kb_line_drops_that_peer_and_the_arm_goes_on(arm, client, caplog):
+    host, port = arm.url.removeprefix("socket://").split(":")
+    reader, writer = await asyncio.open_connection(host, int(port))
+    writer.write(b"M" * 100_000 + b"\r\n")
+    with contextlib.suppress(ConnectionError):
+        await writer.drain()
+        async with asyncio.timeout(3):
+            assert await reader.read(-1) == b""  # dropped, nothing measured for it
+    writer.close()
+    assert not [r for r in caplog.records if r.levelname == "ERROR"]  # nothing unhandled
+    good = await asyncio.to_thread(ArmReader, arm.url)
+    await client.movj([20, 30, -20, 40, 50, 60])
+    await asyncio.to_thread(good.request)
+    holes = await asyncio.to_thread(good.read_holes, 2.0)
+    assert len(holes.points_mm) == 3
+    await asyncio.to_thread(good.close)
