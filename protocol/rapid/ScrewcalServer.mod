@@ -5,19 +5,22 @@ MODULE ScrewcalServer
   ! client (thesis 4.4, Algorithms 1 and 2). Every frame is 80 chars:
   ! payload, "#", spaces. A socket time-out or close drops the client,
   ! listens again and goes on; a request is never executed twice.
+  ! One client owns the controller: a newcomer gets "0 ERR 16 busy" and
+  ! is closed; an owner silent for IDLE_S (STAT counts) is dropped.
   ! Joint limits below are the IRB 1600's: adapt them to the robot.
   !*********************************************************************
   CONST num PORT := 4012;
   CONST num FRAME_LEN := 80;
   CONST num MAX_LIST := 200;
-  CONST num WAIT_REQ := 600;
-  CONST num WAIT_GO := 3600;
+  CONST num IDLE_S := 60;
+  CONST num POLL_S := 0.1;
   CONST num J_MIN{6} := [-180,-90,-245,-200,-115,-400];
   CONST num J_MAX{6} := [180,150,65,200,115,400];
   CONST speeddata MOVE_SPEED := v100;
 
   VAR socketdev server_socket;
   VAR socketdev client_socket;
+  VAR socketdev busy_socket;
   VAR string client_ip;
   VAR jointtarget cal_list{MAX_LIST};
   VAR jointtarget perf_list{MAX_LIST};
@@ -69,10 +72,22 @@ MODULE ScrewcalServer
     Listen;
   ENDPROC
 
-  ! One 80-char frame -> payload and tokens. A bad frame drops the link.
+  ! The one place that reads the client: one 80-char frame -> payload
+  ! and tokens. Until a whole frame is there, a newcomer is told busy
+  ! and an owner silent for IDLE_S is dropped (half a frame is silence).
+  ! A bad frame drops the link.
   PROC ReceiveRequest()
     VAR num hash;
-    SocketReceive client_socket \Str:=frm \ReadNoOfBytes:=FRAME_LEN \Time:=WAIT_REQ;
+    VAR num quiet := 0;
+    WHILE SocketPeek(client_socket) < FRAME_LEN DO
+      RefuseNewcomer;
+      quiet := quiet + POLL_S;
+      IF quiet >= IDLE_S THEN
+        Relisten;
+        RETURN;
+      ENDIF
+    ENDWHILE
+    SocketReceive client_socket \Str:=frm \ReadNoOfBytes:=FRAME_LEN \Time:=1;
     hash := StrFind(frm, 1, "#");
     IF hash <= 1 OR hash > StrLen(frm) THEN
       Relisten;
@@ -88,9 +103,28 @@ MODULE ScrewcalServer
     have_req := TRUE;
   ENDPROC
 
+  ! Another client while one owns the controller: told busy, closed.
+  ! Waits at most POLL_S for one.
+  PROC RefuseNewcomer()
+    SocketAccept server_socket, busy_socket \Time:=POLL_S;
+    SendTo busy_socket, "0 ERR 16 busy";
+    SocketClose busy_socket;
+  ERROR
+    IF ERRNO = ERR_SOCK_TIMEOUT THEN
+      RETURN;
+    ENDIF
+    SocketClose busy_socket;
+    RETURN;
+  ENDPROC
+
+  ! Every request's tokens start empty: nothing of an earlier one is
+  ! ever read as this one's.
   PROC Tokenize()
     VAR num start := 1;
     VAR num sp;
+    FOR i FROM 1 TO 10 DO
+      tok{i} := "";
+    ENDFOR
     ntok := 0;
     WHILE start <= StrLen(payload) AND ntok < 10 DO
       sp := StrFind(payload, start, " ");
@@ -100,8 +134,12 @@ MODULE ScrewcalServer
     ENDWHILE
   ENDPROC
 
-  ! Every frame goes out here: payload, "#", spaces up to 80 chars.
   PROC SendFrame(string p)
+    SendTo client_socket, p;
+  ENDPROC
+
+  ! Every frame goes out here: payload, "#", spaces up to 80 chars.
+  PROC SendTo(VAR socketdev sock, string p)
     VAR string f;
     IF StrLen(p) > FRAME_LEN - 1 THEN
       f := NumToStr(seq, 0) + " ERR 12 reply too long#";
@@ -111,7 +149,7 @@ MODULE ScrewcalServer
     WHILE StrLen(f) < FRAME_LEN DO
       f := f + " ";
     ENDWHILE
-    SocketSend client_socket \Str:=f;
+    SocketSend sock \Str:=f;
   ENDPROC
 
   PROC SendAck(num s, string verb)
@@ -244,15 +282,31 @@ MODULE ScrewcalServer
     load_seq := seq;
     lst := tok{3};
     ok := StrToVal(tok{4}, n);
+    IF ntok <> 4 OR NOT ok OR (lst <> "CAL" AND lst <> "PERF") THEN
+      SendErr load_seq, 12, "bad arguments";
+      RETURN;
+    ENDIF
     IF n > MAX_LIST THEN
       SendErr load_seq, 14, "list too long";
+      RETURN;
+    ENDIF
+    IF n < 1 OR n <> Trunc(n) THEN
+      SendErr load_seq, 12, "a list holds 1 to 200 poses";
       RETURN;
     ENDIF
     FOR k FROM 0 TO n - 1 DO
       have_req := FALSE;
       ReceiveRequest;
       IF NOT have_req RETURN;
-      IF seq <> load_seq OR ntok <> 10 THEN
+      IF tok{2} <> "j" AND tok{2} <> "p" THEN
+        ! Any other request mid-LOAD: refused, the partial list
+        ! discarded, nothing run and nothing moved.
+        SendErr seq, 13, "LOAD incomplete";
+        SendErr load_seq, 13, "LOAD discarded";
+        RETURN;
+      ENDIF
+      IF seq <> load_seq OR ntok <> 10 OR tok{3} <> NumToStr(Flag(k, n), 0)
+          OR tok{4} <> NumToStr(k, 0) THEN
         bad_code := 12;
         bad_text := "packet out of order";
       ELSEIF tok{2} = "j" AND TokJoints(5, jt) THEN
@@ -303,16 +357,15 @@ MODULE ScrewcalServer
     RETURN TRUE;
   ENDFUNC
 
-  ! STEP mode: the operator's go-ahead (thesis: manual mode).
+  ! STEP mode: the operator's go-ahead (thesis: manual mode). The
+  ! client's STAT keep-alive holds the link while the operator decides.
   FUNC bool WaitGo(num run_seq, num idx)
     state := "WAITING";
     SendFrame NumToStr(run_seq, 0) + " WAIT " + NumToStr(idx, 0);
     WHILE TRUE DO
       have_req := FALSE;
-      SocketReceive client_socket \Str:=frm \ReadNoOfBytes:=FRAME_LEN \Time:=WAIT_GO;
-      payload := StrPart(frm, 1, StrFind(frm, 1, "#") - 1);
-      Tokenize;
-      ok := StrToVal(tok{1}, seq);
+      ReceiveRequest;
+      IF NOT have_req RETURN FALSE;
       IF tok{2} = "GO" AND tok{3} = NumToStr(idx, 0) RETURN TRUE;
       IF tok{2} = "ABRT" THEN
         SendErr run_seq, 22, "aborted";

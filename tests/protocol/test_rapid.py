@@ -79,6 +79,8 @@ def test_every_frame_it_can_build_fits_80_characters():
     frames = {}
     for args in _texts_for("SendFrame"):
         frames[args] = width(args)
+    for args in _texts_for("SendTo"):
+        frames[args] = width(args.split(",", 1)[1])
     for args in _texts_for("SendAck"):
         frames["ACK " + args] = NUM_WIDTH["0"] + len(" ACK ") + width(args.split(",", 1)[1])
     for args in _texts_for("SendDone"):
@@ -90,7 +92,7 @@ def test_every_frame_it_can_build_fits_80_characters():
     too_long = {k: v for k, v in frames.items() if v > codec.FRAME_LEN - 1}
     assert not too_long, too_long
     # ...and the one place that sends pads every payload to exactly 80 with '#'.
-    assert _texts_for("SocketSend") == ["client_socket \\Str:=f"]
+    assert _texts_for("SocketSend") == ["sock \\Str:=f"]
     assert "WHILE StrLen(f) < FRAME_LEN DO" in TEXT and "CONST num FRAME_LEN := 80" in TEXT
 
 
@@ -117,3 +119,90 @@ def test_it_reads_exact_frames_and_recovers_from_socket_errors():
 @pytest.mark.parametrize("limit", ["-180,-90,-245,-200,-115,-400", "180,150,65,200,115,400"])
 def test_its_joint_limits_are_the_irb1600s(limit):
     assert f"[{limit}]" in TEXT
+
+
+# -- the module's state machine, read from its routines ---------------------------------------
+
+def routines() -> dict[str, str]:
+    """Every PROC/FUNC of the module: name -> its body (comments dropped, one line)."""
+    found = re.finditer(r"\b(?:PROC|FUNC \w+) (\w+)\(.*?\)(.*?)\bEND(?:PROC|FUNC)\b", FLAT)
+    return {m.group(1): m.group(2) for m in found}
+
+
+ROUTINES = routines()
+
+
+def calls(name: str) -> set[str]:
+    """The module's routines that `name` calls (procedure calls and function uses)."""
+    body = ROUTINES[name]
+    return {r for r in ROUTINES if r != name and re.search(rf"\b{r}\b", body)}
+
+
+def reaches(name: str, target: str, seen: frozenset[str] = frozenset()) -> bool:
+    return target in calls(name) or any(reaches(r, target, seen | {name})
+                                        for r in calls(name) - seen - {name})
+
+
+def test_only_receive_request_reads_the_client():
+    readers = [r for r, body in ROUTINES.items() if "SocketReceive" in body]
+    assert readers == ["ReceiveRequest"]
+    # every place that waits for the client goes through it: idle, LOAD, between moves, GO
+    for waiting in ("main", "DoLoad", "BetweenMoves", "WaitGo"):
+        assert reaches(waiting, "ReceiveRequest"), waiting
+
+
+def test_an_idle_owner_is_dropped_and_a_newcomer_told_busy():
+    body = ROUTINES["ReceiveRequest"]
+    wait = body[body.index("WHILE SocketPeek(client_socket) < FRAME_LEN DO"):
+                body.index("ENDWHILE")]
+    assert "RefuseNewcomer" in wait and "IF quiet >= IDLE_S THEN Relisten; RETURN;" in wait
+    assert body.index("ENDWHILE") < body.index("SocketReceive")  # reads only a whole frame
+    assert re.search(r"CONST num IDLE_S := 60;", TEXT)
+    refuse = ROUTINES["RefuseNewcomer"]
+    assert 'SendTo busy_socket, "0 ERR 16 busy"; SocketClose busy_socket;' in refuse
+    assert "SocketAccept server_socket, busy_socket \\Time:=POLL_S" in refuse
+    assert "ERR_SOCK_TIMEOUT" in refuse  # no newcomer: back to waiting for the owner
+    assert f"0 ERR {codec.BUSY} busy" in TEXT
+
+
+def test_load_refuses_a_bad_count_before_reading_any_packet():
+    body = ROUTINES["DoLoad"]
+    loop = body.index("FOR k FROM 0 TO n - 1 DO")
+    for check, code in (("IF n > MAX_LIST THEN", 14), ("IF n < 1 OR n <> Trunc(n) THEN", 12)):
+        at = body.index(check)
+        assert at < loop and f"SendErr load_seq, {code}," in body[at:body.index("RETURN", at)]
+
+
+def test_a_request_mid_load_discards_the_list_and_moves_nothing():
+    body = ROUTINES["DoLoad"]
+    branch = body[body.index('IF tok{2} <> "j" AND tok{2} <> "p" THEN'):]
+    branch = branch[:branch.index("ENDIF")]
+    assert "SendErr seq, 13," in branch and "SendErr load_seq, 13," in branch
+    assert branch.rstrip().endswith("RETURN;")
+    assert "Dispatch" not in body and "MoveAbsJ" not in body  # never runs the request
+    # the lists change only after every packet was read and found good
+    assert body.index("bad_code <> 0") < body.index("cal_list{k} := load_buf{k}")
+
+
+def test_load_checks_every_packets_seq_flag_and_idx():
+    body = ROUTINES["DoLoad"]
+    assert re.search(r"seq <> load_seq OR ntok <> 10 OR tok\{3\} <> NumToStr\(Flag\(k, n\), 0\) "
+                     r"OR tok\{4\} <> NumToStr\(k, 0\) THEN bad_code := 12;", body)
+
+
+def test_no_token_of_an_earlier_request_survives():
+    body = ROUTINES["Tokenize"]
+    clear = body.index('tok{i} := "";')
+    assert clear < body.index("WHILE start <= StrLen(payload)")
+    assert "FOR i FROM 1 TO 10 DO" in body and "VAR string tok{10};" in TEXT
+    assert [r for r, b in ROUTINES.items() if "Tokenize;" in b] == ["ReceiveRequest"]
+
+
+def test_motion_only_after_its_checks():
+    run = ROUTINES["DoRun"]
+    assert run.index("WaitGo(run_seq, i)") < run.index("MoveAbsJ")  # STEP: GO first
+    assert run.index("BetweenMoves(run_seq)") < run.index("MoveAbsJ")  # ABRT honoured
+    move = ROUTINES["DoMove"]
+    assert move.index("InLimits(jt)") < move.index("MoveAbsJ")
+    zero = ROUTINES["DoZero"]
+    assert zero.index("InLimits(jt)") < zero.index("MoveAbsJ") < zero.index("WaitGo(zero_seq, 0)")
