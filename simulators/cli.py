@@ -37,7 +37,8 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
     emu = IRC5Emulator(world, EmulatorSettings(speed_deg_s=args.speed_deg_s,
                                                time_scale=args.time_scale,
                                                zero_wait=args.zero_wait,
-                                               idle_timeout_s=args.idle_timeout_s))
+                                               idle_timeout_s=args.idle_timeout_s,
+                                               send_timeout_s=args.send_timeout_s))
     host, port = await emu.start(args.host, args.port)
     line = f"irc5 emulator on {host}:{port}"
     arm = None
@@ -103,6 +104,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                       help="stop after ZERO for the operator (WAIT 0), as a real IRC5 does")
     irc5.add_argument("--idle-timeout-s", type=float, default=60.0,
                       help="drop an owner that sends nothing (STAT counts) for this long")
+    irc5.add_argument("--send-timeout-s", type=float, default=10.0,
+                      help="drop an owner that reads nothing of what is sent for this long")
     irc5.add_argument("--noise-seed", type=int, default=None,
                       help="seed of the in-process arm's noise (default: --seed; none: random)")
     irc5.add_argument("--world", help="keep this world file up to date for an arm process "
