@@ -256,3 +256,33 @@ async def test_a_malformed_reply_to_a_pending_request_says_so():
 def _frames(payloads):
     from protocol.codec import frame
     return (frame(p) for p in payloads)
+
+
+async def test_a_step_wait_for_another_pose_is_refused():
+    fake, client = await _client(_run_replies(lambda s: [f"{s} WAIT 1"]))
+    await client.load("CAL", Q[:2])
+
+    async def operator(idx):
+        raise AssertionError("never asked")
+
+    with pytest.raises(SequenceError, match="WAIT 1 while pose 0 is next"):
+        _ = [p async for p in client.run("CAL", "STEP", on_wait=operator)]
+    await client.close()
+    await fake.stop()
+
+
+@pytest.mark.parametrize(("verb", "reply", "message"), [
+    ("STAT", "{seq} ACK STAT", "expected STAT reply"),
+    ("BYE", "{seq} DONE BYE", "expected ACK BYE"),
+    ("ABRT", "{seq} ACK BYE", "expected ACK ABRT"),
+])
+async def test_a_reply_of_the_wrong_kind_is_a_sequence_error(verb, reply, message):
+    def script(seq, v, args):
+        return [reply.format(seq=seq)] if v == verb else well_behaved(seq, v, args)
+
+    fake, client = await _client(script)
+    call = {"STAT": client.stat, "BYE": client.bye, "ABRT": client.abort}[verb]
+    with pytest.raises(SequenceError, match=message):
+        await call()
+    await client.close()
+    await fake.stop()
