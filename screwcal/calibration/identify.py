@@ -378,9 +378,12 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
              de_link_bounds_mm: tuple[float, float] = (0.0, 1.0), seed: int = 0,
              base_guess: Array | None = None,
              link_offsets: Sequence[str] | None = None,
-             outliers: Literal["reject", "keep"] = "reject") -> CalibrationResult:
+             outliers: Literal["reject", "keep"] = "reject",
+             de_polish: bool = True) -> CalibrationResult:
     """Identify the error model `kind` of `nominal` from measured data. With unknown frames,
-    `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there.
+    `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there. With
+    `solver="de"`, `de_polish=False` returns differential evolution's own best (the thesis's
+    DE, for comparison); by default a bounded least-squares polish refines it.
 
     Poses whose residual says they do not belong (data snooping, `diagnostics.pose_tests`) are
     rejected, the worst first, and the fit repeated (`outliers="keep"`: listed, kept); at most
@@ -390,7 +393,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     settings = dict(kind=kind, residual=residual, frames=frames, solver=solver,
                     weighting=weighting, weight_mm=weight_mm, noise=noise,
                     de_link_bounds_mm=de_link_bounds_mm, seed=seed, base_guess=base_guess,
-                    link_offsets=link_offsets)
+                    link_offsets=link_offsets, de_polish=de_polish)
     found: list[Outlier] = []
     current = data
     limit = max(1, int(MAX_OUTLIER_FRACTION * len(data)))
@@ -428,8 +431,8 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
                    residual: Residual | None, frames: Frames, solver: Literal["lm", "de"],
                    weighting: str, weight_mm: float, noise: NoiseModel | None,
                    de_link_bounds_mm: tuple[float, float], seed: int,
-                   base_guess: Array | None, link_offsets: Sequence[str] | None
-                   ) -> tuple[CalibrationResult, _Problem, Array]:
+                   base_guess: Array | None, link_offsets: Sequence[str] | None,
+                   de_polish: bool = True) -> tuple[CalibrationResult, _Problem, Array]:
     """One fit of all the poses given: the result, the final problem and its estimate."""
     started = time.perf_counter()
     noise = noise or NoiseModel()
@@ -524,13 +527,17 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
                                     updating="deferred")
         start_x = np.zeros(p)
         start_x[searched] = de.x
-        polish = least_squares(problem.residuals, start_x,
-                               jac=lambda x: problem.weighted(x)[1], method="trf",
-                               x_scale="jac", bounds=tuple(zip(*bounds, strict=True)),
-                               xtol=1e-12, ftol=1e-12)
-        x, converged = polish.x, bool(de.success or polish.status > 0)
-        message = f"DE: {de.message}; polished: {polish.message}"
-        nfev = int(de.nfev + polish.nfev)
+        if de_polish:
+            polish = least_squares(problem.residuals, start_x,
+                                   jac=lambda x: problem.weighted(x)[1], method="trf",
+                                   x_scale="jac", bounds=tuple(zip(*bounds, strict=True)),
+                                   xtol=1e-12, ftol=1e-12)
+            x, converged = polish.x, bool(de.success or polish.status > 0)
+            message = f"DE: {de.message}; polished: {polish.message}"
+            nfev = int(de.nfev + polish.nfev)
+        else:
+            x, converged, message, nfev = start_x, bool(de.success), f"DE: {de.message}", \
+                int(de.nfev)
     noise_used = None
     if estimate_noise:
         # Re-weighted at every estimate while the noise levels are found (variance components).

@@ -1,4 +1,6 @@
-"""`screwcal study NAME|all`: the simulated calibration studies (thesis Chapter 3).
+"""`screwcal study NAME|all`: the simulated calibration studies (thesis Chapter 3), the
+distance-only calibration of Appendix D and the Chapter 5 experiment, measured as the thesis
+measured them.
 
 What each study does and how it compares with the thesis: `screwcal.studies.study`.
 """
@@ -12,7 +14,7 @@ from pathlib import Path
 # The studies' names, for --help without importing the studies (a test holds them to
 # screwcal.studies.study.STUDIES).
 STUDY_NAMES = ("planar", "table8", "table9", "solvers", "weight", "replications",
-               "configurations", "quadrants", "design")
+               "configurations", "quadrants", "design", "appendix-d", "chapter5")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -9,14 +9,14 @@ from screwcal.kinematics.robots import irb1600
 from screwcal.studies.study import STUDIES, run_samples, run_study
 
 
-@pytest.mark.parametrize("name", sorted(STUDIES))
+@pytest.mark.parametrize("name", sorted(set(STUDIES) - {"solvers"}))  # solvers: below
 def test_every_study_runs_and_is_reproducible_from_its_seed(name):
     def results(rows):  # run times are measured, not reproduced
         return [{k: v for k, v in r.items() if k != "seconds"} for r in rows]
 
     a = run_samples(name, seed=7, samples=1, workers=1)
     b = run_samples(name, seed=7, samples=1, workers=1)
-    assert a and results(a) == results(b)
+    assert a and str(results(a)) == str(results(b))  # (str: a nan equals a nan)
 
 
 def test_a_study_writes_csv_markdown_and_png(tmp_path):
