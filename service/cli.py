@@ -206,6 +206,12 @@ def result_table(result: dict, times: bool = True) -> str:
                 r["name"] for r in est["removed"]))
     if result.get("frame_note"):
         lines.append(f"  frame: {result['frame_note']}")
+    home = result.get("home_check") or {}
+    for when in ("before", "after"):
+        if when in home:
+            e = home[when]["error_mm"]
+            lines.append(f"  home position error {when} (Table 14): x {e[0]:+.3f}, y {e[1]:+.3f}, "
+                         f"z {e[2]:+.3f} mm, |e| {home[when]['distance_mm']:.3f} mm")
     for suffix in ("", "_2"):
         lines += _route_lines(result.get("correction" + suffix) or {}, suffix)
     for warning in result.get("warnings", []):

@@ -92,6 +92,9 @@ def report_html(job: dict, robot: dict) -> str:
         note = result.get("frame_note")
         if note:
             out.write(f"<p>{html.escape(note)}</p>")
+    home = result.get("home_check")
+    if home:
+        out.write(home_section(home))
     conditions = result.get("test_conditions")
     if conditions:
         out.write("<h2>Test conditions</h2>" + _table(
@@ -131,6 +134,18 @@ def report_html(job: dict, robot: dict) -> str:
               "(4 performance rounds and 2 calibration rounds), estimation under 1 min.</p>")
     out.write("</body></html>")
     return out.getvalue()
+
+
+def home_section(home: dict) -> str:
+    """Table 14: the flange at home, nominal, measured before and after, and the errors."""
+    rows = [["nominal", *home["nominal_mm"], "-"]]
+    for when in ("before", "after"):
+        if when in home:
+            rows.append([f"measured {when}", *home[when]["measured_mm"], "-"])
+            rows.append([f"error {when}", *home[when]["error_mm"], home[when]["distance_mm"]])
+    return ("<h2>Home position check (thesis Table 14)</h2>"
+            + _table(["", "x mm", "y mm", "z mm", "|error| mm"], rows)
+            + f"<p>{html.escape(home['note'])}</p>")
 
 
 def correction_section(corr: dict, suffix: str) -> str:

@@ -72,8 +72,11 @@ MAX_LIST = 200
 STEPS = {
     "performance": ("perf_before", "evaluation"),
     "calibration": ("cal", "estimation"),
-    "procedure": ("perf_before", "cal", "estimation", "correction", "perf_after", "evaluation"),
+    "procedure": ("home_before", "perf_before", "cal", "estimation", "correction", "home_after",
+                  "perf_after", "evaluation"),
 }
+# Table 14's check: the robot sent home (all joints 0) before and after, its flange measured.
+HOME_PHASES = ("home_before", "home_after")
 # The thesis's "Calibracao 2" (4.7): acquire again, estimate, correct, evaluate.
 SECOND_ROUND = ("cal_2", "estimation_2", "correction_2", "perf_after_2")
 PERF_PHASES = ("perf_before", "perf_after", "perf_after_2")
@@ -123,6 +126,8 @@ class JobRunner:
 
     def targets(self, phase: str) -> list[PlannedPose]:
         """What a phase sends: its plan, compensated when the route says so (built once)."""
+        if phase in HOME_PHASES:
+            return [PlannedPose(0, (0.0,) * self.model.n_joints, "home")]
         plan = self.plan("cal" if phase.startswith("cal") else "perf")
         suffix = ESTIMATION_FOR.get(phase)
         if suffix is None or "compensate" not in self.route:
@@ -224,7 +229,7 @@ class JobRunner:
         suffix = "_2" if step.endswith("_2") else ""  # the second round's steps
         if step == "setup":
             await self._connect()
-        elif step.startswith(("perf", "cal")):
+        elif step.startswith(("perf", "cal", "home")):
             await self.measure(step, self.targets(step))
         elif step.startswith("estimation"):
             await asyncio.to_thread(self.estimate, suffix)
@@ -459,9 +464,35 @@ class JobRunner:
             if rows:
                 performance[phase] = _performance(rows, plan, np.array(base))
         job_result["performance"] = performance
+        home = self._home_check(np.array(base))
+        if home:
+            job_result["home_check"] = home
         job_result["test_conditions"] = self._test_conditions(plan)
         job_result["warnings"] = _warnings(job_result)
         self.job = self.store.set_job(self.job_id, result=job_result)
+
+    def _home_check(self, base: np.ndarray) -> dict:
+        """Table 14: the flange at home (all joints 0) measured before and after the correction,
+        in the robot base frame, against the nominal home."""
+        nominal = flange_kinematics(self.model, np.zeros((1, self.model.n_joints)))[0, :3, 3]
+        out: dict[str, Any] = {}
+        for phase in HOME_PHASES:
+            rows = self.store.measurements(self.job_id, phase)
+            if rows:
+                T = invert_transform(base) @ transform_from_pose(np.array(rows[-1]["flange_pose"]))
+                error = T[:3, 3] - nominal
+                out[phase.removeprefix("home_")] = {
+                    "measured_mm": T[:3, 3].round(3).tolist(),
+                    "error_mm": error.round(3).tolist(),
+                    "distance_mm": round(float(np.linalg.norm(error)), 3)}
+        if out:
+            out["nominal_mm"] = nominal.round(3).tolist()
+            out["note"] = ("the robot sent to all joints 0 (HOME), its flange measured and "
+                           "compared with the nominal home (thesis Table 14); error = measured "
+                           "- nominal, robot base frame. After ZERO the controller's zeros are "
+                           "corrected; the compensate route corrects programmed targets, not "
+                           "the joints' zeros, so its home is the robot's uncorrected one")
+        return out
 
     def _test_conditions(self, plan: dict[int, PlannedPose]) -> dict[str, Any]:
         centre = next(p.commanded[:3] for p in plan.values()

@@ -222,10 +222,14 @@ async def test_every_kind_in_every_mode(service, rig, kind, mode):
         "robot_id": robot, "kind": kind, "mode": mode, "options": FAST})).json()["id"]
     job, asked = await operate(service, job_id)
     assert job["state"] == "done", job["reason"]
-    # the procedure's default route compensates: no ZERO move
-    moves = {"performance": 31, "calibration": 30, "procedure": 31 + 30 + 31}[kind]
+    # the procedure's default route compensates: no ZERO move; HOME before and after
+    moves = {"performance": 31, "calibration": 30, "procedure": 1 + 31 + 30 + 1 + 31}[kind]
     assert asked == (moves if mode == "STEP" else 0)  # STEP: one go-ahead per move
     assert rig.emu.world.arrivals == moves
+    if kind == "procedure":  # Table 14's check, in the result
+        home = (await service.get(f"/jobs/{job_id}/result")).json()["home_check"]
+        assert set(home) == {"before", "after", "nominal_mm", "note"}
+        assert home["nominal_mm"] == pytest.approx([815.0, 0.0, 961.5], abs=1e-3)
 
 
 async def test_a_second_round_refines_the_zero_correction(service, rig):
@@ -238,6 +242,8 @@ async def test_a_second_round_refines_the_zero_correction(service, rig):
     result = (await service.get(f"/jobs/{job_id}/result")).json()
     second = {p["name"]: p["value"] for p in result["estimation_2"]["parameters"]}
     assert all(abs(second[n]) < 0.05 for n in THESIS_OFFSETS)  # little left after round 1
+    home = result["home_check"]  # ZERO corrected the zeros: home is nearer after (Table 14)
+    assert home["after"]["distance_mm"] < home["before"]["distance_mm"]
     perf = result["performance"]
     assert perf["perf_after_2"]["overall"]["ap_mm_mean"] < 2.0
     assert {"cal_2", "estimation_2", "correction_2", "perf_after_2"} <= set(job["phases"])
