@@ -12,6 +12,7 @@ from screwcal._lazy import lazy_exports
 _EXPORTS = {
     "Aggregate": "rapid_source",
     "AlignmentError": "base_alignment",
+    "COMPLIANCE_T": "identify",
     "CUBES_MM": "posesets",
     "CUBE_EDGE_MM": "posesets",
     "CalibrationResult": "identify",
@@ -79,6 +80,8 @@ _EXPORTS = {
     "candidate_params": "errors_model",
     "check_holes": "flange",
     "compensate": "correction",
+    "compliance_params": "errors_model",
+    "compliance_summary": "resultfile",
     "cube_set": "posesets",
     "d_optimal": "design",
     "data_quality": "diagnostics",

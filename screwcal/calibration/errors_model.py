@@ -11,6 +11,9 @@ Candidates, per model kind (thesis 2.2.1.2, 3.1, Table 11; Eq. 2.2):
 - "joints": the joint offsets J<i> (what a closed controller can correct, thesis Table 9).
 - "thesis": the joint offsets and the link offsets J1pz, J1px, J2pz, J4px (virtual prismatic
   joints after joint i along the home-frame axis, `virtual_joints`).
+- compliance (any robot kind, `compliance="j23"` or `"wrist"`): per loaded joint its compliance
+  under gravity, J<i>c in deg per kN m (`screwcal.kinematics.compliance`): a joint offset that
+  grows with the gravity torque on the joint.
 - "full": per revolute joint its direction (2 angles about the two normals of the nominal
   axis), its location (2 shifts along those normals) and its zero; per prismatic joint its
   direction; plus the home flange (3 rotations, 3 translations). The identification keeps an
@@ -35,7 +38,8 @@ from numpy.typing import ArrayLike
 
 from screwcal.calibration.virtual_joints import parse_name
 from screwcal.errors import ModelError
-from screwcal.kinematics.forward import _chain, _check_q, _to_homogeneous
+from screwcal.kinematics.compliance import COMPLIANCE_JOINTS, COMPLIANCE_UNIT
+from screwcal.kinematics.forward import _chain, _check_q, _to_homogeneous, joint_torques
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import (
     Array,
@@ -58,14 +62,15 @@ class Param:
 
     name: str
     unit: str  # "deg" or "mm" at the interface; values inside are rad or mm
-    kind: str  # zero | link | dir | point | home_rot | home_pos | base_rot | base_pos |
-    # tool_rot | tool_pos
+    kind: str  # zero | link | dir | point | compliance | home_rot | home_pos | base_rot |
+    # base_pos | tool_rot | tool_pos
     joint: int = -1
     axis: int = -1  # 0..2 for frames and link offsets, 0..1 for dir/point normals
 
     @property
     def is_angle(self) -> bool:
-        return self.unit == "deg"
+        """Degrees at the interface, radians inside (compliance: deg vs rad per kN m)."""
+        return self.unit in ("deg", COMPLIANCE_UNIT)
 
     @property
     def group(self) -> str:
@@ -90,12 +95,32 @@ def _frame_params(frame: str, rotation: bool, position: bool) -> list[Param]:
     return out
 
 
+def compliance_params(model: SerialModel, compliance: str) -> list[Param]:
+    """J<i>c for the joints `compliance` names ("none", "j23", "wrist")."""
+    if compliance not in COMPLIANCE_JOINTS:
+        raise ModelError(f"compliance is one of {', '.join(COMPLIANCE_JOINTS)}, not "
+                         f"'{compliance}'")
+    joints = [j for j in COMPLIANCE_JOINTS[compliance]
+              if j < model.n_joints and model.joint_types[j] == "R"]
+    if joints and not model.all_masses:
+        raise ModelError(f"model '{model.name}' has no masses to load its joints: joint "
+                         "compliance needs a built-in robot's mass table or a payload")
+    return [Param(f"J{j + 1}c", COMPLIANCE_UNIT, "compliance", joint=j) for j in joints]
+
+
 def candidate_params(model: SerialModel, kind: ModelKind, *, base: bool, tool_rotation: bool,
-                     tool_position: bool, link_offsets: Sequence[str] | None = None
-                     ) -> list[Param]:
+                     tool_position: bool, link_offsets: Sequence[str] | None = None,
+                     compliance: str = "none") -> list[Param]:
     """Every candidate parameter of an error model, frames first (they are always needed).
     `link_offsets` names the thesis model's virtual prismatic joints (default: the 6R's
-    J1pz, J1px, J2pz, J4px; the planar 3R'2P'3R of 3.1 uses J1px, J2px)."""
+    J1pz, J1px, J2pz, J4px; the planar 3R'2P'3R of 3.1 uses J1px, J2px); `compliance` adds
+    the joints' compliance under gravity (`compliance_params`)."""
+    gravity = compliance_params(model, compliance) if kind != "frames" else []
+    return _candidates(model, kind, base, tool_rotation, tool_position, link_offsets) + gravity
+
+
+def _candidates(model: SerialModel, kind: ModelKind, base: bool, tool_rotation: bool,
+                tool_position: bool, link_offsets: Sequence[str] | None) -> list[Param]:
     params = _frame_params("base", base, base)
     params += _frame_params("tool", tool_rotation, tool_position)
     n = model.n_joints
@@ -177,12 +202,13 @@ class ErrorModel:
     def _collect(self, x: Array) -> dict:
         m = self.reference
         n = m.n_joints
-        out = {"zero": np.zeros(n), "link": {}, "dir": np.zeros((n, 2)), "point": np.zeros((n, 2)),
+        out = {"zero": np.zeros(n), "compliance": np.zeros(n), "link": {},
+               "dir": np.zeros((n, 2)), "point": np.zeros((n, 2)),
                "home_rot": np.zeros(3), "home_pos": np.zeros(3), "base_rot": np.zeros(3),
                "base_pos": np.zeros(3), "tool_rot": np.zeros(3), "tool_pos": np.zeros(3)}
         for p, v in zip(self.params, x, strict=True):
-            if p.kind == "zero":
-                out["zero"][p.joint] += v
+            if p.kind in ("zero", "compliance"):
+                out[p.kind][p.joint] += v
             elif p.kind == "link":
                 out["link"][p.name] = v
             elif p.kind in ("dir", "point"):
@@ -215,6 +241,7 @@ class ErrorModel:
 
         return m.derived(axis_dirs=dirs, axis_points_mm=points,
                          joint_zero=m.joint_zero + c["zero"],
+                         compliance=m.compliance + c["compliance"] / 1000.0,  # per kN m -> N m
                          home_flange=framed(m.home_flange, c["home_rot"], c["home_pos"]),
                          base=framed(m.base, c["base_rot"], c["base_pos"]),
                          tool=framed(m.tool, c["tool_rot"], c["tool_pos"]))
@@ -238,7 +265,7 @@ class ErrorModel:
             kinds.setdefault(p.kind, []).append(col)
         carriers: dict[tuple, list[int]] = {}
         for col, p in enumerate(self.params):
-            if p.kind == "zero":
+            if p.kind in ("zero", "compliance"):
                 key: tuple = ("partial", p.joint)
             elif p.kind == "link":
                 key = ("partial", p.joint + 1)
@@ -272,8 +299,10 @@ class ErrorModel:
         normals = self._normals_table
         local = np.zeros((6, len(self.params)))
         kinds, joint, axis = lay["kinds"], lay["joint"], lay["axis"]
-        if "zero" in kinds:
-            cols = kinds["zero"]
+        for kind in ("zero", "compliance"):  # compliance: a zero scaled by the torque, below
+            if kind not in kinds:
+                continue
+            cols = kinds[kind]
             j = joint[cols]
             w = model.axis_dirs[j]
             rev = model.is_revolute[j]
@@ -318,6 +347,9 @@ class ErrorModel:
                 J[:, :, cols] = (ad[key[1]] - ad[key[1] + 1]) @ L
             else:  # tool: expressed in the flange frame, carried by the flange pose
                 J[:, :, cols] = adjoint(Y) @ L
+        if "compliance" in kinds:  # d theta_j / d c_j = tau_j(q) (kN m; the bending's own
+            cols = kinds["compliance"]  # effect on tau is of second order)
+            J[:, :, cols] *= joint_torques(model, q)[:, joint[cols]][:, None, :] / 1000.0
         return T, J
 
 
@@ -339,6 +371,9 @@ def forward_batch(errors: ErrorModel, X: ArrayLike, q: ArrayLike) -> Array:
     """
     X = np.atleast_2d(np.asarray(X, dtype=float))
     ref = errors.reference
+    if ref.has_compliance or any(p.kind == "compliance" for p in errors.params):
+        raise ModelError("joint compliance is identified by least squares, not by the "
+                         "population solver: use solver='lm'")
     q = _check_q(ref, q)
     P, n = len(X), ref.n_joints
     zero = np.broadcast_to(ref.joint_zero, (P, n)).copy()

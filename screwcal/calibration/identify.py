@@ -75,6 +75,7 @@ class IdentificationError(ScrewcalError):
     """The identification cannot run on these data (too few poses, nothing identifiable)."""
 
 
+COMPLIANCE_T = 5.0  # |value| / std error above which "auto" keeps a joint compliance
 PRIOR_NOISE = (0.013, 0.013 / 50.0 * np.sqrt(2) * 180 / np.pi, 0.05)  # FARO arm, holes 50 mm
 
 
@@ -182,6 +183,8 @@ class CalibrationResult:
     noise: NoiseEstimate | None = None  # the levels used (statistical weighting)
     outliers: tuple[Outlier, ...] = ()  # rejected (and, with outliers="keep", kept) poses
     diagnostics: dict = field(default_factory=dict)  # data_quality(): lag, drift, leverage, fit
+    compliance: str = "none"  # the joint compliance identified: none, j23, wrist
+    compliance_note: str = ""  # why (compliance="auto")
 
     @property
     def warnings(self) -> list[str]:
@@ -379,21 +382,67 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
              base_guess: Array | None = None,
              link_offsets: Sequence[str] | None = None,
              outliers: Literal["reject", "keep"] = "reject",
-             de_polish: bool = True) -> CalibrationResult:
+             de_polish: bool = True, compliance: str = "none") -> CalibrationResult:
     """Identify the error model `kind` of `nominal` from measured data. With unknown frames,
     `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there. With
     `solver="de"`, `de_polish=False` returns differential evolution's own best (the thesis's
-    DE, for comparison); by default a bounded least-squares polish refines it.
+    DE, for comparison); by default a bounded least-squares polish refines it. `compliance`
+    ("none", "j23", "wrist") identifies the joints' compliance under gravity with the geometry
+    (`errors_model.compliance_params`); "auto" fits the joint-2/3 compliance and keeps it when
+    the data support it (a coefficient beyond `COMPLIANCE_T` standard errors), else fits
+    without; the result says which and why (`compliance_note`).
 
     Poses whose residual says they do not belong (data snooping, `diagnostics.pose_tests`) are
     rejected, the worst first, and the fit repeated (`outliers="keep"`: listed, kept); at most
     a tenth of the poses. The result lists them and the data-quality
     diagnostics."""
+    if compliance != "auto":
+        result = _identify_rejecting(nominal, data, kind=kind, residual=residual, frames=frames,
+                                     solver=solver, weighting=weighting, weight_mm=weight_mm,
+                                     noise=noise, de_link_bounds_mm=de_link_bounds_mm,
+                                     seed=seed, base_guess=base_guess,
+                                     link_offsets=link_offsets, outliers=outliers,
+                                     de_polish=de_polish, compliance=compliance)
+        return replace(result, compliance=compliance)
+    common = dict(kind=kind, residual=residual, frames=frames, solver=solver,
+                  weighting=weighting, weight_mm=weight_mm, noise=noise,
+                  de_link_bounds_mm=de_link_bounds_mm, seed=seed, base_guess=base_guess,
+                  link_offsets=link_offsets, outliers=outliers, de_polish=de_polish)
+    why = ""
+    if kind in ("frames",) or solver != "lm" or not nominal.all_masses:
+        why = ("not tried: " + ("no masses load the joints (a built-in robot's table or a "
+                                "payload)" if not nominal.all_masses else
+                                "the frames-only model" if kind == "frames" else
+                                "the population solver"))
+    else:
+        bent = identify(nominal, data, compliance="j23", **common)  # type: ignore[arg-type]
+        t = {p.name: abs(v) / s for p, v, s in zip(bent.params, bent.values, bent.std_errors,
+                                                    strict=True)
+             if p.kind == "compliance" and s > 0}
+        shown = ", ".join(f"{n} {v:.1f}" for n, v in t.items()) or "none identifiable"
+        if t and max(t.values()) > COMPLIANCE_T:
+            return replace(bent, compliance="j23", compliance_note=(
+                f"chosen (auto): the data support it, |value| / std error: {shown} (> "
+                f"{COMPLIANCE_T:g})"))
+        why = f"left out (auto): the data do not support it, |value| / std error: {shown}"
+    plain = identify(nominal, data, compliance="none", **common)  # type: ignore[arg-type]
+    return replace(plain, compliance="none", compliance_note=why)
+
+
+def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind,
+                        residual: Residual | None, frames: Frames,
+                        solver: Literal["lm", "de"], weighting: str, weight_mm: float,
+                        noise: NoiseModel | None, de_link_bounds_mm: tuple[float, float],
+                        seed: int, base_guess: Array | None,
+                        link_offsets: Sequence[str] | None,
+                        outliers: Literal["reject", "keep"], de_polish: bool,
+                        compliance: str) -> CalibrationResult:
+    """One identification (see `identify`), rejecting outliers."""
     started = time.perf_counter()
     settings = dict(kind=kind, residual=residual, frames=frames, solver=solver,
                     weighting=weighting, weight_mm=weight_mm, noise=noise,
                     de_link_bounds_mm=de_link_bounds_mm, seed=seed, base_guess=base_guess,
-                    link_offsets=link_offsets, de_polish=de_polish)
+                    link_offsets=link_offsets, de_polish=de_polish, compliance=compliance)
     found: list[Outlier] = []
     current = data
     limit = max(1, int(MAX_OUTLIER_FRACTION * len(data)))
@@ -432,7 +481,8 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
                    weighting: str, weight_mm: float, noise: NoiseModel | None,
                    de_link_bounds_mm: tuple[float, float], seed: int,
                    base_guess: Array | None, link_offsets: Sequence[str] | None,
-                   de_polish: bool = True) -> tuple[CalibrationResult, _Problem, Array]:
+                   de_polish: bool = True, compliance: str = "none"
+                   ) -> tuple[CalibrationResult, _Problem, Array]:
     """One fit of all the poses given: the result, the final problem and its estimate."""
     started = time.perf_counter()
     noise = noise or NoiseModel()
@@ -450,7 +500,8 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
     unknown = frames == "unknown"
     cands = candidate_params(start, kind, base=frames != "known" and residual != "distance",
                              tool_rotation=unknown and residual == "pose",
-                             tool_position=unknown, link_offsets=link_offsets)
+                             tool_position=unknown, link_offsets=link_offsets,
+                             compliance=compliance)
     errors_all = ErrorModel(start, tuple(cands))
     problem_all = _Problem(errors_all, data, residual, weighting, weight_mm, noise)
     r0, J0 = problem_all.weighted(np.zeros(len(cands)))

@@ -46,6 +46,7 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
     return {
         "format": RESULT_FORMAT, "version": 1, "robot": robot, "settings": settings,
         "parameters": params,
+        "compliance": compliance_summary(result),
         "removed_parameters": [{"name": n, "reason": why} for n, why in result.removed],
         "correlation": {"names": list(result.names), "matrix": result.correlation.tolist()},
         "identifiability": {
@@ -68,3 +69,18 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
         "model_note": model_note or "the identified model: the robot as the controller reads "
                                     "its joints during the calibration",
     }
+
+
+def compliance_summary(result: CalibrationResult) -> dict:
+    """The joint compliance identified (or why none): per joint the compliance (deg per kN m)
+    with its standard error and the stiffness (kN m per deg), and the payload it was under."""
+    joints = []
+    for p, v, s in zip(result.params, result.values, result.std_errors, strict=True):
+        if p.kind == "compliance":
+            joints.append({"joint": p.joint + 1, "compliance_deg_per_knm": float(v),
+                           "std_error": float(s),
+                           "stiffness_knm_per_deg": float(1.0 / v) if v > 0 else None})
+    payload = result.model.payload
+    return {"chosen": result.compliance, "note": result.compliance_note, "joints": joints,
+            "not_identifiable": [n for n, _ in result.removed if n.endswith("c")],
+            "payload": {"kg": payload.kg, "cog_mm": list(payload.cog_mm)}}

@@ -59,7 +59,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from screwcal.errors import DataFileError
     from screwcal.kinematics.modelfile import resolve_model
 
-    nominal = resolve_model(args.robot)
+    nominal = with_payload(resolve_model(args.robot), args)
     data = read_measurements_csv(args.data, nominal)
     weighting = "eq2.4" if args.weight_mm is not None else "statistical"
     noise = NoiseModel(position_mm=args.noise_mm, joint_deg=args.joint_noise_deg)
@@ -69,14 +69,16 @@ def run_calibrate(args: argparse.Namespace) -> int:
     try:
         result = identify(nominal, data, kind=args.model, residual=args.residual,
                           frames=args.base_frame, solver=args.solver, weighting=weighting,
-                          weight_mm=args.weight_mm or 1.0, noise=noise, base_guess=base_guess)
+                          weight_mm=args.weight_mm or 1.0, noise=noise, base_guess=base_guess,
+                          outliers=args.outliers, compliance=args.compliance)
     except IdentificationError as err:  # the data cannot give what was asked: say which data
         raise DataFileError(args.data, str(err)) from None
     settings = {"model": args.model, "solver": args.solver, "base_frame": args.base_frame,
                 "residual": result.residual_kind, "weighting": weighting,
                 "weight_mm": args.weight_mm, "noise_mm": args.noise_mm,
                 "joint_noise_deg": args.joint_noise_deg, "data": str(args.data),
-                "poses": len(data)}
+                "poses": len(data), "compliance": args.compliance,
+                "outliers": args.outliers}
     doc = result_document(result, nominal.name, settings)
     Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     b, a = doc["residuals"]["summary_before"], doc["residuals"]["summary_after"]
@@ -86,12 +88,50 @@ def run_calibrate(args: argparse.Namespace) -> int:
     if result.noise is not None:
         print("noise levels: " + _noise_line(result.noise.to_dict())
               + f"; chi2/dof {result.chi2_reduced:.2f}")
+    gravity = doc["compliance"]
+    if gravity["joints"]:
+        print("joint compliance: " + ", ".join(
+            f"J{j['joint']} {j['compliance_deg_per_knm']:.3g} +- {j['std_error']:.2g} deg/kNm"
+            for j in gravity["joints"]) + (f" ({gravity['note']})" if gravity["note"] else ""))
+    elif gravity["note"]:
+        print(f"joint compliance {gravity['note']}")
     for warning in result.warnings:
         print(f"warning: {warning}")
     if result.degenerate:
         print("warning: some requested parameters cannot be identified from these data; see "
               "removed_parameters in the result")
     return 0 if result.converged else 1
+
+
+def with_payload(model: SerialModel, args: argparse.Namespace) -> SerialModel:
+    """The model carrying the payload named on the command line (joint compliance scales
+    with it); unchanged without --payload-kg."""
+    if getattr(args, "payload_kg", None) is None:
+        return model
+    from dataclasses import replace
+
+    from screwcal.kinematics.compliance import Payload
+
+    return replace(model, payload=Payload(args.payload_kg, tuple(args.payload_cog_mm)))
+
+
+def add_payload_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--payload-kg", type=float, default=None,
+                   help="mass on the flange (joint compliance scales with it; default: the "
+                   "model's)")
+    p.add_argument("--payload-cog-mm", type=_vec3, default=(0.0, 0.0, 0.0), metavar="X,Y,Z",
+                   help="its centre of gravity in the flange (tool0) frame")
+
+
+def _vec3(text: str) -> tuple[float, float, float]:
+    parts = text.split(",")
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(f"give x,y,z in mm, not '{text}'")
+    try:
+        x, y, z = (float(v) for v in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"give x,y,z in mm, not '{text}'") from None
+    return x, y, z
 
 
 def _noise_line(noise: dict) -> str:
@@ -115,7 +155,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
-    calibrated = load_model(args.model)
+    calibrated = with_payload(load_model(args.model), args)  # a payload other than the model's
     robot = args.robot or json.loads(Path(args.model).read_text(encoding="utf-8")).get("robot")
     nominal = resolve_model(robot) if robot else calibrated
     if args.rapid:
@@ -218,6 +258,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="fix the measuring noise, 1 sigma (default: estimated from the data)")
     p.add_argument("--joint-noise-deg", type=float, default=None,
                    help="fix the random joint error, uniform +- (default: estimated)")
+    p.add_argument("--compliance", choices=["auto", "none", "j23", "wrist"], default="auto",
+                   help="joint compliance under gravity, identified with the geometry: joints "
+                   "2-3, or 2-6 (default auto: joints 2-3 when the data support them)")
+    add_payload_arguments(p)
     p.set_defaults(func=run_calibrate)
 
     c = sub.add_parser(
@@ -238,4 +282,5 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--wobj", default="wobj0", help="--rapid: the wobjdata for those targets "
                    "(default wobj0)")
     c.add_argument("--robot", help="nominal model, when the result does not name it")
+    add_payload_arguments(c)
     c.set_defaults(func=run_compensate)

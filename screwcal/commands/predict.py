@@ -17,12 +17,13 @@ OUTPUT_COLUMNS = ("id", "x", "y", "z", "rx", "ry", "rz")
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from screwcal.commands.calibrate import with_payload
     from screwcal.kinematics.forward import forward_kinematics
     from screwcal.kinematics.modelfile import resolve_model
     from screwcal.kinematics.pose import pose_from_transform
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
-    model = resolve_model(args.model)
+    model = with_payload(resolve_model(args.model), args)
     table = read_numeric_csv(args.joints, joint_columns(model.n_joints))
     q_deg = table.values
     outside = ~model.within_limits(model.joints_from_deg(q_deg))
@@ -44,4 +45,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="built-in robot (irb1600, irb120), a model file or a calibration result")
     p.add_argument("--joints", required=True, help="CSV with q1..q6 in degrees, optional id")
     p.add_argument("--out", required=True, help="CSV to write: id, x, y, z (mm), rx, ry, rz (deg)")
+    from screwcal.commands.calibrate import add_payload_arguments
+
+    add_payload_arguments(p)
     p.set_defaults(func=run)

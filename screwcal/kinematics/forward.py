@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from screwcal.kinematics.compliance import gravity_torques
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, adjoint, cross, exp_twist, invert_transform, skew
 
@@ -60,10 +61,27 @@ def _check_q(model: SerialModel, q: ArrayLike) -> Array:
 
 def _chain(model: SerialModel, q: Array, keep: bool) -> tuple[Array, list[Array]]:
     """Successive screws from the base: returns A_n (N, 3, 4) = base . prod exp(...) [:3] and,
-    if `keep`, the partial products A_0..A_n (each (N, 3, 4)), A_0 = base."""
-    N = q.shape[0]
-    G1, G2, _ = _generators(model)
+    if `keep`, the partial products A_0..A_n (each (N, 3, 4)), A_0 = base. A compliant model's
+    joints stand at q + zero + c * tau(q), tau at the unbent configuration (the bending's own
+    effect on tau is of second order)."""
     theta = q + model.joint_zero
+    if model.has_compliance:
+        theta = theta + model.compliance * joint_torques(model, q)
+    return _chain_theta(model, theta, keep)
+
+
+def joint_torques(model: SerialModel, q: ArrayLike) -> Array:
+    """(N, n) gravity torques (N m) about the joints at configurations q (N, n), from the
+    model's lumped masses and payload (`compliance`)."""
+    q = _check_q(model, q)
+    _, partial = _chain_theta(model, q + model.joint_zero, keep=True)
+    return gravity_torques(model.axis_dirs, model.axis_points_mm, partial, model.all_masses,
+                           model.base[:3, 2])
+
+
+def _chain_theta(model: SerialModel, theta: Array, keep: bool) -> tuple[Array, list[Array]]:
+    N = theta.shape[0]
+    G1, G2, _ = _generators(model)
     A = np.broadcast_to(model.base[:3], (N, 3, 4)).copy()
     partial = [A] if keep else []
     for i in range(model.n_joints):
@@ -90,7 +108,7 @@ def _to_homogeneous(A: Array) -> Array:
 def forward_kinematics(model: SerialModel, q: ArrayLike) -> Array:
     """Pose of the tool in the world frame, shape (N, n) -> (N, 4, 4). Eq. of Annex B chained."""
     q = _check_q(model, q)
-    if q.shape[0] == 1:
+    if q.shape[0] == 1 and not model.has_compliance:
         return _one_pose(model, q[0])[None]
     A, _ = _chain(model, q, keep=False)
     A = (A.reshape(-1, 4) @ _generators(model)[2]).reshape(-1, 3, 4)

@@ -10,6 +10,9 @@ with S_i the joint-i screw at home expressed in the robot base frame: a unit dir
 on the axis (revolute), or a unit direction (prismatic). `z_i` is the joint zero: the controller's
 reading q_i differs from the joint's angle by z_i. Values are stored in radians / mm; the interface
 units (degrees) live in the names of the accessors that return them.
+
+With `compliance` (rad per N m, per joint) the joints also bend under gravity: joint i stands at
+q_i + z_i + c_i tau_i(q), tau from the lumped `masses` and the `payload` (`compliance`).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.errors import JointLimitError, ModelError
+from screwcal.kinematics.compliance import LumpedMass, Payload, payload_mass
 from screwcal.kinematics.se3 import Array
 
 REVOLUTE = "R"
@@ -74,6 +78,9 @@ class SerialModel:
     joint_zero: Array = field(default=None)  # type: ignore[assignment]
     base: Array = field(default_factory=lambda: np.eye(4))
     tool: Array = field(default_factory=lambda: np.eye(4))
+    compliance: Array = field(default=None)  # type: ignore[assignment]  # rad/(N m), (n,)
+    masses: tuple[LumpedMass, ...] = ()
+    payload: Payload = field(default_factory=Payload)
 
     def __post_init__(self) -> None:
         n = len(self.joint_types)
@@ -90,6 +97,7 @@ class SerialModel:
             ("home_flange", self.home_flange, (4, 4)),
             ("limits", self.limits, (n, 2)),
             ("joint_zero", zero, (n,)),
+            ("compliance", np.zeros(n) if self.compliance is None else self.compliance, (n,)),
             ("base", self.base, (4, 4)),
             ("tool", self.tool, (4, 4)),
         ):
@@ -103,6 +111,13 @@ class SerialModel:
                              f"got {self.limits[i].tolist()}")
         for what in ("home_flange", "base", "tool"):
             _check_rigid(getattr(self, what), f"model '{self.name}', {what}")
+        object.__setattr__(self, "masses", tuple(self.masses))
+        if self.compliance.any() and not self.all_masses:
+            raise ModelError(f"model '{self.name}': joint compliance needs the masses that load "
+                             "the joints (a mass table or a payload)")
+        if np.any(self.compliance < 0):
+            raise ModelError(f"model '{self.name}': a joint compliance cannot be negative, got "
+                             f"{self.compliance.tolist()}")
 
     def derived(self, **changes: object) -> SerialModel:
         """A copy with some arrays replaced, skipping validation: for numeric code that derives
@@ -112,6 +127,15 @@ class SerialModel:
         for name in self.__dataclass_fields__:
             object.__setattr__(out, name, changes.get(name, getattr(self, name)))
         return out
+
+    @property
+    def has_compliance(self) -> bool:
+        return bool(self.compliance.any())
+
+    @property
+    def all_masses(self) -> tuple[LumpedMass, ...]:
+        """The arm's lumped masses and the payload's."""
+        return self.masses + payload_mass(self.payload, self.home_flange, self.n_joints)
 
     @property
     def n_joints(self) -> int:

@@ -7,7 +7,10 @@ One schema, three representations of the same serial model (chosen with `represe
   DH frame 0) and `dh_flange` (DH frame n <- flange).
 
 Every representation also carries per-joint `zero_deg` and `limits_deg`, and the `base` (world
-<- robot base) and `tool` (flange <- measured point) poses. Poses are {x, y, z} in mm and
+<- robot base) and `tool` (flange <- measured point) poses; a model with joint compliance carries
+`gravity`: per-joint compliance in deg per kN m, the lumped masses that load the joints (joint
+numbers from 1, kg, centre at home in mm) and the payload (kg, centre of gravity in the flange
+frame, mm). Poses are {x, y, z} in mm and
 {rx, ry, rz} in degrees with R = Rz(rz) Ry(ry) Rx(rx). For prismatic joints, `zero_deg`,
 `limits_deg` and `theta_deg`/`d_mm` values along the joint are in mm.
 """
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -23,6 +27,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator
 
 from screwcal.errors import ModelError
+from screwcal.kinematics.compliance import LumpedMass, Payload
 from screwcal.kinematics.dh import DHRow, DHTable, dh_from_model, model_from_dh
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
@@ -84,6 +89,49 @@ class DHJoint(JointCommon):
     theta_deg: FiniteFloat
 
 
+class MassIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    joint: int = Field(ge=1)  # the mass moves with this joint (1-based)
+    kg: FiniteFloat = Field(gt=0)
+    home_mm: Vec3
+
+
+class PayloadIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    kg: FiniteFloat = Field(default=0.0, ge=0)
+    cog_mm: Vec3 = (0.0, 0.0, 0.0)
+
+
+class GravityIn(BaseModel):
+    """Joint compliance under gravity (`screwcal.kinematics.compliance`)."""
+
+    model_config = ConfigDict(extra="forbid")
+    compliance_deg_per_knm: list[Annotated[float, Field(ge=0, allow_inf_nan=False)]]
+    masses: list[MassIn] = []
+    payload: PayloadIn = PayloadIn()
+
+    def fields(self, n: int) -> dict:
+        if len(self.compliance_deg_per_knm) != n:
+            raise ModelError(f"gravity.compliance_deg_per_knm has "
+                             f"{len(self.compliance_deg_per_knm)} values for {n} joints")
+        for m in self.masses:
+            if m.joint > n:
+                raise ModelError(f"gravity.masses: joint {m.joint} of a {n}-joint model")
+        return dict(compliance=np.radians(self.compliance_deg_per_knm) / 1000.0,
+                    masses=tuple(LumpedMass(m.joint - 1, m.kg, m.home_mm) for m in self.masses),
+                    payload=Payload(self.payload.kg, self.payload.cog_mm))
+
+    @classmethod
+    def of(cls, model: SerialModel) -> GravityIn | None:
+        if not model.has_compliance and model.payload.kg == 0.0:
+            return None
+        return cls(compliance_deg_per_knm=[float(v) for v in np.degrees(model.compliance)
+                                           * 1000.0],
+                   masses=[MassIn(joint=m.link + 1, kg=m.kg, home_mm=m.home_mm)
+                           for m in model.masses],
+                   payload=PayloadIn(kg=model.payload.kg, cog_mm=model.payload.cog_mm))
+
+
 class _FileCommon(BaseModel):
     model_config = ConfigDict(extra="forbid")
     format: Literal["screwcal-model"] = FORMAT
@@ -91,6 +139,12 @@ class _FileCommon(BaseModel):
     name: str = Field(min_length=1)
     base: PoseIn = PoseIn()
     tool: PoseIn = PoseIn()
+    gravity: GravityIn | None = None
+
+    def _with_gravity(self, model: SerialModel) -> SerialModel:
+        if self.gravity is None:
+            return model
+        return replace(model, **self.gravity.fields(model.n_joints))
 
     def _numeric(self, joints: list[ScrewJoint] | list[DHJoint]) -> tuple[np.ndarray, np.ndarray]:
         """Limits (n, 2) and zeros (n,) in numeric units (rad for R, mm for P)."""
@@ -110,11 +164,12 @@ class ScrewsFile(_FileCommon):
 
     def to_model(self) -> SerialModel:
         limits, zero = self._numeric(self.joints)
-        return SerialModel(name=self.name, joint_types=tuple(j.type for j in self.joints),
-                           axis_dirs=[j.direction for j in self.joints],
-                           axis_points_mm=[j.point_mm for j in self.joints],
-                           home_flange=self.home_flange.transform(), limits=limits,
-                           joint_zero=zero, base=self.base.transform(), tool=self.tool.transform())
+        return self._with_gravity(SerialModel(
+            name=self.name, joint_types=tuple(j.type for j in self.joints),
+            axis_dirs=[j.direction for j in self.joints],
+            axis_points_mm=[j.point_mm for j in self.joints],
+            home_flange=self.home_flange.transform(), limits=limits, joint_zero=zero,
+            base=self.base.transform(), tool=self.tool.transform()))
 
 
 class DHFile(_FileCommon):
@@ -132,8 +187,8 @@ class DHFile(_FileCommon):
                      for j in self.joints)
         table = DHTable(convention=self.representation, rows=rows,
                         dh_base=self.dh_base.transform(), dh_flange=self.dh_flange.transform())
-        return model_from_dh(table, self.name, limits, zero, self.base.transform(),
-                             self.tool.transform())
+        return self._with_gravity(model_from_dh(table, self.name, limits, zero,
+                                                self.base.transform(), self.tool.transform()))
 
 
 ModelFile = Annotated[ScrewsFile | DHFile, Field(discriminator="representation")]
@@ -149,7 +204,8 @@ def model_file_from_model(model: SerialModel,
     common = [dict(type=t, zero_deg=float(zero[i]), limits_deg=(float(limits[i, 0]),
                                                                  float(limits[i, 1])))
               for i, t in enumerate(model.joint_types)]
-    frames = dict(base=PoseIn.of(model.base), tool=PoseIn.of(model.tool))
+    frames = dict(base=PoseIn.of(model.base), tool=PoseIn.of(model.tool),
+                  gravity=GravityIn.of(model))
     if representation == "screws":
         joints = [ScrewJoint(direction=tuple(float(c) for c in model.axis_dirs[i]),
                              point_mm=tuple(float(c) for c in model.axis_points_mm[i]), **c)

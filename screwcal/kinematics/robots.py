@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from screwcal.errors import ModelError
+from screwcal.kinematics.compliance import ROBOT_MASSES
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import transform_from_pose
 
@@ -26,6 +27,7 @@ def irb1600() -> SerialModel:
         home_flange=transform_from_pose([815.0, 0.0, 961.5, 0.0, 90.0, 0.0]),
         limits=np.radians([[-180, 180], [-90, 150], [-245, 65],
                            [-200, 200], [-115, 115], [-400, 400]]),
+        masses=ROBOT_MASSES["irb1600"],
     )
 
 
@@ -40,6 +42,7 @@ def irb120() -> SerialModel:
         home_flange=transform_from_pose([374.0, 0.0, 630.0, 0.0, 90.0, 0.0]),
         limits=np.radians([[-165, 165], [-110, 110], [-110, 70],
                            [-160, 160], [-120, 120], [-400, 400]]),
+        masses=ROBOT_MASSES["irb120"],
     )
 
 

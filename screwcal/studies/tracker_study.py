@@ -4,7 +4,9 @@ validate on the other half, and look at what the residual is made of.
     python -m screwcal.studies.tracker_study [--data DIR] [--seed 0]
 
 Models compared: the nominal robot with only the tracker frame and the reflector's offset fitted
-("frames", the robot's uncalibrated accuracy), the thesis's virtual joints, and the full model.
+("frames", the robot's uncalibrated accuracy), the thesis's virtual joints, the full model, and
+the full model with the joints' compliance under gravity ("full+c", `--compliance auto`: joints
+2 and 3 when the data support them).
 Errors are those of reflector 1's position on the held-out poses, never on the fitted ones.
 The tracker's noise is taken as 0.05 mm (a laser tracker at 2.5 m); the joint readings as exact.
 """
@@ -28,7 +30,9 @@ from screwcal.studies.tracker_dataset import (
     read_tracker_dataset,
 )
 
-MODELS = ("frames", "thesis", "full")
+# label -> (model kind, compliance)
+MODELS = {"frames": ("frames", "none"), "thesis": ("thesis", "none"), "full": ("full", "none"),
+          "full+c": ("full", "auto")}
 
 
 def position_errors(result: CalibrationResult, data: MeasurementSet) -> Array:
@@ -47,19 +51,25 @@ def run_study(dataset: TrackerData, seed: int = 0, full_pose: bool = True) -> di
     cal, val = data.take(cal_idx), data.take(val_idx)
     out: dict = {"poses": len(data), "calibration": len(cal), "validation": len(val),
                  "rejected_rows": len(dataset.rejected), "models": {}}
-    for kind in MODELS:
-        result = identify(irb120(), cal, kind=kind)  # noise levels from the data
+    for label, (kind, compliance) in MODELS.items():
+        result = identify(irb120(), cal, kind=kind,  # type: ignore[arg-type]
+                          compliance=compliance)  # noise levels from the data
         e = position_errors(result, val)
         noise = result.noise
-        out["models"][kind] = {"mean": float(e.mean()), "max": float(e.max()),
+        out["models"][label] = {"mean": float(e.mean()), "max": float(e.max()),
                                "rms": float(np.sqrt(np.mean(e**2))), "rank": result.rank,
                                "chi2_reduced": result.chi2_reduced, "seconds": result.seconds,
                                "converged": result.converged,
                                "noise_mm": noise.position_mm if noise else None,
                                "joint_noise_deg": noise.joint_deg if noise else None,
                                "outliers": sum(o.rejected for o in result.outliers),
-                               "warnings": result.warnings}
-        if kind == "full":
+                               "warnings": result.warnings,
+                               "compliance": [(p.name, float(v), float(sd)) for p, v, sd in
+                                              zip(result.params, result.values,
+                                                  result.std_errors, strict=True)
+                                              if p.kind == "compliance"],
+                               "compliance_note": result.compliance_note}
+        if label == "full":
             out["residual_analysis"] = residual_analysis(result, val)
     return out
 
@@ -93,6 +103,9 @@ def format_study(s: dict) -> str:
                      f"{m['rank']:>6}{m['noise_mm'] or 0:>9.3f}{m['joint_noise_deg'] or 0:>9.4f}"
                      f"{m['outliers']:>9}")
         lines += [f"    warning: {w}" for w in m["warnings"]]
+        if m.get("compliance"):
+            lines.append("    joint compliance (deg/kNm): " + ", ".join(
+                f"{n} {v:.2f} +- {sd:.2f}" for n, v, sd in m["compliance"]))
     ra = s.get("residual_analysis")
     if ra:
         lines.append("  full model, held-out mean error by quartile (low -> high):")
