@@ -1,7 +1,8 @@
-"""Studies: simulated calibrations measured as the thesis measured them (`study`), the
-Cramer-Rao efficiency study (`montecarlo`), the simulated calibration behind `screwcal simulate`
-(`simulated_calibration`), simulated measurements (`simulate`) and the real laser-tracker data set
-(`tracker_dataset`, `tracker_study`).
+"""Studies: simulated calibrations measured as the thesis measured them (`study`, with its metrics
+in `thesis_metrics`, Appendix D's distance-only calibration in `distance_only` and Chapter 5's
+experiment in `chapter5`), the Cramer-Rao efficiency study (`montecarlo`), the simulated
+calibration behind `screwcal simulate` (`simulated_calibration`), simulated measurements
+(`simulate`) and the real laser-tracker data set (`tracker_dataset`, `tracker_study`).
 
 Sits on top: may import kinematics, calibration and performance; never `protocol`, `service` or
 `simulators`.
