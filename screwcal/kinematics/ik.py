@@ -13,6 +13,8 @@ In the arm plane a vector (x, z) is the complex number x + i z; Ry(t) turns it b
 
 from __future__ import annotations
 
+import cmath
+import math
 import weakref
 from dataclasses import dataclass
 
@@ -139,12 +141,10 @@ def _turns_toward(q: Array, q_ref: Array, limits: Array) -> Array:
 def _wrap_into_limits(q: Array, limits: Array) -> Array:
     """Wrap angles to (-pi, pi], then shift by 2 pi where that brings them inside the limits."""
     q = (q + np.pi) % (2 * np.pi) - np.pi
-    for shift in (2 * np.pi, -2 * np.pi):
-        moved = q + shift
-        inside = (moved >= limits[:, 0]) & (moved <= limits[:, 1])
-        outside = (q < limits[:, 0]) | (q > limits[:, 1])
-        q = np.where(outside & inside, moved, q)
-    return q
+    lo, hi = limits[:, 0], limits[:, 1]
+    up, down = q + 2 * np.pi, q - 2 * np.pi
+    q = np.where((q < lo) & (up <= hi), up, q)  # below the range, and a turn up fits
+    return np.where((q > hi) & (down >= lo), down, q)
 
 
 def _flange_targets(model: SerialModel, T_world_tool: ArrayLike) -> Array:
@@ -180,6 +180,50 @@ def _euler_xyx(W: Array) -> Array:
         a = np.where(lock & ~straight, np.arctan2(W[:, 1, 2], W[:, 1, 1]), a)  # b = pi
         c = np.where(lock, 0.0, c)
     return np.stack([a, b, c], axis=-1)
+
+
+def _closed_form_theta_one(geo: WristPartitionedGeometry, T: Array, slack: float = 1e-12
+                           ) -> tuple[Array, Array]:
+    """`_closed_form_theta` for one target (4, 4), in scalar arithmetic: the same formulas, a
+    fraction of the array calls' overhead. Returns (1, 8, 6) and (1, 8)."""
+    R_M = geo.home_flange[:3, :3]
+    o = (R_M.T @ (geo.home_flange[:3, 3] - geo.wrist_home)).tolist()
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = T[:3, :3].tolist()
+    px, py, pz = T[:3, 3].tolist()
+    wx = px - (r00 * o[0] + r01 * o[1] + r02 * o[2])
+    wy = py - (r10 * o[0] + r11 * o[1] + r12 * o[2])
+    wz = pz - (r20 * o[0] + r21 * o[1] + r22 * o[2])
+    M = (T[:3, :3] @ R_M.T).tolist()  # R R_M^T
+    u, f = geo.upper_arm, geo.forearm
+    au, af, uf = abs(u), abs(f), 2.0 * abs(u) * abs(f)
+    pu, pf = cmath.phase(u), cmath.phase(f)
+    out = np.full((1, 8, 6), np.nan)
+    reach = np.zeros((1, 8), bool)
+    base = math.atan2(wy, wx)
+    for b in range(4):
+        t1 = base + _ARM_T1_OFFSET[b]
+        c1, s1 = math.cos(t1), math.sin(t1)
+        d = complex(wx * c1 + wy * s1 - geo.shoulder_x, wz - geo.shoulder_z)
+        k = (abs(d) ** 2 - au * au - af * af) / uf
+        if abs(k) > 1.0 + slack:
+            continue
+        t3 = _ARM_ELBOW_SIGN[b] * math.acos(min(1.0, max(-1.0, k))) - pu + pf
+        t2 = cmath.phase(u + f * cmath.exp(-1j * t3)) - cmath.phase(d)
+        c23, s23 = math.cos(t2 + t3), math.sin(t2 + t3)
+        # W = (Rz(t1) Ry(t23))^T M: the rows of R123^T are R123's columns
+        cols = ((c1 * c23, s1 * c23, -s23), (-s1, c1, 0.0), (c1 * s23, s1 * s23, c23))
+        W = [[a0 * M[0][j] + a1 * M[1][j] + a2 * M[2][j] for j in range(3)]
+             for a0, a1, a2 in cols]
+        wb = math.acos(min(1.0, max(-1.0, W[0][0])))
+        if abs(math.sin(wb)) < _GIMBAL_TOL:  # only a +- c defined: c = 0 (as _euler_xyx)
+            wa = math.atan2(W[2][1], W[1][1]) if W[0][0] > 0 else math.atan2(W[1][2], W[1][1])
+            wc = 0.0
+        else:
+            wa, wc = math.atan2(W[1][0], -W[2][0]), math.atan2(W[0][1], W[0][2])
+        out[0, 2 * b] = (t1, t2, t3, wa, wb, wc)
+        out[0, 2 * b + 1] = (t1, t2, t3, wa + math.pi, -wb, wc + math.pi)
+        reach[0, 2 * b:2 * b + 2] = True
+    return out, reach
 
 
 def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = 1e-12,
@@ -230,12 +274,10 @@ def _solutions(model: SerialModel, theta: Array, reach: Array, T_flange: Array,
     q[~reach] = np.nan
     N = q.shape[0]
     residual = np.full((N, 8), np.nan)
-    if check:  # the FK of every branch against the target
-        flat = np.nan_to_num(q.reshape(-1, 6))
-        T = flange_kinematics(model, flat).reshape(N, 8, 4, 4)
+    if check:  # the FK of every branch against the target (NaN where out of reach)
+        T = flange_kinematics(model, q.reshape(-1, 6)).reshape(N, 8, 4, 4)
         residual = np.linalg.norm(T[..., :3, 3] - T_flange[:, None, :3, 3], axis=-1)
-        residual[~reach] = np.nan
-    within = model.within_limits(np.nan_to_num(q, nan=np.inf)) & reach
+    within = model.within_limits(q) & reach  # NaN compares False: out of reach is outside
     return IKSolutions(q=q, reachable=reach, within_limits=within, residual_mm=residual,
                        limits=model.limits)
 
@@ -250,7 +292,8 @@ def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike, require_all: boo
     """
     geo = WristPartitionedGeometry.from_model(model)
     T_flange = _flange_targets(model, T_world_tool)
-    theta, reach = _closed_form_theta(geo, T_flange)
+    theta, reach = _closed_form_theta_one(geo, T_flange[0]) if len(T_flange) == 1 else \
+        _closed_form_theta(geo, T_flange)
     if require_all:
         _raise_unreachable(reach)
     return _solutions(model, theta, reach, T_flange, check)

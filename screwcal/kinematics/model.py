@@ -18,6 +18,7 @@ q_i + z_i + c_i tau_i(q), tau from the lumped `masses` and the `payload` (`compl
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -128,8 +129,9 @@ class SerialModel:
             object.__setattr__(out, name, changes.get(name, getattr(self, name)))
         return out
 
-    @property
+    @cached_property
     def has_compliance(self) -> bool:
+        """Any joint compliance (computed once: the arrays are read-only)."""
         return bool(self.compliance.any())
 
     @property

@@ -109,6 +109,6 @@ def test_ik_batch_equals_one_by_one(rng):
     T = forward_kinematics(model, random_q(model, rng, 40))
     batch = closed_form_ik(model, T)
     for k in range(len(T)):
-        single = closed_form_ik(model, T[k:k + 1])
-        np.testing.assert_array_equal(single.q[0], batch.q[k])
+        single = closed_form_ik(model, T[k:k + 1])  # the scalar one-target path
+        np.testing.assert_allclose(single.q[0], batch.q[k], rtol=0, atol=1e-12)
         np.testing.assert_array_equal(single.valid[0], batch.valid[k])
