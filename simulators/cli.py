@@ -16,13 +16,14 @@ the IRC5 process prints on its second line. Until a robot is known the arm answe
 from __future__ import annotations
 
 import argparse
-import asyncio
 import sys
 import tempfile
 from pathlib import Path
 
 
 async def _serve_irc5(args: argparse.Namespace) -> None:
+    import asyncio
+
     from simulators.arm import ArmEmulator, WorldFileWriter
     from simulators.irc5 import EmulatorSettings, IRC5Emulator
     from simulators.truth import make_world
@@ -58,6 +59,8 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
 
 
 async def _serve_arm(args: argparse.Namespace) -> None:
+    import asyncio
+
     from simulators.arm import ArmEmulator, WorldFileSource
 
     if not args.world:
@@ -78,6 +81,8 @@ async def _serve_arm(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import asyncio  # here, not at the top: `screwcal --help` builds this parser too
+
     try:
         asyncio.run(_serve_irc5(args) if args.which == "irc5" else _serve_arm(args))
     except KeyboardInterrupt:
