@@ -64,6 +64,7 @@ from screwcal.calibration.identifiability import (
     structural_rank,
     svd,
 )
+from screwcal.calibration.lag import correct_lag, lag_increment
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
@@ -75,6 +76,7 @@ class IdentificationError(ScrewcalError):
     """The identification cannot run on these data (too few poses, nothing identifiable)."""
 
 
+LAG_ROUNDS = 4  # estimate-correct-refit rounds of lag="auto", while the residual falls
 COMPLIANCE_T = 5.0  # |value| / std error above which "auto" keeps a joint compliance
 PRIOR_NOISE = (0.013, 0.013 / 50.0 * np.sqrt(2) * 180 / np.pi, 0.05)  # FARO arm, holes 50 mm
 
@@ -185,6 +187,8 @@ class CalibrationResult:
     diagnostics: dict = field(default_factory=dict)  # data_quality(): lag, drift, leverage, fit
     compliance: str = "none"  # the joint compliance identified: none, j23, wrist
     compliance_note: str = ""  # why (compliance="auto")
+    reading_lag: Array | None = None  # (n,) per joint, when lag="auto" corrected the readings
+    lag_note: str = ""
 
     @property
     def warnings(self) -> list[str]:
@@ -382,7 +386,8 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
              base_guess: Array | None = None,
              link_offsets: Sequence[str] | None = None,
              outliers: Literal["reject", "keep"] = "reject",
-             de_polish: bool = True, compliance: str = "none") -> CalibrationResult:
+             de_polish: bool = True, compliance: str = "none",
+             lag: Literal["none", "auto"] = "none") -> CalibrationResult:
     """Identify the error model `kind` of `nominal` from measured data. With unknown frames,
     `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there. With
     `solver="de"`, `de_polish=False` returns differential evolution's own best (the thesis's
@@ -390,24 +395,54 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     ("none", "j23", "wrist") identifies the joints' compliance under gravity with the geometry
     (`errors_model.compliance_params`); "auto" fits the joint-2/3 compliance and keeps it when
     the data support it (a coefficient beyond `COMPLIANCE_T` standard errors), else fits
-    without; the result says which and why (`compliance_note`).
+    without; the result says which and why (`compliance_note`). `lag="auto"`: when the
+    diagnostics find joint readings that lag the motion and the data know each pose's previous
+    readings, the lag per joint is estimated from the residuals and the readings corrected, in
+    a few rounds while the residual falls (`reading_lag`, `lag_note`; `screwcal.calibration.lag`).
 
     Poses whose residual says they do not belong (data snooping, `diagnostics.pose_tests`) are
     rejected, the worst first, and the fit repeated (`outliers="keep"`: listed, kept); at most
     a tenth of the poses. The result lists them and the data-quality
     diagnostics."""
-    if compliance != "auto":
-        result = _identify_rejecting(nominal, data, kind=kind, residual=residual, frames=frames,
-                                     solver=solver, weighting=weighting, weight_mm=weight_mm,
-                                     noise=noise, de_link_bounds_mm=de_link_bounds_mm,
-                                     seed=seed, base_guess=base_guess,
-                                     link_offsets=link_offsets, outliers=outliers,
-                                     de_polish=de_polish, compliance=compliance)
-        return replace(result, compliance=compliance)
     common = dict(kind=kind, residual=residual, frames=frames, solver=solver,
                   weighting=weighting, weight_mm=weight_mm, noise=noise,
                   de_link_bounds_mm=de_link_bounds_mm, seed=seed, base_guess=base_guess,
                   link_offsets=link_offsets, outliers=outliers, de_polish=de_polish)
+    result = _with_compliance(nominal, data, compliance=compliance, **common)  # type: ignore[arg-type]
+    if lag == "none":
+        return result
+    flagged = [d["joint"] for d in result.diagnostics.get("lag", {}).get("per_joint", [])
+               if d["flagged"]]
+    if data.q_previous is None or not flagged:
+        return replace(result, lag_note="not corrected: " + (
+            "the data do not say which pose came before which" if data.q_previous is None
+            else "the readings do not lag the motion"))
+    chosen = result.compliance if compliance == "auto" else compliance
+    best, lam = result, np.zeros(nominal.n_joints)
+    for _ in range(LAG_ROUNDS):
+        trial_lag = lam + lag_increment(best.model, correct_lag(data, lam))
+        trial = _with_compliance(nominal, correct_lag(data, trial_lag), compliance=chosen,
+                                 **common)  # type: ignore[arg-type]
+        if trial.residuals_after.mean() >= best.residuals_after.mean():
+            break
+        best, lam = trial, trial_lag
+    shown = ", ".join(f"J{j + 1} {v:.2e}" for j, v in enumerate(lam))
+    return replace(best, reading_lag=lam, lag_note=(
+        f"corrected: the readings lagged the motion (flagged joints {flagged}); lag per joint "
+        f"(share of the previous move still in the reading): {shown}; residual mean "
+        f"{result.residuals_after.mean():.3f} -> {best.residuals_after.mean():.3f} mm. Better: "
+        "wait for the arm to settle, or calibrate with the commanded joints"))
+
+
+def _with_compliance(nominal: SerialModel, data: MeasurementSet, *, compliance: str,
+                     **common: object) -> CalibrationResult:
+    """One identification with `compliance` ("auto": chosen by the data)."""
+    kind = common["kind"]
+    solver = common["solver"]
+    if compliance != "auto":
+        result = _identify_rejecting(nominal, data, compliance=compliance,
+                                     **common)  # type: ignore[arg-type]
+        return replace(result, compliance=compliance)
     why = ""
     if kind in ("frames",) or solver != "lm" or not nominal.all_masses:
         why = ("not tried: " + ("no masses load the joints (a built-in robot's table or a "
@@ -415,7 +450,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
                                 "the frames-only model" if kind == "frames" else
                                 "the population solver"))
     else:
-        bent = identify(nominal, data, compliance="j23", **common)  # type: ignore[arg-type]
+        bent = _with_compliance(nominal, data, compliance="j23", **common)
         t = {p.name: abs(v) / s for p, v, s in zip(bent.params, bent.values, bent.std_errors,
                                                     strict=True)
              if p.kind == "compliance" and s > 0}
@@ -425,7 +460,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
                 f"chosen (auto): the data support it, |value| / std error: {shown} (> "
                 f"{COMPLIANCE_T:g})"))
         why = f"left out (auto): the data do not support it, |value| / std error: {shown}"
-    plain = identify(nominal, data, compliance="none", **common)  # type: ignore[arg-type]
+    plain = _with_compliance(nominal, data, compliance="none", **common)
     return replace(plain, compliance="none", compliance_note=why)
 
 

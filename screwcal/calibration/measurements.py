@@ -7,7 +7,7 @@ orientation, in the measuring system's frame.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +27,9 @@ class MeasurementSet:
     rotations: Array | None = None  # (N, 3, 3) for full-pose data
     ids: tuple[str, ...] = ()
     lines: tuple[int, ...] = ()  # the file line of each pose, when read from a file
+    # (N, n) the readings of the pose measured just before each one (NaN: the first, or
+    # unknown), for readings that lag the motion (`lag`); None: not known at all
+    q_previous: Array | None = None
 
     def __post_init__(self) -> None:
         N = len(self.q)
@@ -34,6 +37,9 @@ class MeasurementSet:
             raise ScrewcalError(f"positions must be ({N}, 3); got {self.positions_mm.shape}")
         if self.rotations is not None and self.rotations.shape != (N, 3, 3):
             raise ScrewcalError(f"rotations must be ({N}, 3, 3); got {self.rotations.shape}")
+        if self.q_previous is not None and self.q_previous.shape != self.q.shape:
+            raise ScrewcalError(f"previous readings must be {self.q.shape}; got "
+                                f"{self.q_previous.shape}")
         if not self.ids:
             object.__setattr__(self, "ids", tuple(str(k + 1) for k in range(N)))
 
@@ -52,7 +58,19 @@ class MeasurementSet:
         return MeasurementSet(self.q[idx], self.positions_mm[idx],
                               None if self.rotations is None else self.rotations[idx],
                               tuple(np.asarray(self.ids, dtype=object)[idx]),
-                              tuple(np.asarray(self.lines, dtype=int)[idx]) if self.lines else ())
+                              tuple(np.asarray(self.lines, dtype=int)[idx]) if self.lines else (),
+                              None if self.q_previous is None else self.q_previous[idx])
+
+    def with_q(self, q: Array) -> MeasurementSet:
+        """The same measurements with other joint readings (e.g. corrected for lag)."""
+        return replace(self, q=q)
+
+
+def previous_rows(q: Array) -> Array:
+    """(N, n) each row's predecessor in acquisition order (NaN for the first)."""
+    out = np.full_like(q, np.nan)
+    out[1:] = q[:-1]
+    return out
 
 
 def read_measurements_csv(path: str | Path, model: SerialModel) -> MeasurementSet:
@@ -69,4 +87,5 @@ def read_measurements_csv(path: str | Path, model: SerialModel) -> MeasurementSe
     rotations = None
     if "rx" in table.columns:
         rotations = rotation_from_euler_zyx_deg(table.take(["rx", "ry", "rz"]))
-    return MeasurementSet(q, table.take(["x", "y", "z"]), rotations, table.ids, table.lines)
+    return MeasurementSet(q, table.take(["x", "y", "z"]), rotations, table.ids, table.lines,
+                          previous_rows(q))  # the file's rows are in acquisition order

@@ -47,6 +47,8 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
         "format": RESULT_FORMAT, "version": 1, "robot": robot, "settings": settings,
         "parameters": params,
         "compliance": compliance_summary(result),
+        "reading_lag": {"per_joint": None if result.reading_lag is None else
+                        [float(v) for v in result.reading_lag], "note": result.lag_note},
         "removed_parameters": [{"name": n, "reason": why} for n, why in result.removed],
         "correlation": {"names": list(result.names), "matrix": result.correlation.tolist()},
         "identifiability": {

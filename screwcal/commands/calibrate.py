@@ -70,14 +70,14 @@ def run_calibrate(args: argparse.Namespace) -> int:
         result = identify(nominal, data, kind=args.model, residual=args.residual,
                           frames=args.base_frame, solver=args.solver, weighting=weighting,
                           weight_mm=args.weight_mm or 1.0, noise=noise, base_guess=base_guess,
-                          outliers=args.outliers, compliance=args.compliance)
+                          outliers=args.outliers, compliance=args.compliance, lag=args.lag)
     except IdentificationError as err:  # the data cannot give what was asked: say which data
         raise DataFileError(args.data, str(err)) from None
     settings = {"model": args.model, "solver": args.solver, "base_frame": args.base_frame,
                 "residual": result.residual_kind, "weighting": weighting,
                 "weight_mm": args.weight_mm, "noise_mm": args.noise_mm,
                 "joint_noise_deg": args.joint_noise_deg, "data": str(args.data),
-                "poses": len(data), "compliance": args.compliance,
+                "poses": len(data), "compliance": args.compliance, "lag": args.lag,
                 "outliers": args.outliers}
     doc = result_document(result, nominal.name, settings)
     Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
@@ -95,6 +95,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
             for j in gravity["joints"]) + (f" ({gravity['note']})" if gravity["note"] else ""))
     elif gravity["note"]:
         print(f"joint compliance {gravity['note']}")
+    if result.reading_lag is not None:
+        print(f"joint readings {result.lag_note}")
     for warning in result.warnings:
         print(f"warning: {warning}")
     if result.degenerate:
@@ -261,6 +263,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--compliance", choices=["auto", "none", "j23", "wrist"], default="auto",
                    help="joint compliance under gravity, identified with the geometry: joints "
                    "2-3, or 2-6 (default auto: joints 2-3 when the data support them)")
+    p.add_argument("--lag", choices=["auto", "none"], default="auto",
+                   help="joint readings that lag the motion (the diagnostics flag them): "
+                   "estimate the lag from the residuals and correct the readings (default auto: "
+                   "when flagged; rows are taken in the file's order)")
     add_payload_arguments(p)
     p.set_defaults(func=run_calibrate)
 

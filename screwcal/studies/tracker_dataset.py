@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from screwcal.calibration.flange import frame_from_holes, hole_distances
-from screwcal.calibration.measurements import MeasurementSet
+from screwcal.calibration.measurements import MeasurementSet, previous_rows
 from screwcal.errors import DataFileError
 from screwcal.kinematics.se3 import Array
 
@@ -82,8 +82,9 @@ class TrackerData:
         rows = self.good_rows
         smr = self.smr_mm[rows]
         rotations = frame_from_holes(smr)[:, :3, :3] if full_pose else None
-        return MeasurementSet(np.radians(self.q_deg[rows]), smr[:, 0].copy(), rotations,
-                              tuple(str(k + 1) for k in rows))
+        q = np.radians(self.q_deg)  # every row: the arm moved from the previous one anyway
+        return MeasurementSet(q[rows], smr[:, 0].copy(), rotations,
+                              tuple(str(k + 1) for k in rows), q_previous=previous_rows(q)[rows])
 
     def report(self) -> str:
         if not self.rejected:

@@ -106,6 +106,10 @@ def test_commanded_joints_predict_better_and_the_lag_is_reported():
         assert bent["mean"] < 0.9 * models["full"]["mean"]
     assert both["commanded"]["full+c"]["mean"] < 0.11
     assert both["measured"]["full+c"]["mean"] < 0.40
+    # the read-back joints lag the motion: estimated and corrected (0.388 -> 0.278 mm; issue
+    # 11's target 0.37), while the commanded ones are left as they are
+    assert both["measured"]["full+c+lag"]["mean"] < 0.30
+    assert "corrected" in both["measured"]["full+c+lag"]["lag_note"]
 
     def lag_of_joint_1(dataset) -> dict:
         r = identify(irb120(), dataset.measurements(), kind="full")  # in acquisition order
