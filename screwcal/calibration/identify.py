@@ -187,6 +187,7 @@ class CalibrationResult:
     diagnostics: dict = field(default_factory=dict)  # data_quality(): lag, drift, leverage, fit
     compliance: str = "none"  # the joint compliance identified: none, j23, wrist
     compliance_note: str = ""  # why (compliance="auto")
+    unabsorbed: dict[str, float] = field(default_factory=dict)  # compliance: see _unabsorbed
     reading_lag: Array | None = None  # (n,) per joint, when lag="auto" corrected the readings
     lag_note: str = ""
 
@@ -676,6 +677,7 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
     s = svd(Jw / np.where(col > 0, col, 1), compute_uv=False)
     to_if = errors.to_interface
     calibrated = errors.apply(x)
+    unabsorbed = _unabsorbed(Jw, errors.params)
     before = _pose_errors(start, data, residual)
     after = _pose_errors(calibrated, data, residual)
     return CalibrationResult(
@@ -687,8 +689,23 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
         min_singular_value=float(s[-1]), chi2_reduced=chi2, converged=bool(converged),
         message=str(message), n_evaluations=nfev, seconds=time.perf_counter() - started,
         residuals_before=before[0], residuals_after=after[0], rotation_before_deg=before[1],
-        rotation_after_deg=after[1], degenerate=degenerate, covariance=cov, noise=noise_used
-    ), problem, x
+        rotation_after_deg=after[1], degenerate=degenerate, covariance=cov, noise=noise_used,
+        unabsorbed=unabsorbed), problem, x
+
+
+def _unabsorbed(Jw: Array, params: Sequence[Param]) -> dict[str, float]:
+    """Per compliance parameter, the share of its effect on the measurements that the other
+    parameters cannot reproduce: 1 - |projection of its column on theirs|^2 / |column|^2
+    (1: nothing of the geometry can imitate it; near 0: the geometry would absorb it)."""
+    out = {}
+    for k, p in enumerate(params):
+        if p.kind != "compliance":
+            continue
+        col = Jw[:, k]
+        others = np.delete(Jw, k, axis=1)
+        fit = others @ np.linalg.lstsq(others, col, rcond=None)[0]
+        out[p.name] = float(1.0 - (fit @ fit) / max(col @ col, 1e-300))
+    return out
 
 
 PRESS_MARGIN = 0.02  # the joint component is dropped only when that predicts clearly better

@@ -58,7 +58,8 @@ class MeasurementSet:
         return MeasurementSet(self.q[idx], self.positions_mm[idx],
                               None if self.rotations is None else self.rotations[idx],
                               tuple(np.asarray(self.ids, dtype=object)[idx]),
-                              tuple(np.asarray(self.lines, dtype=int)[idx]) if self.lines else (),
+                              tuple(int(v) for v in np.asarray(self.lines, dtype=int)[idx])
+                              if self.lines else (),  # Python ints: they go into JSON
                               None if self.q_previous is None else self.q_previous[idx])
 
     def with_q(self, q: Array) -> MeasurementSet:

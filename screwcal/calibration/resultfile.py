@@ -81,7 +81,8 @@ def compliance_summary(result: CalibrationResult) -> dict:
         if p.kind == "compliance":
             joints.append({"joint": p.joint + 1, "compliance_deg_per_knm": float(v),
                            "std_error": float(s),
-                           "stiffness_knm_per_deg": float(1.0 / v) if v > 0 else None})
+                           "stiffness_knm_per_deg": float(1.0 / v) if v > 0 else None,
+                           "share_the_geometry_cannot_absorb": result.unabsorbed.get(p.name)})
     payload = result.model.payload
     return {"chosen": result.compliance, "note": result.compliance_note, "joints": joints,
             "not_identifiable": [n for n, _ in result.removed if n.endswith("c")],

@@ -92,7 +92,10 @@ def run_calibrate(args: argparse.Namespace) -> int:
     if gravity["joints"]:
         print("joint compliance: " + ", ".join(
             f"J{j['joint']} {j['compliance_deg_per_knm']:.3g} +- {j['std_error']:.2g} deg/kNm"
-            for j in gravity["joints"]) + (f" ({gravity['note']})" if gravity["note"] else ""))
+            + (f" ({100 * j['share_the_geometry_cannot_absorb']:.0f} % of its effect beyond "
+               "what the geometry can imitate)"
+               if j["share_the_geometry_cannot_absorb"] is not None else "")
+            for j in gravity["joints"]) + (f"; {gravity['note']}" if gravity["note"] else ""))
     elif gravity["note"]:
         print(f"joint compliance {gravity['note']}")
     if result.reading_lag is not None:

@@ -50,3 +50,12 @@ def test_auto_leaves_readings_that_do_not_lag_alone():
     unordered = MeasurementSet(data.q, data.positions_mm, data.rotations)
     r = identify(irb120(), unordered, kind="full", frames="known", lag="auto")
     assert "which pose came before" in r.lag_note
+
+
+def test_a_subset_keeps_plain_line_numbers_for_the_result_file():
+    import json
+
+    data = MeasurementSet(np.zeros((4, 6)), np.zeros((4, 3)), lines=(2, 3, 4, 5))
+    lines = data.take([1, 3]).lines
+    assert lines == (3, 5) and all(type(v) is int for v in lines)
+    json.dumps({"lines": lines})  # numpy ints here crashed `calibrate` once poses were rejected
