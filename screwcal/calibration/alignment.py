@@ -27,6 +27,14 @@ def _kabsch(a: Array, b: Array) -> Array:
     return _nearest_rotation(a.T @ b)
 
 
+def rigid_motion(src: Array, dst: Array) -> tuple[Array, Array]:
+    """(R, t) of the rigid motion that best lays the points src (N, 3) on dst (N, 3):
+    minimises sum |dst_i - (R src_i + t)|^2 (Kabsch)."""
+    cs, cd = src.mean(axis=0), dst.mean(axis=0)
+    R = _kabsch(dst - cd, src - cs)
+    return R, cd - R @ cs
+
+
 def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: Array | None = None,
                  *, fit_tool: bool = True, rounds: int = 20, base: Array | None = None
                  ) -> tuple[Array, Array]:

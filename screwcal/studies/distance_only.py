@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from screwcal.calibration.alignment import rigid_motion
 from screwcal.calibration.identify import identify
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.posesets import cube_set
@@ -43,13 +44,10 @@ def arm_frame(rng: np.random.Generator) -> tuple[Array, Array]:
 def rigid_fit(T_model: Array, T_true: Array) -> Array:
     """The model's poses moved by the rigid motion that best lays their points on the true
     ones (Kabsch)."""
-    a, b = T_true[:, :3, 3], T_model[:, :3, 3]
-    ca, cb = a.mean(axis=0), b.mean(axis=0)
-    U, _, Vt = np.linalg.svd((a - ca).T @ (b - cb))
-    R = U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
+    R, t = rigid_motion(T_model[:, :3, 3], T_true[:, :3, 3])
     out = T_model.copy()
     out[:, :3, :3] = R @ T_model[:, :3, :3]
-    out[:, :3, 3] = (b - cb) @ R.T + ca
+    out[:, :3, 3] = T_model[:, :3, 3] @ R.T + t
     return out
 
 
