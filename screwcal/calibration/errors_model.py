@@ -38,8 +38,14 @@ from numpy.typing import ArrayLike
 
 from screwcal.calibration.virtual_joints import parse_name
 from screwcal.errors import ModelError
-from screwcal.kinematics.compliance import COMPLIANCE_JOINTS, COMPLIANCE_UNIT
-from screwcal.kinematics.forward import _chain, _check_q, _to_homogeneous, joint_torques
+from screwcal.kinematics.compliance import COMPLIANCE_JOINTS, COMPLIANCE_UNIT, FREE_COMPLIANCE
+from screwcal.kinematics.forward import (
+    _chain,
+    _check_q,
+    _to_homogeneous,
+    joint_torques,
+    joint_torques_by_mass,
+)
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import (
     Array,
@@ -105,6 +111,9 @@ def compliance_params(model: SerialModel, compliance: str) -> list[Param]:
     if joints and not model.all_masses:
         raise ModelError(f"model '{model.name}' has no masses to load its joints: joint "
                          "compliance needs a built-in robot's mass table or a payload")
+    if compliance in FREE_COMPLIANCE:  # per joint and arm mass that loads it
+        return [Param(f"J{j + 1}c.m{k + 1}", COMPLIANCE_UNIT, "compliance_mass", joint=j, axis=k)
+                for j in joints for k, m in enumerate(model.masses) if m.link >= j]
     return [Param(f"J{j + 1}c", COMPLIANCE_UNIT, "compliance", joint=j) for j in joints]
 
 
@@ -202,7 +211,8 @@ class ErrorModel:
     def _collect(self, x: Array) -> dict:
         m = self.reference
         n = m.n_joints
-        out = {"zero": np.zeros(n), "compliance": np.zeros(n), "link": {},
+        out = {"zero": np.zeros(n), "compliance": np.zeros(n),
+               "compliance_mass": np.zeros((n, len(m.masses))), "link": {},
                "dir": np.zeros((n, 2)), "point": np.zeros((n, 2)),
                "home_rot": np.zeros(3), "home_pos": np.zeros(3), "base_rot": np.zeros(3),
                "base_pos": np.zeros(3), "tool_rot": np.zeros(3), "tool_pos": np.zeros(3)}
@@ -211,7 +221,7 @@ class ErrorModel:
                 out[p.kind][p.joint] += v
             elif p.kind == "link":
                 out["link"][p.name] = v
-            elif p.kind in ("dir", "point"):
+            elif p.kind in ("dir", "point", "compliance_mass"):
                 out[p.kind][p.joint, p.axis] += v
             else:
                 out[p.kind][p.axis] += v
@@ -239,9 +249,14 @@ class ErrorModel:
             T[:3, 3] += pos
             return T
 
+        by_mass = m.compliance_by_mass
+        if "compliance_mass" in self._layout["kinds"]:
+            by_mass = (np.zeros_like(c["compliance_mass"]) if by_mass is None else by_mass) \
+                + c["compliance_mass"] / 1000.0
         return m.derived(axis_dirs=dirs, axis_points_mm=points,
                          joint_zero=m.joint_zero + c["zero"],
                          compliance=m.compliance + c["compliance"] / 1000.0,  # per kN m -> N m
+                         compliance_by_mass=by_mass,
                          home_flange=framed(m.home_flange, c["home_rot"], c["home_pos"]),
                          base=framed(m.base, c["base_rot"], c["base_pos"]),
                          tool=framed(m.tool, c["tool_rot"], c["tool_pos"]))
@@ -265,7 +280,7 @@ class ErrorModel:
             kinds.setdefault(p.kind, []).append(col)
         carriers: dict[tuple, list[int]] = {}
         for col, p in enumerate(self.params):
-            if p.kind in ("zero", "compliance"):
+            if p.kind in ("zero", "compliance", "compliance_mass"):
                 key: tuple = ("partial", p.joint)
             elif p.kind == "link":
                 key = ("partial", p.joint + 1)
@@ -299,7 +314,8 @@ class ErrorModel:
         normals = self._normals_table
         local = np.zeros((6, len(self.params)))
         kinds, joint, axis = lay["kinds"], lay["joint"], lay["axis"]
-        for kind in ("zero", "compliance"):  # compliance: a zero scaled by the torque, below
+        for kind in ("zero", "compliance", "compliance_mass"):  # compliance: a zero scaled by
+            # the torque, below
             if kind not in kinds:
                 continue
             cols = kinds[kind]
@@ -350,6 +366,13 @@ class ErrorModel:
         if "compliance" in kinds:  # d theta_j / d c_j = tau_j(q) (kN m; the bending's own
             cols = kinds["compliance"]  # effect on tau is of second order)
             J[:, :, cols] *= joint_torques(model, q)[:, joint[cols]][:, None, :] / 1000.0
+        if "compliance_mass" in kinds:  # d theta_j / d C_jk = tau_jk(q), the payload's torque
+            cols = kinds["compliance_mass"]  # riding on the last arm mass's coefficient
+            tau = joint_torques_by_mass(model, q)
+            arm = len(model.masses)
+            if tau.shape[2] > arm:
+                tau[:, :, arm - 1] += tau[:, :, arm]
+            J[:, :, cols] *= tau[:, joint[cols], axis[cols]][:, None, :] / 1000.0
         return T, J
 
 
@@ -371,7 +394,7 @@ def forward_batch(errors: ErrorModel, X: ArrayLike, q: ArrayLike) -> Array:
     """
     X = np.atleast_2d(np.asarray(X, dtype=float))
     ref = errors.reference
-    if ref.has_compliance or any(p.kind == "compliance" for p in errors.params):
+    if ref.has_compliance or any(p.kind.startswith("compliance") for p in errors.params):
         raise ModelError("joint compliance is identified by least squares, not by the "
                          "population solver: use solver='lm'")
     q = _check_q(ref, q)

@@ -40,6 +40,7 @@ from typing import Literal
 import numpy as np
 import scipy.linalg
 from scipy.optimize import differential_evolution, least_squares
+from scipy.special import fdtrc
 
 from screwcal.calibration.alignment import align_frames
 from screwcal.calibration.diagnostics import (
@@ -78,6 +79,8 @@ class IdentificationError(ScrewcalError):
 
 LAG_ROUNDS = 4  # estimate-correct-refit rounds of lag="auto", while the residual falls
 COMPLIANCE_T = 5.0  # |value| / std error above which "auto" keeps a joint compliance
+FREE_MIN_POSES = 200  # enough poses to let auto try a compliance per joint and arm mass
+FREE_P = 0.001  # ...and keep it when the residual's drop is this unlikely by chance
 PRIOR_NOISE = (0.013, 0.013 / 50.0 * np.sqrt(2) * 180 / np.pi, 0.05)  # FARO arm, holes 50 mm
 
 
@@ -396,7 +399,10 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     ("none", "j23", "wrist") identifies the joints' compliance under gravity with the geometry
     (`errors_model.compliance_params`); "auto" fits the joint-2/3 compliance and keeps it when
     the data support it (a coefficient beyond `COMPLIANCE_T` standard errors), else fits
-    without; the result says which and why (`compliance_note`). `lag="auto"`: when the
+    without; with at least `FREE_MIN_POSES` poses it then tries a coefficient per joint and
+    arm mass ("j23-free": the data correct the mass table's proportions) and keeps it when an
+    F-test on the residual says so (p < `FREE_P`); the result says which and why
+    (`compliance_note`). `lag="auto"`: when the
     diagnostics find joint readings that lag the motion and the data know each pose's previous
     readings, the lag per joint is estimated from the residuals and the readings corrected, in
     a few rounds while the residual falls (`reading_lag`, `lag_note`; `screwcal.calibration.lag`).
@@ -454,15 +460,39 @@ def _with_compliance(nominal: SerialModel, data: MeasurementSet, *, compliance: 
         bent = _with_compliance(nominal, data, compliance="j23", **common)
         t = {p.name: abs(v) / s for p, v, s in zip(bent.params, bent.values, bent.std_errors,
                                                     strict=True)
-             if p.kind == "compliance" and s > 0}
+             if p.kind.startswith("compliance") and s > 0}
         shown = ", ".join(f"{n} {v:.1f}" for n, v in t.items()) or "none identifiable"
         if t and max(t.values()) > COMPLIANCE_T:
+            note = (f"chosen (auto): the data support it, |value| / std error: {shown} (> "
+                    f"{COMPLIANCE_T:g})")
+            if len(data) < FREE_MIN_POSES:
+                return replace(bent, compliance="j23", compliance_note=note)
+            free = _with_compliance(nominal, data, compliance="j23-free", **common)
+            p_value = _nested_f_test(bent, free)
+            if p_value < FREE_P:
+                return replace(free, compliance="j23-free", compliance_note=(
+                    f"{note}; with a coefficient per joint and arm mass (the data correct the "
+                    f"mass table's proportions: F-test p = {p_value:.2g} < {FREE_P:g}, "
+                    f"{len(data)} poses)"))
             return replace(bent, compliance="j23", compliance_note=(
-                f"chosen (auto): the data support it, |value| / std error: {shown} (> "
-                f"{COMPLIANCE_T:g})"))
+                f"{note}; per-mass coefficients add nothing significant (F-test p = "
+                f"{p_value:.2g})"))
         why = f"left out (auto): the data do not support it, |value| / std error: {shown}"
     plain = _with_compliance(nominal, data, compliance="none", **common)
     return replace(plain, compliance="none", compliance_note=why)
+
+
+def _nested_f_test(simple: CalibrationResult, rich: CalibrationResult) -> float:
+    """p-value of the richer model's drop in the position residual sum of squares (F-test of
+    nested least-squares models, on the poses both kept)."""
+    m = 3 * min(len(simple.residuals_after), len(rich.residuals_after))
+    rss_a = float(np.sum(simple.residuals_after ** 2))
+    rss_b = float(np.sum(rich.residuals_after ** 2))
+    extra = max(rich.rank - simple.rank, 1)
+    dof = max(m - rich.rank, 1)
+    if rss_b <= 0 or rss_a <= rss_b:
+        return 1.0
+    return float(fdtrc(extra, dof, (rss_a - rss_b) / extra / (rss_b / dof)))
 
 
 def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind,

@@ -78,8 +78,10 @@ def compliance_summary(result: CalibrationResult) -> dict:
     with its standard error and the stiffness (kN m per deg), and the payload it was under."""
     joints = []
     for p, v, s in zip(result.params, result.values, result.std_errors, strict=True):
-        if p.kind == "compliance":
-            joints.append({"joint": p.joint + 1, "compliance_deg_per_knm": float(v),
+        if p.kind.startswith("compliance"):
+            joints.append({"joint": p.joint + 1, "name": p.name,
+                           "loaded_by": "all masses" if p.kind == "compliance" else
+                           f"arm mass {p.axis + 1}", "compliance_deg_per_knm": float(v),
                            "std_error": float(s),
                            "stiffness_knm_per_deg": float(1.0 / v) if v > 0 else None,
                            "share_the_geometry_cannot_absorb": result.unabsorbed.get(p.name)})

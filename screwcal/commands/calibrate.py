@@ -91,7 +91,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     gravity = doc["compliance"]
     if gravity["joints"]:
         print("joint compliance: " + ", ".join(
-            f"J{j['joint']} {j['compliance_deg_per_knm']:.3g} +- {j['std_error']:.2g} deg/kNm"
+            f"{j['name']} {j['compliance_deg_per_knm']:.3g} +- {j['std_error']:.2g} deg/kNm"
             + (f" ({100 * j['share_the_geometry_cannot_absorb']:.0f} % of its effect beyond "
                "what the geometry can imitate)"
                if j["share_the_geometry_cannot_absorb"] is not None else "")
@@ -263,9 +263,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="fix the measuring noise, 1 sigma (default: estimated from the data)")
     p.add_argument("--joint-noise-deg", type=float, default=None,
                    help="fix the random joint error, uniform +- (default: estimated)")
-    p.add_argument("--compliance", choices=["auto", "none", "j23", "wrist"], default="auto",
+    p.add_argument("--compliance", choices=["auto", "none", "j23", "j23-free", "wrist"],
+                   default="auto",
                    help="joint compliance under gravity, identified with the geometry: joints "
-                   "2-3, or 2-6 (default auto: joints 2-3 when the data support them)")
+                   "2-3, joints 2-3 with a coefficient per arm mass, or 2-6 (default auto: "
+                   "joints 2-3 when the data support them, per mass when rich data do)")
     p.add_argument("--lag", choices=["auto", "none"], default="auto",
                    help="joint readings that lag the motion (the diagnostics flag them): "
                    "estimate the lag from the residuals and correct the readings (default auto: "

@@ -53,7 +53,10 @@ ROBOT_MASSES: dict[str, tuple[LumpedMass, ...]] = {
                LumpedMass(4, 0.7, (302.0, 0.0, 630.0))),
 }
 
-COMPLIANCE_JOINTS = {"none": (), "j23": (1, 2), "wrist": (1, 2, 3, 4, 5)}
+COMPLIANCE_JOINTS = {"none": (), "j23": (1, 2), "wrist": (1, 2, 3, 4, 5), "j23-free": (1, 2)}
+# "j23-free": a coefficient per joint and per arm mass that loads it (the data correct the mass
+# table's proportions); the payload loads a joint with its last arm mass's coefficient.
+FREE_COMPLIANCE = ("j23-free",)
 
 
 def gravity_torques(axis_dirs: Array, axis_points: Array, partial: list[Array],
@@ -61,13 +64,17 @@ def gravity_torques(axis_dirs: Array, axis_points: Array, partial: list[Array],
     """(N, n) gravity torque (N m) about each joint's axis at the configurations whose partial
     products of screws are `partial` (A_0..A_n, each (N, 3, 4), A_j placing joint j's axis);
     `up` is the robot base's +z in the world frame."""
+    return gravity_torques_by_mass(axis_dirs, axis_points, partial, masses, up).sum(axis=2)
+
+
+def gravity_torques_by_mass(axis_dirs: Array, axis_points: Array, partial: list[Array],
+                            masses: tuple[LumpedMass, ...], up: Array) -> Array:
+    """(N, n, M) the gravity torque about each joint from each mass (`gravity_torques`)."""
     n = len(axis_dirs)
     N = partial[0].shape[0]
-    tau = np.zeros((N, n))
-    if not masses:
-        return tau
+    tau = np.zeros((N, n, len(masses)))
     g = -GRAVITY_M_S2 * up / 1000.0  # N per kg, with mm lever arms -> N m
-    for m in masses:
+    for k, m in enumerate(masses):
         A = partial[m.link + 1]
         r = A[:, :, :3] @ np.asarray(m.home_mm) + A[:, :, 3]  # (N, 3) the mass now
         force = m.kg * g
@@ -75,7 +82,7 @@ def gravity_torques(axis_dirs: Array, axis_points: Array, partial: list[Array],
             Aj = partial[j]
             w = Aj[:, :, :3] @ axis_dirs[j]
             a = Aj[:, :, :3] @ axis_points[j] + Aj[:, :, 3]
-            tau[:, j] += np.einsum("ni,ni->n", w, np.cross(r - a, force))
+            tau[:, j, k] = np.einsum("ni,ni->n", w, np.cross(r - a, force))
     return tau
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.kinematics.compliance import gravity_torques
+from screwcal.kinematics.compliance import gravity_torques_by_mass
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, adjoint, cross, exp_twist, invert_transform, skew
 
@@ -66,17 +66,35 @@ def _chain(model: SerialModel, q: Array, keep: bool) -> tuple[Array, list[Array]
     effect on tau is of second order)."""
     theta = q + model.joint_zero
     if model.has_compliance:
-        theta = theta + model.compliance * joint_torques(model, q)
+        theta = theta + joint_bend(model, q)
     return _chain_theta(model, theta, keep)
 
 
 def joint_torques(model: SerialModel, q: ArrayLike) -> Array:
     """(N, n) gravity torques (N m) about the joints at configurations q (N, n), from the
     model's lumped masses and payload (`compliance`)."""
+    return joint_torques_by_mass(model, q).sum(axis=2)
+
+
+def joint_torques_by_mass(model: SerialModel, q: ArrayLike) -> Array:
+    """(N, n, M) the torques of `joint_torques` per mass: the arm's masses, then the payload's
+    (when it has one)."""
     q = _check_q(model, q)
     _, partial = _chain_theta(model, q + model.joint_zero, keep=True)
-    return gravity_torques(model.axis_dirs, model.axis_points_mm, partial, model.all_masses,
-                           model.base[:3, 2])
+    return gravity_torques_by_mass(model.axis_dirs, model.axis_points_mm, partial,
+                                   model.all_masses, model.base[:3, 2])
+
+
+def joint_bend(model: SerialModel, q: Array) -> Array:
+    """(N, n) how far gravity turns each joint (rad): c_j tau_j, or with per-mass coefficients
+    sum_k C_jk tau_jk (the payload with its joint's last arm-mass coefficient)."""
+    tau = joint_torques_by_mass(model, q)
+    if model.compliance_by_mass is None:
+        return model.compliance * tau.sum(axis=2)
+    C = model.compliance_by_mass
+    if tau.shape[2] > C.shape[1]:  # the payload
+        C = np.concatenate([C, C[:, -1:]], axis=1)
+    return np.einsum("nk,Nnk->Nn", C, tau)
 
 
 def _chain_theta(model: SerialModel, theta: Array, keep: bool) -> tuple[Array, list[Array]]:

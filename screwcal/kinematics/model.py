@@ -81,6 +81,8 @@ class SerialModel:
     tool: Array = field(default_factory=lambda: np.eye(4))
     compliance: Array = field(default=None)  # type: ignore[assignment]  # rad/(N m), (n,)
     masses: tuple[LumpedMass, ...] = ()
+    # (n, len(masses)) rad/(N m): per joint and arm mass, replacing `compliance` when given
+    compliance_by_mass: Array | None = None
     payload: Payload = field(default_factory=Payload)
 
     def __post_init__(self) -> None:
@@ -113,7 +115,11 @@ class SerialModel:
         for what in ("home_flange", "base", "tool"):
             _check_rigid(getattr(self, what), f"model '{self.name}', {what}")
         object.__setattr__(self, "masses", tuple(self.masses))
-        if self.compliance.any() and not self.all_masses:
+        if self.compliance_by_mass is not None:
+            object.__setattr__(self, "compliance_by_mass", _frozen(
+                self.compliance_by_mass, (n, len(self.masses)),
+                f"model '{self.name}', compliance_by_mass"))
+        if self.has_compliance and not self.all_masses:
             raise ModelError(f"model '{self.name}': joint compliance needs the masses that load "
                              "the joints (a mass table or a payload)")
         if np.any(self.compliance < 0):
@@ -132,7 +138,8 @@ class SerialModel:
     @cached_property
     def has_compliance(self) -> bool:
         """Any joint compliance (computed once: the arrays are read-only)."""
-        return bool(self.compliance.any())
+        return bool(self.compliance.any()) or (self.compliance_by_mass is not None
+                                               and bool(self.compliance_by_mass.any()))
 
     @property
     def all_masses(self) -> tuple[LumpedMass, ...]:

@@ -107,6 +107,8 @@ class GravityIn(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     compliance_deg_per_knm: list[Annotated[float, Field(ge=0, allow_inf_nan=False)]]
+    # per joint and arm mass (rows: joints, columns: `masses`), replacing the per-joint values
+    compliance_by_mass_deg_per_knm: list[list[FiniteFloat]] | None = None
     masses: list[MassIn] = []
     payload: PayloadIn = PayloadIn()
 
@@ -117,7 +119,13 @@ class GravityIn(BaseModel):
         for m in self.masses:
             if m.joint > n:
                 raise ModelError(f"gravity.masses: joint {m.joint} of a {n}-joint model")
+        by_mass = self.compliance_by_mass_deg_per_knm
+        if by_mass is not None and np.shape(by_mass) != (n, len(self.masses)):
+            raise ModelError(f"gravity.compliance_by_mass_deg_per_knm must be {n} rows of "
+                             f"{len(self.masses)} (one per mass), got {np.shape(by_mass)}")
         return dict(compliance=np.radians(self.compliance_deg_per_knm) / 1000.0,
+                    compliance_by_mass=None if by_mass is None else
+                    np.radians(np.array(by_mass, float)) / 1000.0,
                     masses=tuple(LumpedMass(m.joint - 1, m.kg, m.home_mm) for m in self.masses),
                     payload=Payload(self.payload.kg, self.payload.cog_mm))
 
@@ -125,8 +133,11 @@ class GravityIn(BaseModel):
     def of(cls, model: SerialModel) -> GravityIn | None:
         if not model.has_compliance and model.payload.kg == 0.0:
             return None
+        by_mass = model.compliance_by_mass
         return cls(compliance_deg_per_knm=[float(v) for v in np.degrees(model.compliance)
                                            * 1000.0],
+                   compliance_by_mass_deg_per_knm=None if by_mass is None else
+                   (np.degrees(by_mass) * 1000.0).tolist(),
                    masses=[MassIn(joint=m.link + 1, kg=m.kg, home_mm=m.home_mm)
                            for m in model.masses],
                    payload=PayloadIn(kg=model.payload.kg, cog_mm=model.payload.cog_mm))

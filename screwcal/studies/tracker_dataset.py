@@ -111,9 +111,10 @@ class TrackerData:
         return float(np.linalg.norm(base - np.median(base, axis=0), axis=2).max())
 
     def report(self) -> str:
+        drift = (f"; base reflectors drift up to {self.base_drift_mm():.3f} mm (corrected)")
         if not self.rejected:
-            return f"{len(self.q_deg)} rows, all accepted"
-        lines = [f"{len(self.q_deg)} rows, {len(self.rejected)} rejected:"]
+            return f"{len(self.q_deg)} rows, all accepted{drift}"
+        lines = [f"{len(self.q_deg)} rows, {len(self.rejected)} rejected{drift}:"]
         lines += [f"  row {k + 1}: {why}" for k, why in sorted(self.rejected.items())]
         return "\n".join(lines)
 

@@ -72,7 +72,7 @@ def run_study(dataset: TrackerData, seed: int = 0, full_pose: bool = True) -> di
                                "compliance": [(p.name, float(v), float(sd)) for p, v, sd in
                                               zip(result.params, result.values,
                                                   result.std_errors, strict=True)
-                                              if p.kind == "compliance"],
+                                              if p.kind.startswith("compliance")],
                                "compliance_note": result.compliance_note,
                                "lag_note": result.lag_note}
         if label == "full":

@@ -114,3 +114,41 @@ def test_compensation_with_a_compliant_model_puts_the_bent_robot_on_target():
     assert np.abs(reached[:, :3, 3] - targets[:, :3, 3]).max() < 1e-3
     sagged = flange_kinematics(truth, q_ref)  # without the compensation it misses
     assert np.abs(sagged[:, :3, 3] - targets[:, :3, 3]).max() > 0.05
+
+
+def test_per_mass_compliance_jacobian_file_and_auto_choice():
+    from screwcal.kinematics.se3 import rotvec_from_rotation
+
+    m = replace(irb120(), payload=Payload(0.5, (0.0, 0.0, 40.0)))
+    cands = candidate_params(m, "full", base=False, tool_rotation=False, tool_position=False,
+                             compliance="j23-free")
+    names = [p.name for p in cands if p.kind == "compliance_mass"]
+    assert names == ["J2c.m1", "J2c.m2", "J2c.m3", "J3c.m2", "J3c.m3"]  # masses that load them
+    errors = ErrorModel(m, tuple(cands))
+    rng = np.random.default_rng(5)
+    x = rng.normal(0, 1e-3, len(cands))
+    cols = [k for k, p in enumerate(cands) if p.kind == "compliance_mass"]
+    x[cols] = np.radians([3.0, 2.0, 6.0, 15.0, 12.0])
+    q = random_configurations(5, rng)
+    T, J = errors.jacobian(x, q)
+    for k in cols:  # the payload rides on the last arm mass's coefficient
+        step = np.zeros_like(x)
+        step[k] = 1e-6
+        Tp, _ = errors.jacobian(x + step, q)
+        w = rotvec_from_rotation(Tp[:, :3, :3] @ np.swapaxes(T[:, :3, :3], 1, 2)) / 1e-6
+        v = (Tp[:, :3, 3] - T[:, :3, 3]) / 1e-6 - np.cross(w, T[:, :3, 3])
+        np.testing.assert_allclose(np.c_[w, v], J[:, :, k], atol=2e-3 * np.abs(J[:, :, k]).max())
+    fitted = errors.apply(x)
+    back = parse_model(model_file_from_model(fitted).model_dump())
+    np.testing.assert_allclose(forward_kinematics(back, q), forward_kinematics(fitted, q),
+                               atol=1e-9)
+    # a robot whose masses are not in the table's proportions: rich data pick the per-mass form
+    truth = replace(irb120(), compliance_by_mass=np.radians(
+        [[0, 0, 0], [2.0, 8.0, 30.0], [0, 15.0, 2.0], [0, 0, 0], [0, 0, 0], [0, 0, 0]]) / 1000)
+    q = random_configurations(300, rng)
+    data = simulate_measurements(truth, q, rng, joint_noise_deg=0.0)
+    r = identify(irb120(), data, kind="full", frames="known", compliance="auto")
+    assert r.compliance == "j23-free" and "F-test" in r.compliance_note
+    few = identify(irb120(), data.take(np.arange(60)), kind="full", frames="known",
+                   compliance="auto")
+    assert few.compliance == "j23"  # too few poses to try it

@@ -52,8 +52,12 @@ def test_import_flags_the_bad_base_rows_and_says_so():
     assert "row 252: base reflector 2" in d.report()
     m = d.measurements()
     assert len(m) == 982 and "252" not in m.ids and m.full_pose
-    # The reflector frame's origin is reflector 1.
-    np.testing.assert_allclose(m.positions_mm[0], d.smr_mm[0, 0])
+    # The reflector frame's origin is reflector 1 (as read, or moved back by the tracker's
+    # drift, which the base reflectors measure: some hundredths of a mm).
+    np.testing.assert_allclose(d.measurements(drift="none").positions_mm[0], d.smr_mm[0, 0])
+    np.testing.assert_allclose(m.positions_mm[0], d.smr_mm[0, 0], atol=0.05)
+    assert 0.0 < np.abs(m.positions_mm[0] - d.smr_mm[0, 0]).max()
+    assert 0.02 < d.base_drift_mm() < 0.2
 
 
 @needs_data
@@ -97,14 +101,16 @@ def test_commanded_joints_predict_better_and_the_lag_is_reported():
             "commanded": run_study(commanded, seed=0)["models"]}
     s_measured, s_commanded = both["measured"]["full"], both["commanded"]["full"]
     assert s_commanded["mean"] < 0.2 < 0.4 < s_measured["mean"] <= 0.45
-    # gravity bends joints 2 and 3: with their compliance identified (auto keeps it) both
-    # joint files predict better (issue 11: 0.183 -> 0.107, 0.445 -> 0.388 mm)
+    # gravity bends joints 2 and 3: with their compliance identified (auto keeps it; with the
+    # commanded joints, per arm mass) both joint files predict better (issue 11: commanded
+    # 0.178 -> 0.095, measured 0.443 -> 0.386 mm, tracker drift corrected)
     for models in both.values():
         bent = models["full+c"]
-        assert [n for n, _, _ in bent["compliance"]] == ["J2c", "J3c"]
-        assert all(v > 5 * sd for _, v, sd in bent["compliance"])
+        assert {n[:3] for n, _, _ in bent["compliance"]} == {"J2c", "J3c"}
+        assert max(abs(v) / sd for _, v, sd in bent["compliance"]) > 5
         assert bent["mean"] < 0.9 * models["full"]["mean"]
-    assert both["commanded"]["full+c"]["mean"] < 0.11
+    assert "per joint and arm mass" in both["commanded"]["full+c"]["compliance_note"]
+    assert both["commanded"]["full+c"]["mean"] <= 0.10  # issue 11's target
     assert both["measured"]["full+c"]["mean"] < 0.40
     # the read-back joints lag the motion: estimated and corrected (0.388 -> 0.278 mm; issue
     # 11's target 0.37), while the commanded ones are left as they are
