@@ -109,3 +109,25 @@ def test_every_subcommand_has_help(command, capsys):
         main([command, "--help"])
     assert done.value.code == 0
     assert capsys.readouterr().out.startswith(f"usage: screwcal {command}")
+
+
+def test_predict_uses_the_model_files_compliance_and_a_given_payload(tmp_path):
+    from dataclasses import replace
+
+    from screwcal.kinematics.robots import irb120
+
+    stiff = irb120()
+    soft = replace(stiff, compliance=np.radians([0, 3.0, 15.0, 0, 0, 0]) / 1000.0)
+    save_model(soft, tmp_path / "soft.json")
+    joints = _write(tmp_path / "joints.csv", "q1,q2,q3,q4,q5,q6\n0,60,0,0,30,0\n")
+    outs = {}
+    for name, extra in (("bent", []), ("loaded", ["--payload-kg", "3", "--payload-cog-mm",
+                                                  "0,0,50"])):
+        out = tmp_path / f"{name}.csv"
+        assert main(["predict", "--model", str(tmp_path / "soft.json"), "--joints",
+                     str(joints), "--out", str(out), *extra]) == 0
+        outs[name] = np.array([[float(r[k]) for k in ("x", "y", "z")] for r in _read(out)])
+    q = np.radians([[0, 60, 0, 0, 30, 0]])
+    rigid = forward_kinematics(stiff, q)[0, :3, 3]
+    assert outs["bent"][0, 2] < rigid[2] - 0.05  # the stretched arm sags
+    assert outs["loaded"][0, 2] < outs["bent"][0, 2] - 0.05  # and more under a payload
