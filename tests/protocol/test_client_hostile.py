@@ -104,14 +104,18 @@ async def test_step_wait_twice_asks_the_operator_once_and_sends_one_go():
     await fake.stop()
 
 
-async def test_a_pose_reported_before_its_go_is_refused():
-    fake, client = await _client(_run_replies(lambda s: [*packets(s, 0, 0)]))
+@pytest.mark.parametrize(("body", "message"), [
+    (lambda s: [*packets(s, 0, 0)], "before its GO"),  # moved without the go-ahead
+    (lambda s: [f"{s} WAIT 1"], "WAIT 1 while pose 0 is next"),  # asks for another pose
+])
+async def test_a_step_run_out_of_turn_is_refused_before_the_operator_is_asked(body, message):
+    fake, client = await _client(_run_replies(body))
     await client.load("CAL", Q[:2])
 
     async def operator(idx):
         raise AssertionError("never asked")
 
-    with pytest.raises(SequenceError, match="before its GO"):
+    with pytest.raises(SequenceError, match=message):
         _ = [p async for p in client.run("CAL", "STEP", on_wait=operator)]
     await client.close()
     await fake.stop()
@@ -256,19 +260,6 @@ async def test_a_malformed_reply_to_a_pending_request_says_so():
 def _frames(payloads):
     from protocol.codec import frame
     return (frame(p) for p in payloads)
-
-
-async def test_a_step_wait_for_another_pose_is_refused():
-    fake, client = await _client(_run_replies(lambda s: [f"{s} WAIT 1"]))
-    await client.load("CAL", Q[:2])
-
-    async def operator(idx):
-        raise AssertionError("never asked")
-
-    with pytest.raises(SequenceError, match="WAIT 1 while pose 0 is next"):
-        _ = [p async for p in client.run("CAL", "STEP", on_wait=operator)]
-    await client.close()
-    await fake.stop()
 
 
 @pytest.mark.parametrize(("verb", "reply", "message"), [
