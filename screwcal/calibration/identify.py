@@ -188,7 +188,7 @@ class CalibrationResult:
     noise: NoiseEstimate | None = None  # the levels used (statistical weighting)
     outliers: tuple[Outlier, ...] = ()  # rejected (and, with outliers="keep", kept) poses
     diagnostics: dict = field(default_factory=dict)  # data_quality(): lag, drift, leverage, fit
-    compliance: str = "none"  # the joint compliance identified: none, j23, wrist
+    compliance: str = "none"  # the joint compliance identified: none, j23, j23-free, wrist
     compliance_note: str = ""  # why (compliance="auto")
     unabsorbed: dict[str, float] = field(default_factory=dict)  # compliance: see _unabsorbed
     reading_lag: Array | None = None  # (n,) per joint, when lag="auto" corrected the readings
@@ -402,10 +402,10 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     without; with at least `FREE_MIN_POSES` poses it then tries a coefficient per joint and
     arm mass ("j23-free": the data correct the mass table's proportions) and keeps it when an
     F-test on the residual says so (p < `FREE_P`); the result says which and why
-    (`compliance_note`). `lag="auto"`: when the
-    diagnostics find joint readings that lag the motion and the data know each pose's previous
-    readings, the lag per joint is estimated from the residuals and the readings corrected, in
-    a few rounds while the residual falls (`reading_lag`, `lag_note`; `screwcal.calibration.lag`).
+    (`compliance_note`). `lag="auto"`: when the diagnostics find joint readings that lag the
+    motion and the data know each pose's previous readings, the lag per joint is estimated
+    from the residuals and the readings corrected, in a few rounds while the residual falls
+    (`reading_lag`, `lag_note`; `screwcal.calibration.lag`).
 
     Poses whose residual says they do not belong (data snooping, `diagnostics.pose_tests`) are
     rejected, the worst first, and the fit repeated (`outliers="keep"`: listed, kept); at most
