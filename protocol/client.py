@@ -345,7 +345,7 @@ class ControllerClient:
         if not 1 <= n <= codec.MAX_LIST:
             raise ValueError(f"a list holds 1..{codec.MAX_LIST} poses, got {n}")
         seq = self._next_seq()
-        packets = [kind(seq, _flag(k, n), k, tuple(float(v) for v in item))  # type: ignore[arg-type]
+        packets = [kind(seq, codec.flag_of(k, n), k, tuple(float(v) for v in item))  # type: ignore[arg-type]
                    for k, item in enumerate(items)]
         self._loaded.pop(list_name, None)  # unknown until the ACK
         self._open_route(seq)
@@ -486,11 +486,6 @@ class ControllerClient:
         self._expect_ack(await self._request(Bye(seq), seq, self.timeouts.reply_s), "BYE")
 
 
-def _flag(idx: int, count: int) -> int:
-    """A packet's FLAG: 2 for the last of the list (also a list of one), 0 first, 1 between."""
-    return 2 if idx == count - 1 else (0 if idx == 0 else 1)
-
-
 def _check_packet(msg: Joints, expected: int, count: int) -> None:
     if msg.idx < expected:
         raise SequenceError(f"pose {msg.idx} repeated (expected {expected})")
@@ -498,6 +493,6 @@ def _check_packet(msg: Joints, expected: int, count: int) -> None:
         raise SequenceError(f"pose {msg.idx} after the last of {count}")
     if msg.idx > expected:
         raise SequenceError(f"pose {expected} missing (got {msg.idx})")
-    if msg.flag != _flag(msg.idx, count):
+    if msg.flag != codec.flag_of(msg.idx, count):
         raise SequenceError(f"pose {msg.idx} has FLAG {msg.flag}, expected "
-                            f"{_flag(msg.idx, count)} in a list of {count}")
+                            f"{codec.flag_of(msg.idx, count)} in a list of {count}")

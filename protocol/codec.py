@@ -27,6 +27,12 @@ Lists = Literal["CAL", "PERF"]
 Modes = Literal["AUTO", "STEP"]
 States = Literal["IDLE", "MOVING", "WAITING", "FAULT"]
 FIRST, MIDDLE, LAST = 0, 1, 2
+
+
+def flag_of(idx: int, count: int) -> int:
+    """A data packet's FLAG: LAST for the last of the list (a list of one too), FIRST for the
+    first, MIDDLE between (Table 12)."""
+    return LAST if idx == count - 1 else (FIRST if idx == 0 else MIDDLE)
 _NUMBER = re.compile(r"-?[0-9]+(\.[0-9]+)?\Z")
 _INT = re.compile(r"[0-9]+\Z")
 

@@ -294,7 +294,7 @@ class _Session:
             except TimeoutError:
                 await self.send(Err(msg.seq, BAD_ARGUMENTS, f"list incomplete at {k}"))
                 return
-            expected_flag = 2 if k == msg.count - 1 else (0 if k == 0 else 1)
+            expected_flag = codec.flag_of(k, msg.count)
             if not isinstance(item, Joints | Pose):
                 # Any other request mid-LOAD: refused, the partial list discarded, nothing
                 # moves (never run the request: it could start a list or a move).
@@ -417,7 +417,7 @@ class _Session:
             if self.faults.take("drop_at_pose", k):
                 self.writer.transport.abort()
                 raise _SessionEndedError()
-            flag = 2 if k == n - 1 else (0 if k == 0 else 1)
+            flag = codec.flag_of(k, n)
             await self.send(*self.packets(msg.seq, flag, k),
                             garble_first=self.faults.take("garble_at_pose", k))
             emu.idx = k + 1
