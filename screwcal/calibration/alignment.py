@@ -50,10 +50,7 @@ def align_frames(model: SerialModel, q: Array, positions_mm: Array, rotations: A
     tool_solver = np.linalg.pinv(R_f.reshape(-1, 3))  # the same system every round
     for _ in range(rounds):
         if base is None:
-            pts = p_f + R_f @ t_tool
-            c_m, c_n = positions_mm.mean(axis=0), pts.mean(axis=0)
-            R_b = _kabsch(positions_mm - c_m, pts - c_n)
-            t_b = c_m - R_b @ c_n
+            R_b, t_b = rigid_motion(p_f + R_f @ t_tool, positions_mm)
         if not fit_tool:
             break
         # measured = R_b (p_f + R_f t) + t_b  ->  R_f t = R_b^T (measured - t_b) - p_f
