@@ -43,7 +43,6 @@ from screwcal.kinematics.forward import (
     _chain,
     _check_q,
     _to_homogeneous,
-    joint_torques,
     joint_torques_by_mass,
 )
 from screwcal.kinematics.model import SerialModel
@@ -363,16 +362,20 @@ class ErrorModel:
                 J[:, :, cols] = (ad[key[1]] - ad[key[1] + 1]) @ L
             else:  # tool: expressed in the flange frame, carried by the flange pose
                 J[:, :, cols] = adjoint(Y) @ L
-        if "compliance" in kinds:  # d theta_j / d c_j = tau_j(q) (kN m; the bending's own
-            cols = kinds["compliance"]  # effect on tau is of second order)
-            J[:, :, cols] *= joint_torques(model, q)[:, joint[cols]][:, None, :] / 1000.0
-        if "compliance_mass" in kinds:  # d theta_j / d C_jk = tau_jk(q), the payload's torque
-            cols = kinds["compliance_mass"]  # riding on the last arm mass's coefficient
+        if "compliance" in kinds or "compliance_mass" in kinds:
+            # d theta_j / d c_j = tau_j(q), d theta_j / d C_jk = tau_jk(q) with the payload's
+            # torque riding on the last arm mass's coefficient (kN m; the bending's own effect
+            # on tau is of second order)
             tau = joint_torques_by_mass(model, q)
-            arm = len(model.masses)
-            if tau.shape[2] > arm:
-                tau[:, :, arm - 1] += tau[:, :, arm]
-            J[:, :, cols] *= tau[:, joint[cols], axis[cols]][:, None, :] / 1000.0
+            if "compliance" in kinds:
+                cols = kinds["compliance"]
+                J[:, :, cols] *= tau.sum(axis=2)[:, joint[cols]][:, None, :] / 1000.0
+            if "compliance_mass" in kinds:
+                cols = kinds["compliance_mass"]
+                arm = len(model.masses)
+                if tau.shape[2] > arm:
+                    tau[:, :, arm - 1] += tau[:, :, arm]
+                J[:, :, cols] *= tau[:, joint[cols], axis[cols]][:, None, :] / 1000.0
         return T, J
 
 

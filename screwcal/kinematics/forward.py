@@ -140,7 +140,7 @@ def _few_poses(model: SerialModel, q: Array) -> Array:
     """A few configurations (N, n): every exponential in one product of their Rodrigues
     coefficients with the stacked generators, then the chain's product pairwise; a handful of
     array calls instead of the batched path's dozens (one pose: ~3x faster)."""
-    G, flange_tool, revolute, eye = _one_pose_tables(model)
+    G, flange_tool, revolute, eye, at_origin = _one_pose_tables(model)
     theta = q + model.joint_zero
     N, n = theta.shape
     sc = np.empty((N, n, 1, 2))
@@ -159,26 +159,24 @@ def _few_poses(model: SerialModel, q: Array) -> Array:
         T = np.broadcast_to(flange_tool, (N, 4, 4))
         for k in range(n - 1, -1, -1):
             T = E[:, k] @ T
-    return T if model.base is _IDENTITY_BASE.get(model) else model.base @ T
+    return T if at_origin else model.base @ T
 
 
-_IDENTITY_BASE: weakref.WeakKeyDictionary[SerialModel, Array] = weakref.WeakKeyDictionary()
-_ONE_POSE: weakref.WeakKeyDictionary[SerialModel, tuple[Array, Array, bool, Array]] = \
+_ONE_POSE: weakref.WeakKeyDictionary[SerialModel, tuple[Array, Array, bool, Array, bool]] = \
     weakref.WeakKeyDictionary()
 
 
-def _one_pose_tables(model: SerialModel) -> tuple[Array, Array, bool, Array]:
+def _one_pose_tables(model: SerialModel) -> tuple[Array, Array, bool, Array, bool]:
     """Per model, once: the generators stacked (n, 2, 16), home_flange . tool, whether every
-    joint is revolute, and n identities."""
+    joint is revolute, n identities, and whether the base is the identity."""
     got = _ONE_POSE.get(model)
     if got is None:
         G1, G2, flange_tool = _generators(model)
         n = model.n_joints
         G = np.stack([G1.reshape(n, 16), G2.reshape(n, 16)], axis=1)
         got = _ONE_POSE[model] = (G, flange_tool, bool(model.is_revolute.all()),
-                                  np.broadcast_to(_EYE4, (n, 4, 4)))
-        if np.array_equal(model.base, _EYE4):
-            _IDENTITY_BASE[model] = model.base
+                                  np.broadcast_to(_EYE4, (n, 4, 4)),
+                                  bool(np.array_equal(model.base, _EYE4)))
     return got
 
 
