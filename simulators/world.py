@@ -17,7 +17,7 @@ from screwcal.calibration.correction import after_zero
 from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM
 from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.se3 import Array
+from screwcal.kinematics.se3 import Array, transform_points
 
 DEFAULT_HOLES_MM = np.array(DEFAULT_HOLES_IN_FLANGE_MM)  # P1, P2, P3 in tool0 (thesis 4.2)
 
@@ -72,4 +72,4 @@ class World:
         """Where the three holes really are, in the arm's frame (3, 3)."""
         q = np.radians(self.q_deg.astype(float))[None]
         T = forward_kinematics(self.truth.with_frames(tool=np.eye(4)), q)[0]
-        return self.holes_mm @ T[:3, :3].T + T[:3, 3]
+        return transform_points(T, self.holes_mm)

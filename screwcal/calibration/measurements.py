@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike
 from screwcal.errors import DataFileError, ScrewcalError
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import rotation_from_euler_zyx_deg
-from screwcal.kinematics.se3 import Array
+from screwcal.kinematics.se3 import Array, transform_points
 from screwcal.tables import joint_columns, read_numeric_csv
 
 
@@ -61,6 +61,11 @@ class MeasurementSet:
                               tuple(int(v) for v in np.asarray(self.lines, dtype=int)[idx])
                               if self.lines else (),  # Python ints: they go into JSON
                               None if self.q_previous is None else self.q_previous[idx])
+
+    def transformed(self, T: Array) -> MeasurementSet:
+        """The same measurements seen from another frame: T (4, 4) maps this frame into it."""
+        return replace(self, positions_mm=transform_points(T, self.positions_mm),
+                       rotations=None if self.rotations is None else T[:3, :3] @ self.rotations)
 
     def with_q(self, q: Array) -> MeasurementSet:
         """The same measurements with other joint readings (e.g. corrected for lag)."""

@@ -88,6 +88,7 @@ _EXPORTS = {
     "spatial_jacobian": "forward",
     "transform_from_pose": "pose",
     "transform_from_rotation_translation": "se3",
+    "transform_points": "se3",
     "twist_from_transform_difference": "se3",
     "twist_hat": "se3",
 }

@@ -90,6 +90,12 @@ def transform_from_rotation_translation(R: ArrayLike, t: ArrayLike) -> Array:
     return T
 
 
+def transform_points(T: ArrayLike, points: ArrayLike) -> Array:
+    """Points (..., 3) expressed in the frame T (4, 4) maps them into: R p + t."""
+    T = np.asarray(T, dtype=float)
+    return np.asarray(points, dtype=float) @ T[:3, :3].T + T[:3, 3]
+
+
 def invert_transform(T: ArrayLike) -> Array:
     """Inverse of homogeneous transforms, shape (..., 4, 4)."""
     T = np.asarray(T, dtype=float)

@@ -22,13 +22,17 @@ import numpy as np
 from screwcal.calibration.base_alignment import base_from_sweeps
 from screwcal.calibration.correction import compensate
 from screwcal.calibration.identify import identify
-from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.posesets import cube_set
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.robots import irb1600
-from screwcal.kinematics.se3 import Array, invert_transform, rotation_from_rotvec
+from screwcal.kinematics.se3 import (
+    Array,
+    invert_transform,
+    rotation_from_rotvec,
+    transform_points,
+)
 from screwcal.studies.simulate import NOISE_MM, simulate_measurements
 from screwcal.studies.thesis_metrics import Row, joint_error, set_errors
 
@@ -56,7 +60,7 @@ def _arm_placement(rng: np.random.Generator) -> Array:
 def _measure(truth: SerialModel, placed: Array, q: Array, rng: np.random.Generator) -> Array:
     """Flange origins the arm reports (its frame, mm) for commanded joints q."""
     p = forward_kinematics(truth, q + joint_error(truth, q, rng))[:, :3, 3]
-    return p @ placed[:3, :3].T + placed[:3, 3] + rng.normal(0, NOISE_MM, p.shape)
+    return transform_points(placed, p) + rng.normal(0, NOISE_MM, p.shape)
 
 
 def hand_alignment(truth: SerialModel, placed: Array, rng: np.random.Generator) -> Array:
@@ -88,9 +92,7 @@ def _scores(truth: SerialModel, robot_q: Array, targets: Array, frame: Array, pl
     the nominal targets."""
     T_true = forward_kinematics(truth, robot_q + joint_error(truth, robot_q, rng))
     seen = T_true.copy()
-    world = T_true[:, :3, 3] @ placed[:3, :3].T + placed[:3, 3]
-    back = invert_transform(frame)
-    seen[:, :3, 3] = world @ back[:3, :3].T + back[:3, 3]
+    seen[:, :3, 3] = transform_points(invert_transform(frame) @ placed, T_true[:, :3, 3])
     as_measured = set_errors(targets, seen)
     itself = set_errors(targets, own_frame(T_true, targets))
     return {f"{prefix}tpo_mm": as_measured["tpo_mm"],
@@ -121,15 +123,12 @@ def sample_chapter5(seed: int) -> list[Row]:
     q_perf = _away_from_limits(nominal, cube_set(nominal, "Klimchik", 80, seed=seed + 7), 40)
     targets = flange_kinematics(nominal, q_perf)  # what the program asks for
     seen = simulate_measurements(truth, q_cal, rng)
-    in_arm = MeasurementSet(seen.q, seen.positions_mm @ placed[:3, :3].T + placed[:3, 3],
-                            placed[:3, :3] @ seen.rotations)
+    in_arm = seen.transformed(placed)
     home = np.zeros(6)
     rows = []
 
     # The thesis's route: the data brought into the robot frame by the hand alignment.
-    back = invert_transform(hand)
-    in_robot = MeasurementSet(in_arm.q, in_arm.positions_mm @ back[:3, :3].T + back[:3, 3],
-                              back[:3, :3] @ in_arm.rotations)
+    in_robot = in_arm.transformed(invert_transform(hand))
     thesis = identify(nominal, in_robot, kind="thesis", frames="known")
     zeroed = truth.derived(joint_zero=truth.joint_zero - thesis.model.joint_zero)
     rows.append({"route": "thesis: ZERO",
