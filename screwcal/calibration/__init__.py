@@ -90,6 +90,7 @@ _EXPORTS = {
     "d_optimal": "design",
     "data_quality": "diagnostics",
     "explain_removed": "identifiability",
+    "explaining_joint_errors": "diagnostics",
     "filter_rapid": "rapid_filter",
     "fit_circle": "base_alignment",
     "forward_batch": "errors_model",

@@ -87,6 +87,12 @@ def acquisition_order(ids: tuple[str, ...], lines: tuple[int, ...]) -> Array:
     return follows
 
 
+def explaining_joint_errors(e: Array, Jq: Array) -> Array:
+    """(N, n) per pose, the smallest joint change that would remove its residual e (N, k)
+    through the joint Jacobian Jq (N, k, n): what the readings would have to be off by."""
+    return (np.linalg.pinv(Jq) @ e[..., None])[..., 0]
+
+
 def data_quality(e: Array, Jq: Array, q_deg: Array, test: PoseTest, ids: tuple[str, ...],
                  position_noise_mm: float | None, stated_noise_mm: float,
                  follows: Array | None = None) -> dict:
@@ -99,7 +105,7 @@ def data_quality(e: Array, Jq: Array, q_deg: Array, test: PoseTest, ids: tuple[s
     out: dict = {}
     # Joint readings that lag the motion: the joint error that would explain each residual,
     # against the previous move of that joint.
-    dq = np.degrees((np.linalg.pinv(Jq) @ e[..., None])[..., 0])
+    dq = np.degrees(explaining_joint_errors(e, Jq))
     step = np.vstack([np.full((1, q_deg.shape[1]), np.nan), np.diff(q_deg, axis=0)])
     if follows is not None:
         step[~follows] = np.nan

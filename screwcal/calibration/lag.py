@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from screwcal.calibration.diagnostics import explaining_joint_errors
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
 from screwcal.kinematics.model import SerialModel
@@ -42,6 +43,6 @@ def lag_increment(model: SerialModel, data: MeasurementSet) -> Array:
     T = forward_kinematics(model, data.q)
     e = data.positions_mm - T[:, :3, 3]
     Jp = point_jacobian(spatial_jacobian(model, data.q), T)[:, :3, :]
-    dq = (np.linalg.pinv(Jp) @ e[..., None])[..., 0]  # minimum-norm joint errors per pose
+    dq = explaining_joint_errors(e, Jp)
     denom = np.sum(step * step, axis=0)
     return np.where(denom > 0, np.sum(step * dq, axis=0) / np.where(denom > 0, denom, 1.0), 0.0)

@@ -529,10 +529,17 @@ def comparison(study: Study, key: str, sel: list[Row], thesis: float | None) -> 
     return f"{rel} {_why(study, key)}"
 
 
+def _selected(study: Study, rows: list[Row]) -> list[Row]:
+    """The rows a study reads (`select`), e.g. table8's corrected=all of the shared samples."""
+    if study.select is None:
+        return rows
+    column, value = study.select
+    return [r for r in rows if r[column] == value]
+
+
 def summarise(name: str, rows: list[Row]) -> str:
     study = STUDIES[name]
-    if study.select:
-        rows = [r for r in rows if r[study.select[0]] == study.select[1]]
+    rows = _selected(study, rows)
     cases = list(dict.fromkeys(r[study.group] for r in rows))
     n = len(rows) // len(cases)
     lines = [f"# Study `{name}`", "", study.note, "",
@@ -567,8 +574,7 @@ def plot(name: str, rows: list[Row], path: Path) -> None:
     from screwcal.performance import plots  # noqa: F401  (matplotlib's Agg backend, set there)
 
     study = STUDIES[name]
-    if study.select:
-        rows = [r for r in rows if r[study.select[0]] == study.select[1]]
+    rows = _selected(study, rows)
     cases = list(dict.fromkeys(r[study.group] for r in rows))
     numeric = all(isinstance(c, int | float) for c in cases)
     panels = study.panels or (("T_PO", ("tpo_mm",), "mm"),)
