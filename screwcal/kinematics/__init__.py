@@ -55,7 +55,6 @@ _EXPORTS = {
     "exp_twist": "se3",
     "flange_kinematics": "forward",
     "forward_kinematics": "forward",
-    "gravity_torques": "compliance",
     "gravity_torques_by_mass": "compliance",
     "invert_transform": "se3",
     "irb120": "robots",

@@ -59,17 +59,11 @@ COMPLIANCE_JOINTS = {"none": (), "j23": (1, 2), "wrist": (1, 2, 3, 4, 5), "j23-f
 FREE_COMPLIANCE = ("j23-free",)
 
 
-def gravity_torques(axis_dirs: Array, axis_points: Array, partial: list[Array],
-                    masses: tuple[LumpedMass, ...], up: Array) -> Array:
-    """(N, n) gravity torque (N m) about each joint's axis at the configurations whose partial
-    products of screws are `partial` (A_0..A_n, each (N, 3, 4), A_j placing joint j's axis);
-    `up` is the robot base's +z in the world frame."""
-    return gravity_torques_by_mass(axis_dirs, axis_points, partial, masses, up).sum(axis=2)
-
-
 def gravity_torques_by_mass(axis_dirs: Array, axis_points: Array, partial: list[Array],
                             masses: tuple[LumpedMass, ...], up: Array) -> Array:
-    """(N, n, M) the gravity torque about each joint from each mass (`gravity_torques`)."""
+    """(N, n, M) the gravity torque (N m) about each joint's axis from each mass, at the
+    configurations whose partial products of screws are `partial` (A_0..A_n, each (N, 3, 4),
+    A_j placing joint j's axis); `up` is the robot base's +z in the world frame."""
     n = len(axis_dirs)
     N = partial[0].shape[0]
     tau = np.zeros((N, n, len(masses)))
