@@ -137,46 +137,56 @@ _FEW = 16  # up to this many configurations, `_few_poses` (fewer, larger array c
 
 
 def _few_poses(model: SerialModel, q: Array) -> Array:
-    """A few configurations (N, n): every exponential in one product of their Rodrigues
-    coefficients with the stacked generators, then the chain's product pairwise; a handful of
-    array calls instead of the batched path's dozens (one pose: ~3x faster)."""
-    G, flange_tool, revolute, eye, at_origin = _one_pose_tables(model)
-    theta = q + model.joint_zero
-    N, n = theta.shape
-    sc = np.empty((N, n, 1, 2))
+    """A few configurations (N, n). Each joint's exponential at q + zero is a fixed combination
+    of (1, sin q, cos q) (or (1, q, 0) for a prismatic joint) with matrices `_few_pose_tables`
+    computes once per model, base and flange . tool folded in: one product gives all n
+    exponentials, then the chain pairwise; a dozen array calls in all (one pose: ~10 us)."""
+    C, revolute = _few_pose_tables(model)
+    N, n = q.shape
+    sc = np.empty((N, 3, n))
+    sc[:, 0] = 1.0
     if revolute:
-        sc[..., 0, 0] = np.sin(theta)
-        sc[..., 0, 1] = 1.0 - np.cos(theta)
-    else:  # a prismatic joint's exponential is I + t G1
-        rev = model.is_revolute
-        sc[..., 0, 0] = np.where(rev, np.sin(theta), theta)
-        sc[..., 0, 1] = np.where(rev, 1.0 - np.cos(theta), 0.0)
-    E = (sc @ G).reshape(N, n, 4, 4) + eye
-    if n == 6:  # pairwise: (E1 E2)(E3 E4)(E5 E6) in one call, then two
-        P = E[:, 0::2] @ E[:, 1::2]
-        T = P[:, 0] @ P[:, 1] @ (P[:, 2] @ flange_tool)
+        np.sin(q, out=sc[:, 1])
+        np.cos(q, out=sc[:, 2])
     else:
-        T = np.broadcast_to(flange_tool, (N, 4, 4))
-        for k in range(n - 1, -1, -1):
-            T = E[:, k] @ T
-    return T if at_origin else model.base @ T
+        rev = model.is_revolute
+        sc[:, 1] = np.where(rev, np.sin(q), q)
+        sc[:, 2] = np.where(rev, np.cos(q), 0.0)
+    E = sc.transpose(0, 2, 1)[:, :, None, :] @ C  # (N, n, 1, 16)
+    if n == 6:  # pairwise: (E1 E2)(E3 E4)(E5 E6) in one call, then two
+        E = E.reshape(N, 3, 2, 4, 4)
+        P = E[:, :, 0] @ E[:, :, 1]
+        return P[:, 0] @ P[:, 1] @ P[:, 2]
+    E = E.reshape(N, n, 4, 4)
+    T = E[:, -1]
+    for k in range(n - 2, -1, -1):
+        T = E[:, k] @ T
+    return T
 
 
-_ONE_POSE: weakref.WeakKeyDictionary[SerialModel, tuple[Array, Array, bool, Array, bool]] = \
+_FEW_POSE: weakref.WeakKeyDictionary[SerialModel, tuple[Array, bool]] = \
     weakref.WeakKeyDictionary()
 
 
-def _one_pose_tables(model: SerialModel) -> tuple[Array, Array, bool, Array, bool]:
-    """Per model, once: the generators stacked (n, 2, 16), home_flange . tool, whether every
-    joint is revolute, n identities, and whether the base is the identity."""
-    got = _ONE_POSE.get(model)
+def _few_pose_tables(model: SerialModel) -> tuple[Array, bool]:
+    """Per model, once: C (n, 3, 16) such that joint i's exponential at q + zero_i is
+    C[i, 0] + f(q) C[i, 1] + g(q) C[i, 2]. With Z_i = exp(hat(xi_i) zero_i), which commutes with
+    the joint's own screw, a revolute joint gives Z_i (I + G2), Z_i G1, -Z_i G2 for (1, sin q,
+    cos q) (Rodrigues, Annex B), a prismatic one Z_i, G1, 0 for (1, q, 0); the base is multiplied
+    into the first joint's matrices and home_flange . tool into the last's. Also whether every
+    joint is revolute."""
+    got = _FEW_POSE.get(model)
     if got is None:
         G1, G2, flange_tool = _generators(model)
         n = model.n_joints
-        G = np.stack([G1.reshape(n, 16), G2.reshape(n, 16)], axis=1)
-        got = _ONE_POSE[model] = (G, flange_tool, bool(model.is_revolute.all()),
-                                  np.broadcast_to(_EYE4, (n, 4, 4)),
-                                  bool(np.array_equal(model.base, _EYE4)))
+        zero = model.joint_zero[:, None, None]
+        rev = model.is_revolute[:, None, None]
+        Z = _EYE4 + np.where(rev, np.sin(zero) * G1 + (1.0 - np.cos(zero)) * G2, zero * G1)
+        C = np.stack([np.where(rev, Z @ (_EYE4 + G2), Z), Z @ G1, np.where(rev, -(Z @ G2), 0.0)],
+                     axis=1)
+        C[0] = model.base @ C[0]
+        C[-1] = C[-1] @ flange_tool
+        got = _FEW_POSE[model] = (C.reshape(n, 3, 16), bool(model.is_revolute.all()))
     return got
 
 

@@ -23,7 +23,6 @@ from numpy.typing import ArrayLike
 
 from screwcal.errors import ModelError, UnreachableError
 from screwcal.kinematics.forward import (
-    flange_kinematics,
     forward_kinematics,
     point_jacobian,
     spatial_jacobian,
@@ -40,7 +39,7 @@ _GEOMETRY: weakref.WeakKeyDictionary[SerialModel, dict[float | None, WristPartit
     = weakref.WeakKeyDictionary()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class WristPartitionedGeometry:
     """Lengths of an ABB-type arm read off a screw model (mm), plus its home flange rotation."""
 
@@ -138,24 +137,28 @@ def _turns_toward(q: Array, q_ref: Array, limits: Array) -> Array:
     return best
 
 
-def _wrap_into_limits(q: Array, limits: Array) -> Array:
-    """Wrap angles to (-pi, pi], then shift by 2 pi where that brings them inside the limits."""
-    q = (q + np.pi) % (2 * np.pi) - np.pi
-    lo, hi = limits[:, 0], limits[:, 1]
-    up, down = q + 2 * np.pi, q - 2 * np.pi
-    q = np.where((q < lo) & (up <= hi), up, q)  # below the range, and a turn up fits
-    return np.where((q > hi) & (down >= lo), down, q)
+def _flange_targets(model: SerialModel, T_world_tool: ArrayLike) -> tuple[Array, Array]:
+    """The targets (N, 4, 4) as given (world, tool) and as flange poses in the robot frame."""
+    T_world = np.asarray(T_world_tool, dtype=float)
+    if T_world.ndim != 3 or T_world.shape[1:] != (4, 4):
+        raise ValueError(f"IK targets must have shape (N, 4, 4); got {T_world.shape}")
+    base_inv, tool_inv = _frame_inverses(model)
+    T = T_world if base_inv is None else base_inv @ T_world
+    return T_world, T if tool_inv is None else T @ tool_inv
 
 
-def _flange_targets(model: SerialModel, T_world_tool: ArrayLike) -> Array:
-    T = np.asarray(T_world_tool, dtype=float)
-    if T.ndim != 3 or T.shape[1:] != (4, 4):
-        raise ValueError(f"IK targets must have shape (N, 4, 4); got {T.shape}")
-    if not np.array_equal(model.base, _EYE4):
-        T = invert_transform(model.base) @ T
-    if not np.array_equal(model.tool, _EYE4):
-        T = T @ invert_transform(model.tool)
-    return T
+_FRAMES: weakref.WeakKeyDictionary[SerialModel, tuple[Array | None, Array | None]] = \
+    weakref.WeakKeyDictionary()
+
+
+def _frame_inverses(model: SerialModel) -> tuple[Array | None, Array | None]:
+    """The inverse base and tool of a model (None for an identity), once per model."""
+    got = _FRAMES.get(model)
+    if got is None:
+        base_inv = None if np.array_equal(model.base, _EYE4) else invert_transform(model.base)
+        tool_inv = None if np.array_equal(model.tool, _EYE4) else invert_transform(model.tool)
+        got = _FRAMES[model] = (base_inv, tool_inv)
+    return got
 
 
 _GIMBAL_TOL = 1e-12
@@ -182,51 +185,81 @@ def _euler_xyx(W: Array) -> Array:
     return np.stack([a, b, c], axis=-1)
 
 
-def _closed_form_theta_one(geo: WristPartitionedGeometry, T: Array, slack: float = 1e-12
-                           ) -> tuple[Array, Array]:
-    """`_closed_form_theta` for one target (4, 4), in scalar arithmetic: the same formulas, a
-    fraction of the array calls' overhead. Returns (1, 8, 6) and (1, 8)."""
-    R_M = geo.home_flange[:3, :3]
-    o = (R_M.T @ (geo.home_flange[:3, 3] - geo.wrist_home)).tolist()
+def _closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Array]:
+    """`_closed_form_theta` for one flange target (4, 4) in scalar arithmetic: the same
+    formulas, a fraction of the array calls' overhead (a test holds the two equal). Returns
+    theta (1, 8, 6) and reach (1, 8)."""
+    o, R_M = _one_target_tables(geo)
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = T[:3, :3].tolist()
     px, py, pz = T[:3, 3].tolist()
     wx = px - (r00 * o[0] + r01 * o[1] + r02 * o[2])
     wy = py - (r10 * o[0] + r11 * o[1] + r12 * o[2])
     wz = pz - (r20 * o[0] + r21 * o[1] + r22 * o[2])
-    M = (T[:3, :3] @ R_M.T).tolist()  # R R_M^T
+    M0, M1, M2 = ([a0 * m0 + a1 * m1 + a2 * m2 for m0, m1, m2 in R_M]  # R R_M^T
+                  for a0, a1, a2 in ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22)))
     u, f = geo.upper_arm, geo.forearm
-    au, af, uf = abs(u), abs(f), 2.0 * abs(u) * abs(f)
+    au, af = abs(u), abs(f)
     pu, pf = cmath.phase(u), cmath.phase(f)
-    out = np.full((1, 8, 6), np.nan)
-    reach = np.zeros((1, 8), bool)
+    theta: list[float] = []
+    reach: list[bool] = []
     base = math.atan2(wy, wx)
-    for b in range(4):
-        t1 = base + _ARM_T1_OFFSET[b]
+    for t1_offset, elbow in _ARMS:
+        t1 = base + t1_offset
         c1, s1 = math.cos(t1), math.sin(t1)
         d = complex(wx * c1 + wy * s1 - geo.shoulder_x, wz - geo.shoulder_z)
-        k = (abs(d) ** 2 - au * au - af * af) / uf
-        if abs(k) > 1.0 + slack:
+        k = (abs(d) ** 2 - au * au - af * af) / (2.0 * au * af)
+        if abs(k) > 1.0 + _SLACK:
+            theta += _NAN_ROWS
+            reach += (False, False)
             continue
-        t3 = _ARM_ELBOW_SIGN[b] * math.acos(min(1.0, max(-1.0, k))) - pu + pf
+        t3 = elbow * math.acos(min(1.0, max(-1.0, k))) - pu + pf
         t2 = cmath.phase(u + f * cmath.exp(-1j * t3)) - cmath.phase(d)
         c23, s23 = math.cos(t2 + t3), math.sin(t2 + t3)
         # W = (Rz(t1) Ry(t23))^T M: the rows of R123^T are R123's columns
-        cols = ((c1 * c23, s1 * c23, -s23), (-s1, c1, 0.0), (c1 * s23, s1 * s23, c23))
-        W = [[a0 * M[0][j] + a1 * M[1][j] + a2 * M[2][j] for j in range(3)]
-             for a0, a1, a2 in cols]
-        wb = math.acos(min(1.0, max(-1.0, W[0][0])))
+        a0, a1, a2 = c1 * c23, s1 * c23, -s23
+        w00 = a0 * M0[0] + a1 * M1[0] + a2 * M2[0]
+        w01 = a0 * M0[1] + a1 * M1[1] + a2 * M2[1]
+        w02 = a0 * M0[2] + a1 * M1[2] + a2 * M2[2]
+        w10 = c1 * M1[0] - s1 * M0[0]
+        a0, a1, a2 = c1 * s23, s1 * s23, c23
+        w20 = a0 * M0[0] + a1 * M1[0] + a2 * M2[0]
+        wb = math.acos(min(1.0, max(-1.0, w00)))
         if abs(math.sin(wb)) < _GIMBAL_TOL:  # only a +- c defined: c = 0 (as _euler_xyx)
-            wa = math.atan2(W[2][1], W[1][1]) if W[0][0] > 0 else math.atan2(W[1][2], W[1][1])
+            w11 = c1 * M1[1] - s1 * M0[1]
+            if w00 > 0:
+                wa = math.atan2(a0 * M0[1] + a1 * M1[1] + a2 * M2[1], w11)
+            else:
+                wa = math.atan2(c1 * M1[2] - s1 * M0[2], w11)
             wc = 0.0
         else:
-            wa, wc = math.atan2(W[1][0], -W[2][0]), math.atan2(W[0][1], W[0][2])
-        out[0, 2 * b] = (t1, t2, t3, wa, wb, wc)
-        out[0, 2 * b + 1] = (t1, t2, t3, wa + math.pi, -wb, wc + math.pi)
-        reach[0, 2 * b:2 * b + 2] = True
-    return out, reach
+            wa, wc = math.atan2(w10, -w20), math.atan2(w01, w02)
+        theta += (t1, t2, t3, wa, wb, wc, t1, t2, t3, wa + math.pi, -wb, wc + math.pi)
+        reach += (True, True)  # the wrist as it is, then flipped
+    return np.array(theta).reshape(1, 8, 6), np.array(reach).reshape(1, 8)
 
 
-def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = 1e-12,
+_SLACK = 1e-12
+_NAN_ROWS = (math.nan,) * 12
+_ARMS = tuple(zip(_ARM_T1_OFFSET.tolist(), _ARM_ELBOW_SIGN.tolist(), strict=True))
+
+
+_ONE_TARGET: weakref.WeakKeyDictionary[WristPartitionedGeometry,
+                                       tuple[list[float], list[list[float]]]] = \
+    weakref.WeakKeyDictionary()
+
+
+def _one_target_tables(geo: WristPartitionedGeometry) -> tuple[list[float], list[list[float]]]:
+    """Per geometry, once, as Python floats: the home offset of the flange from the wrist
+    centre in the flange frame, and the home flange rotation R_M."""
+    got = _ONE_TARGET.get(geo)
+    if got is None:
+        R_M = geo.home_flange[:3, :3]
+        o = R_M.T @ (geo.home_flange[:3, 3] - geo.wrist_home)
+        got = _ONE_TARGET[geo] = (o.tolist(), R_M.tolist())
+    return got
+
+
+def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = _SLACK,
                        elbow_floor: float = 0.0) -> tuple[Array, Array]:
     """Joint angles (N, 8, 6) of the ideal geometry and the reachable mask (N, 8).
 
@@ -268,16 +301,54 @@ def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: fl
     return theta, reach
 
 
-def _solutions(model: SerialModel, theta: Array, reach: Array, T_flange: Array,
+def _wrapped(model: SerialModel, theta: Array, reach: Array) -> tuple[Array, Array]:
+    """Joint angles (N, 8, 6) -> controller readings: the joint zero removed, wrapped to
+    [-pi, pi), then moved by a turn where that brings a reading outside the limits inside them
+    (NaN where out of reach); and whether each branch is within the limits (N, 8)."""
+    offset, lo, hi, turn_up_below, turn_down_above = _reading_tables(model)
+    q = (theta + offset) % _TAU - np.pi
+    if turn_up_below is not None:
+        q += _TAU * (q < turn_up_below)
+    if turn_down_above is not None:
+        q -= _TAU * (q > turn_down_above)
+    if not reach.all():
+        q[~reach] = np.nan
+    return q, ((q >= lo) & (q <= hi)).all(axis=-1)  # NaN compares False: out of reach is out
+
+
+_TAU = 2.0 * np.pi
+_READINGS: weakref.WeakKeyDictionary[SerialModel, tuple[Array, Array, Array, Array | None,
+                                                        Array | None]] = \
+    weakref.WeakKeyDictionary()
+
+
+def _reading_tables(model: SerialModel) -> tuple[Array, Array, Array, Array | None,
+                                                 Array | None]:
+    """Per model, once: pi - zero, the lower and upper limits, and per joint the reading in
+    [-pi, pi) below which a turn up brings it inside the limits (below the lower limit, and
+    the turn no further than the upper one), and above which a turn down does (-inf / +inf
+    where none can; None when no joint can)."""
+    got = _READINGS.get(model)
+    if got is None:
+        lo, hi = model.limits[:, 0].copy(), model.limits[:, 1].copy()
+        # q < lo and q + 2 pi <= hi; q > hi and q - 2 pi >= lo (nextafter: <= as <)
+        below = np.minimum(lo, np.nextafter(hi - _TAU, np.inf))
+        above = np.maximum(hi, np.nextafter(lo + _TAU, -np.inf))
+        up = below if (below > -np.pi).any() else None
+        down = above if (above < np.pi).any() else None
+        got = _READINGS[model] = (np.pi - model.joint_zero, lo, hi, up, down)
+    return got
+
+
+def _solutions(model: SerialModel, q: Array, reach: Array, within: Array, T_world: Array,
                check: bool = True) -> IKSolutions:
-    q = _wrap_into_limits(theta - model.joint_zero, model.limits)
-    q[~reach] = np.nan
-    N = q.shape[0]
-    residual = np.full((N, 8), np.nan)
     if check:  # the FK of every branch against the target (NaN where out of reach)
-        T = flange_kinematics(model, q.reshape(-1, 6)).reshape(N, 8, 4, 4)
-        residual = np.linalg.norm(T[..., :3, 3] - T_flange[:, None, :3, 3], axis=-1)
-    within = model.within_limits(q) & reach  # NaN compares False: out of reach is outside
+        N = q.shape[0]
+        T = forward_kinematics(model, q.reshape(-1, 6)).reshape(N, 8, 4, 4)
+        d = T[..., :3, 3] - T_world[:, None, :3, 3]
+        residual = np.sqrt((d * d).sum(axis=-1))
+    else:
+        residual = np.full(reach.shape, np.nan)
     return IKSolutions(q=q, reachable=reach, within_limits=within, residual_mm=residual,
                        limits=model.limits)
 
@@ -291,20 +362,23 @@ def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike, require_all: boo
     `check`: fill `residual_mm` by FK of every branch (False: NaN, a fifth of the time saved).
     """
     geo = WristPartitionedGeometry.from_model(model)
-    T_flange = _flange_targets(model, T_world_tool)
-    theta, reach = _closed_form_theta_one(geo, T_flange[0]) if len(T_flange) == 1 else \
+    T_world, T_flange = _flange_targets(model, T_world_tool)
+    theta, reach = _closed_form_one(geo, T_flange[0]) if len(T_flange) == 1 else \
         _closed_form_theta(geo, T_flange)
+    q, within = _wrapped(model, theta, reach)
     if require_all:
         _raise_unreachable(reach)
-    return _solutions(model, theta, reach, T_flange, check)
+    return _solutions(model, q, reach, within, T_world, check)
 
 
 def _raise_unreachable(reach: Array) -> None:
-    none = ~reach.any(axis=1)
-    if none.any():
-        k = int(np.flatnonzero(none)[0])
-        raise UnreachableError(f"target {k} is out of the arm's reach on every branch "
-                               f"({int(none.sum())} of {len(none)} targets unreachable)", index=k)
+    some = reach.any(axis=1)
+    if some.all():
+        return
+    none = ~some
+    k = int(np.flatnonzero(none)[0])
+    raise UnreachableError(f"target {k} is out of the arm's reach on every branch "
+                           f"({int(none.sum())} of {len(none)} targets unreachable)", index=k)
 
 
 def _pose_error(T_target: Array, T: Array) -> Array:
@@ -363,8 +437,7 @@ def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float =
                  ) -> IKSolutions:
     """IK of any 6R model, every branch refined by damped Gauss-Newton from the closed form of
     the model's nearest ideal geometry. A branch counts as reachable when it converged."""
-    T_target = np.asarray(T_world_tool, dtype=float)
-    T_flange = _flange_targets(model, T_target)
+    T_target, T_flange = _flange_targets(model, T_world_tool)
     geo = WristPartitionedGeometry.from_model(model, tol=None)
     # A calibrated arm may reach a little beyond its ideal twin: seed from the stretched pose.
     theta0, reach0 = _closed_form_theta(geo, T_flange, slack=0.05, elbow_floor=0.02)
@@ -377,4 +450,5 @@ def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float =
                                            q0[active], tol_mm, tol_rad, max_iter, damping)
     reach = converged.reshape(N, 8)
     _raise_unreachable(reach)
-    return _solutions(model, q.reshape(N, 8, 6) + model.joint_zero, reach, T_flange)
+    q_wrapped, within = _wrapped(model, q.reshape(N, 8, 6) + model.joint_zero, reach)
+    return _solutions(model, q_wrapped, reach, within, T_target)

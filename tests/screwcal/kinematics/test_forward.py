@@ -61,14 +61,17 @@ def test_thesis_figure_37_rows():
         assert np.trunc(got * 100) / 100 == pytest.approx(printed, abs=1e-9)
 
 
-def test_batch_equals_one_by_one(rng):
-    model = random_model(rng)
+@pytest.mark.parametrize("types", ["RRRRRR", "RPRRPR", "PPP", "RRRRRRR"])
+def test_batch_equals_one_by_one(rng, types):
+    model = random_model(rng, types)
     q = random_q(model, rng, 50)
     batch = forward_kinematics(model, q)
     single = np.stack([forward_kinematics(model, q[k:k + 1])[0] for k in range(len(q))])
-    # one pose takes its own path (the exponentials at once, then their product): equal to
-    # rounding, not bit for bit
-    np.testing.assert_allclose(batch, single, rtol=0, atol=1e-12 * np.abs(batch).max())
+    few = np.concatenate([forward_kinematics(model, q[k:k + 10]) for k in range(0, 50, 10)])
+    # up to 16 poses take their own path (the exponentials from precomputed combinations of
+    # (1, sin, cos), then their product pairwise): equal to rounding, not bit for bit
+    for other in (single, few):
+        np.testing.assert_allclose(batch, other, rtol=0, atol=1e-12 * np.abs(batch).max())
     Jb = parameter_jacobian(model, q)
     Js = np.stack([parameter_jacobian(model, q[k:k + 1])[0] for k in range(len(q))])
     np.testing.assert_allclose(Jb, Js, rtol=0, atol=1e-12 * np.abs(Jb).max())

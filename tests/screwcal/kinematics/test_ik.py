@@ -6,7 +6,7 @@ import pytest
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.errors import ModelError, UnreachableError
 from screwcal.kinematics.forward import forward_kinematics
-from screwcal.kinematics.ik import BRANCHES, closed_form_ik, numerical_ik
+from screwcal.kinematics.ik import BRANCHES, _wrapped, closed_form_ik, numerical_ik
 from screwcal.kinematics.robots import irb120, irb1600
 from screwcal.kinematics.se3 import exp_twist
 from tests.conftest import random_q
@@ -104,11 +104,44 @@ def test_ik_rejects_bad_target_shapes():
         closed_form_ik(irb1600(), np.eye(4))
 
 
-def test_ik_batch_equals_one_by_one(rng):
-    model = irb1600()
-    T = forward_kinematics(model, random_q(model, rng, 40))
-    batch = closed_form_ik(model, T)
+@pytest.mark.parametrize("make", [irb1600, irb120])
+def test_ik_batch_equals_one_by_one(rng, make):
+    # frames, joint zeros and limits that make some branches turn (J3 of the IRB 1600) or fall
+    # outside; far targets, which some arms cannot reach
+    nominal = make()
+    model = replace(nominal, joint_zero=rng.normal(0, 0.05, 6),
+                    limits=nominal.limits * rng.uniform(0.6, 1.0, (6, 1))).with_frames(
+        exp_twist([0.1, -0.2, 0.3, 1500, -300, 200]), exp_twist([0, 0, 0, 30, -20, 80]))
+    q = random_q(nominal, rng, 60)
+    q[50:, 1:3] = np.radians([70.0, -80.0])  # leaning forward, nearly stretched
+    T = forward_kinematics(model, q)
+    T[-1, :3, 3] *= 3.0  # out of reach of every arm
+    batch = closed_form_ik(model, T, require_all=False)
     for k in range(len(T)):
-        single = closed_form_ik(model, T[k:k + 1])  # the scalar one-target path
+        single = closed_form_ik(model, T[k:k + 1], require_all=False)  # the scalar path
         np.testing.assert_allclose(single.q[0], batch.q[k], rtol=0, atol=1e-12)
-        np.testing.assert_array_equal(single.valid[0], batch.valid[k])
+        for name in ("reachable", "within_limits"):
+            np.testing.assert_array_equal(getattr(single, name)[0], getattr(batch, name)[k])
+        np.testing.assert_allclose(single.residual_mm[0], batch.residual_mm[k], atol=1e-9)
+    assert (~batch.within_limits & batch.reachable).any() and batch.within_limits.any()
+    assert (~batch.reachable).any()
+    assert batch.residual_mm[batch.reachable].max() < 1e-8
+
+
+def test_readings_wrap_into_the_limits_by_whole_turns(rng):
+    """The rule the closed form's readings follow, from its definition: joint zero removed,
+    wrapped to [-pi, pi), a whole turn added or taken where that brings a reading outside the
+    limits inside them."""
+    model = irb1600()
+    for _ in range(20):
+        lo = rng.uniform(-2 * np.pi, 0.5, 6)
+        limits = np.stack([lo, lo + rng.uniform(0.2, 3 * np.pi, 6)], axis=1)
+        m = replace(model, limits=limits, joint_zero=rng.normal(0, 0.1, 6))
+        theta = rng.uniform(-10, 10, (50, 8, 6))
+        got, within = _wrapped(m, theta, np.ones((50, 8), bool))
+        x = (theta - m.joint_zero + np.pi) % (2 * np.pi) - np.pi
+        lo, hi = limits[:, 0], limits[:, 1]
+        want = np.where((x < lo) & (x + 2 * np.pi <= hi), x + 2 * np.pi,
+                        np.where((x > hi) & (x - 2 * np.pi >= lo), x - 2 * np.pi, x))
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(within, ((want >= lo) & (want <= hi)).all(axis=-1))
