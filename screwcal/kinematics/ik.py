@@ -203,44 +203,47 @@ def _closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Ar
     theta: list[float] = []
     reach: list[bool] = []
     base = math.atan2(wy, wx)
-    for t1_offset, elbow in _ARMS:
+    for t1_offset in _SHOULDER_T1_OFFSET:  # front, back; each with the elbow up, then down
         t1 = base + t1_offset
         c1, s1 = math.cos(t1), math.sin(t1)
         d = complex(wx * c1 + wy * s1 - geo.shoulder_x, wz - geo.shoulder_z)
         k = (abs(d) ** 2 - au * au - af * af) / (2.0 * au * af)
         if abs(k) > 1.0 + _SLACK:
             theta += _NAN_ROWS
-            reach += (False, False)
+            reach += (False,) * 4
             continue
-        t3 = elbow * math.acos(min(1.0, max(-1.0, k))) - pu + pf
-        t2 = cmath.phase(u + f * cmath.exp(-1j * t3)) - cmath.phase(d)
-        c23, s23 = math.cos(t2 + t3), math.sin(t2 + t3)
-        # W = (Rz(t1) Ry(t23))^T M: the rows of R123^T are R123's columns
-        a0, a1, a2 = c1 * c23, s1 * c23, -s23
-        w00 = a0 * M0[0] + a1 * M1[0] + a2 * M2[0]
-        w01 = a0 * M0[1] + a1 * M1[1] + a2 * M2[1]
-        w02 = a0 * M0[2] + a1 * M1[2] + a2 * M2[2]
-        w10 = c1 * M1[0] - s1 * M0[0]
-        a0, a1, a2 = c1 * s23, s1 * s23, c23
-        w20 = a0 * M0[0] + a1 * M1[0] + a2 * M2[0]
-        wb = math.acos(min(1.0, max(-1.0, w00)))
-        if abs(math.sin(wb)) < _GIMBAL_TOL:  # only a +- c defined: c = 0 (as _euler_xyx)
-            w11 = c1 * M1[1] - s1 * M0[1]
-            if w00 > 0:
-                wa = math.atan2(a0 * M0[1] + a1 * M1[1] + a2 * M2[1], w11)
+        bend, phase_d = math.acos(min(1.0, max(-1.0, k))), cmath.phase(d)
+        for elbow in _ELBOW_SIGN:
+            t3 = elbow * bend - pu + pf
+            t2 = cmath.phase(u + f * cmath.exp(-1j * t3)) - phase_d
+            c23, s23 = math.cos(t2 + t3), math.sin(t2 + t3)
+            # W = (Rz(t1) Ry(t23))^T M: the rows of R123^T are R123's columns
+            a0, a1, a2 = c1 * c23, s1 * c23, -s23
+            w00 = a0 * M0[0] + a1 * M1[0] + a2 * M2[0]
+            w01 = a0 * M0[1] + a1 * M1[1] + a2 * M2[1]
+            w02 = a0 * M0[2] + a1 * M1[2] + a2 * M2[2]
+            w10 = c1 * M1[0] - s1 * M0[0]
+            a0, a1, a2 = c1 * s23, s1 * s23, c23
+            w20 = a0 * M0[0] + a1 * M1[0] + a2 * M2[0]
+            wb = math.acos(min(1.0, max(-1.0, w00)))
+            if abs(math.sin(wb)) < _GIMBAL_TOL:  # only a +- c defined: c = 0 (as _euler_xyx)
+                w11 = c1 * M1[1] - s1 * M0[1]
+                if w00 > 0:
+                    wa = math.atan2(a0 * M0[1] + a1 * M1[1] + a2 * M2[1], w11)
+                else:
+                    wa = math.atan2(c1 * M1[2] - s1 * M0[2], w11)
+                wc = 0.0
             else:
-                wa = math.atan2(c1 * M1[2] - s1 * M0[2], w11)
-            wc = 0.0
-        else:
-            wa, wc = math.atan2(w10, -w20), math.atan2(w01, w02)
-        theta += (t1, t2, t3, wa, wb, wc, t1, t2, t3, wa + math.pi, -wb, wc + math.pi)
-        reach += (True, True)  # the wrist as it is, then flipped
+                wa, wc = math.atan2(w10, -w20), math.atan2(w01, w02)
+            theta += (t1, t2, t3, wa, wb, wc, t1, t2, t3, wa + math.pi, -wb, wc + math.pi)
+            reach += (True, True)  # the wrist as it is, then flipped
     return np.array(theta).reshape(1, 8, 6), np.array(reach).reshape(1, 8)
 
 
 _SLACK = 1e-12
-_NAN_ROWS = (math.nan,) * 12
-_ARMS = tuple(zip(_ARM_T1_OFFSET.tolist(), _ARM_ELBOW_SIGN.tolist(), strict=True))
+_NAN_ROWS = (math.nan,) * 24  # a shoulder's four branches
+_SHOULDER_T1_OFFSET = (0.0, math.pi)  # _ARM_T1_OFFSET, per shoulder
+_ELBOW_SIGN = (1.0, -1.0)  # _ARM_ELBOW_SIGN, per elbow
 
 
 _ONE_TARGET: weakref.WeakKeyDictionary[WristPartitionedGeometry,
@@ -301,18 +304,16 @@ def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: fl
     return theta, reach
 
 
-def _wrapped(model: SerialModel, theta: Array, reach: Array) -> tuple[Array, Array]:
-    """Joint angles (N, 8, 6) -> controller readings: the joint zero removed, wrapped to
-    [-pi, pi), then moved by a turn where that brings a reading outside the limits inside them
-    (NaN where out of reach); and whether each branch is within the limits (N, 8)."""
+def _wrapped(model: SerialModel, theta: Array) -> tuple[Array, Array]:
+    """Joint angles (N, 8, 6), NaN where out of reach -> controller readings: the joint zero
+    removed, wrapped to [-pi, pi), then moved by a turn where that brings a reading outside the
+    limits inside them; and whether each branch is within the limits (N, 8)."""
     offset, lo, hi, turn_up_below, turn_down_above = _reading_tables(model)
     q = (theta + offset) % _TAU - np.pi
     if turn_up_below is not None:
         q += _TAU * (q < turn_up_below)
     if turn_down_above is not None:
         q -= _TAU * (q > turn_down_above)
-    if not reach.all():
-        q[~reach] = np.nan
     return q, ((q >= lo) & (q <= hi)).all(axis=-1)  # NaN compares False: out of reach is out
 
 
@@ -365,7 +366,7 @@ def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike, require_all: boo
     T_world, T_flange = _flange_targets(model, T_world_tool)
     theta, reach = _closed_form_one(geo, T_flange[0]) if len(T_flange) == 1 else \
         _closed_form_theta(geo, T_flange)
-    q, within = _wrapped(model, theta, reach)
+    q, within = _wrapped(model, theta)
     if require_all:
         _raise_unreachable(reach)
     return _solutions(model, q, reach, within, T_world, check)
@@ -450,5 +451,6 @@ def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float =
                                            q0[active], tol_mm, tol_rad, max_iter, damping)
     reach = converged.reshape(N, 8)
     _raise_unreachable(reach)
-    q_wrapped, within = _wrapped(model, q.reshape(N, 8, 6) + model.joint_zero, reach)
+    q[~converged] = np.nan
+    q_wrapped, within = _wrapped(model, q.reshape(N, 8, 6) + model.joint_zero)
     return _solutions(model, q_wrapped, reach, within, T_target)

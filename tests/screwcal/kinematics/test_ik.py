@@ -138,7 +138,7 @@ def test_readings_wrap_into_the_limits_by_whole_turns(rng):
         limits = np.stack([lo, lo + rng.uniform(0.2, 3 * np.pi, 6)], axis=1)
         m = replace(model, limits=limits, joint_zero=rng.normal(0, 0.1, 6))
         theta = rng.uniform(-10, 10, (50, 8, 6))
-        got, within = _wrapped(m, theta, np.ones((50, 8), bool))
+        got, within = _wrapped(m, theta)
         x = (theta - m.joint_zero + np.pi) % (2 * np.pi) - np.pi
         lo, hi = limits[:, 0], limits[:, 1]
         want = np.where((x < lo) & (x + 2 * np.pi <= hi), x + 2 * np.pi,
