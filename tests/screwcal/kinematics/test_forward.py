@@ -16,7 +16,7 @@ from screwcal.kinematics.se3 import twist_from_transform_difference
 from tests.conftest import random_model, random_q
 
 # Thesis Figure 37 (section 4.4): nominal joint space -> nominal task space, configurations 37-40.
-# The y column of rows 37-38 is garbled in the text (see ../shared/spec/irb1600.md); row 38's q4
+# The y column of rows 37-38 is garbled in the thesis text (the IRB 1600 spec says so); row 38's q4
 # prints truncated as "-172.60...": -172.6003 is the value in [-172.6099, -172.6000] (step 0.0001)
 # that best fits the printed pose; every other printed figure of the row then holds.
 FIG37_Q = [
