@@ -55,6 +55,7 @@ _EXPORTS = {
     "exp_twist": "se3",
     "flange_kinematics": "forward",
     "forward_kinematics": "forward",
+    "frame_inverses": "forward",
     "gravity_torques_by_mass": "compliance",
     "invert_transform": "se3",
     "irb120": "robots",

@@ -193,11 +193,23 @@ def _few_pose_tables(model: SerialModel) -> tuple[Array, bool]:
 def flange_kinematics(model: SerialModel, q: ArrayLike) -> Array:
     """Pose of the flange (tool0) in the robot base frame, ignoring base and tool: (N, 4, 4)."""
     T = forward_kinematics(model, q)
-    if not np.array_equal(model.base, _EYE4):
-        T = invert_transform(model.base) @ T
-    if not np.array_equal(model.tool, _EYE4):
-        T = T @ invert_transform(model.tool)
-    return T
+    base_inv, tool_inv = frame_inverses(model)
+    T = T if base_inv is None else base_inv @ T
+    return T if tool_inv is None else T @ tool_inv
+
+
+_FRAMES: weakref.WeakKeyDictionary[SerialModel, tuple[Array | None, Array | None]] = \
+    weakref.WeakKeyDictionary()
+
+
+def frame_inverses(model: SerialModel) -> tuple[Array | None, Array | None]:
+    """The inverse base and tool of a model (None for an identity), once per model."""
+    got = _FRAMES.get(model)
+    if got is None:
+        base_inv = None if np.array_equal(model.base, _EYE4) else invert_transform(model.base)
+        tool_inv = None if np.array_equal(model.tool, _EYE4) else invert_transform(model.tool)
+        got = _FRAMES[model] = (base_inv, tool_inv)
+    return got
 
 
 def joint_positions(model: SerialModel, q: ArrayLike) -> Array:

@@ -24,11 +24,12 @@ from numpy.typing import ArrayLike
 from screwcal.errors import ModelError, UnreachableError
 from screwcal.kinematics.forward import (
     forward_kinematics,
+    frame_inverses,
     point_jacobian,
     spatial_jacobian,
 )
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.se3 import Array, invert_transform, rotvec_from_rotation
+from screwcal.kinematics.se3 import Array, rotvec_from_rotation
 
 BRANCHES = tuple((s, e, w) for s in ("front", "back") for e in ("up", "down")
                  for w in ("noflip", "flip"))
@@ -142,27 +143,12 @@ def _flange_targets(model: SerialModel, T_world_tool: ArrayLike) -> tuple[Array,
     T_world = np.asarray(T_world_tool, dtype=float)
     if T_world.ndim != 3 or T_world.shape[1:] != (4, 4):
         raise ValueError(f"IK targets must have shape (N, 4, 4); got {T_world.shape}")
-    base_inv, tool_inv = _frame_inverses(model)
+    base_inv, tool_inv = frame_inverses(model)
     T = T_world if base_inv is None else base_inv @ T_world
     return T_world, T if tool_inv is None else T @ tool_inv
 
 
-_FRAMES: weakref.WeakKeyDictionary[SerialModel, tuple[Array | None, Array | None]] = \
-    weakref.WeakKeyDictionary()
-
-
-def _frame_inverses(model: SerialModel) -> tuple[Array | None, Array | None]:
-    """The inverse base and tool of a model (None for an identity), once per model."""
-    got = _FRAMES.get(model)
-    if got is None:
-        base_inv = None if np.array_equal(model.base, _EYE4) else invert_transform(model.base)
-        tool_inv = None if np.array_equal(model.tool, _EYE4) else invert_transform(model.tool)
-        got = _FRAMES[model] = (base_inv, tool_inv)
-    return got
-
-
 _GIMBAL_TOL = 1e-12
-_EYE4 = np.eye(4)
 # Per arm branch (front up, front down, back up, back down): joint 1 turned by pi for "back",
 # the elbow's bend signed.
 _ARM_T1_OFFSET = np.array([0.0, 0.0, np.pi, np.pi])
