@@ -27,6 +27,13 @@ def well_behaved(seq: int, verb: str, args: list[str]) -> list[Reply]:
     return [f"{seq} ACK {verb}"]
 
 
+def answering(verb: str, replies: Callable[[int], list[Reply]]) -> Script:
+    """A script that answers `verb` with `replies(seq)` and every other request well."""
+    def script(seq: int, v: str, args: list[str]) -> list[Reply]:
+        return replies(seq) if v == verb else well_behaved(seq, v, args)
+    return script
+
+
 def packets(seq: int, flag: int, idx: int) -> list[str]:
     return [f"{seq} j {flag} {idx} 1.0 2.0 3.0 4.0 5.0 6.0",
             f"{seq} p {flag} {idx} 800.0 0.0 900.0 0.0 90.0 0.0"]

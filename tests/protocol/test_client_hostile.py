@@ -17,7 +17,7 @@ from protocol.errors import (
     PayloadError,
     SequenceError,
 )
-from tests.protocol.fake_controller import FakeController, Reply, packets, well_behaved
+from tests.protocol.fake_controller import FakeController, answering, packets, well_behaved
 
 FAST = Timeouts(connect_s=2, reply_s=0.5, pose_s=1, motion_s=1, keepalive_s=30)
 Q = [[0.0] * 6, [1.0] * 6, [2.0] * 6]
@@ -31,10 +31,8 @@ async def _client(script) -> tuple[FakeController, ControllerClient]:
 
 
 def _run_replies(body):
-    """A script whose RUN reply is `body(seq)` (the rest well-behaved)."""
-    def script(seq: int, verb: str, args: list[str]) -> list[Reply]:
-        return [f"{seq} ACK RUN", *body(seq)] if verb == "RUN" else well_behaved(seq, verb, args)
-    return script
+    """A script whose RUN reply is its ACK then `body(seq)` (the rest well-behaved)."""
+    return answering("RUN", lambda seq: [f"{seq} ACK RUN", *body(seq)])
 
 
 RUNS = {
@@ -133,10 +131,7 @@ MOTIONS = {
 
 @pytest.mark.parametrize("case", MOTIONS)
 async def test_a_movj_reply_out_of_shape_is_a_sequence_error(case):
-    def script(seq, verb, args):
-        return MOTIONS[case](seq) if verb == "MOVJ" else well_behaved(seq, verb, args)
-
-    fake, client = await _client(script)
+    fake, client = await _client(answering("MOVJ", MOTIONS[case]))
     with pytest.raises(SequenceError):
         async with asyncio.timeout(5):
             await client.movj([0] * 6)
@@ -145,12 +140,8 @@ async def test_a_movj_reply_out_of_shape_is_a_sequence_error(case):
 
 
 async def test_zero_reports_no_pose_and_waits_once():
-    def script(seq, verb, args):
-        if verb == "ZERO":
-            return [f"{seq} ACK ZERO", f"{seq} WAIT 0", f"{seq} WAIT 0"]
-        return well_behaved(seq, verb, args)
-
-    fake, client = await _client(script)
+    fake, client = await _client(
+        answering("ZERO", lambda seq: [f"{seq} ACK ZERO", f"{seq} WAIT 0", f"{seq} WAIT 0"]))
     asked = []
 
     async def operator(idx):
@@ -166,13 +157,9 @@ async def test_zero_reports_no_pose_and_waits_once():
 
 
 async def test_a_flood_of_unsolicited_frames_is_bounded_and_drops_the_controller():
-    def script(seq, verb, args):
-        if verb == "STAT":
-            return [b"".join(_frames(f"{900000 + k} ACK STAT" for k in range(5000))),
-                    f"{seq} STAT IDLE AUTO NONE 0 0 0"]
-        return well_behaved(seq, verb, args)
-
-    fake, client = await _client(script)
+    fake, client = await _client(answering("STAT", lambda seq: [
+        b"".join(_frames(f"{900000 + k} ACK STAT" for k in range(5000))),
+        f"{seq} STAT IDLE AUTO NONE 0 0 0"]))
     with pytest.raises(LinkLostError, match="answer no request"):
         await client.stat()
     assert client.unexpected_count == MAX_UNSOLICITED + 1 and len(client.unexpected) <= 50
@@ -182,13 +169,8 @@ async def test_a_flood_of_unsolicited_frames_is_bounded_and_drops_the_controller
 
 
 async def test_frames_flooding_a_pending_request_drop_the_controller():
-    def script(seq, verb, args):
-        if verb == "RUN":
-            return [f"{seq} ACK RUN", f"{seq} WAIT 0",
-                    b"".join(_frames(f"{seq} DONE MOVJ" for _ in range(3000)))]
-        return well_behaved(seq, verb, args)
-
-    fake, client = await _client(script)
+    fake, client = await _client(_run_replies(lambda seq: [
+        f"{seq} WAIT 0", b"".join(_frames(f"{seq} DONE MOVJ" for _ in range(3000)))]))
     await client.load("CAL", Q[:1])
 
     async def slow_operator(idx):
@@ -205,11 +187,7 @@ async def test_frames_flooding_a_pending_request_drop_the_controller():
                                              (["{seq} ERR 15 version"], ControllerError),
                                              (["0 ERR 16 busy"], ControllerBusyError)])
 async def test_a_failed_connect_leaves_nothing_open(helo, error):
-    def script(seq, verb, args):
-        return [r.format(seq=seq) for r in helo] if verb == "HELO" else \
-            well_behaved(seq, verb, args)
-
-    fake = FakeController(script)
+    fake = FakeController(answering("HELO", lambda seq: [r.format(seq=seq) for r in helo]))
     address = await fake.start()
     client = ControllerClient(*address, FAST)
     with pytest.raises(error):
@@ -244,12 +222,8 @@ async def test_busy_is_a_lost_link_that_reconnect_retries():
 
 
 async def test_a_malformed_reply_to_a_pending_request_says_so():
-    def script(seq, verb, args):
-        if verb == "STAT":
-            return [f"{seq} STAT IDLE AUTO NONE 0 0 x"]
-        return well_behaved(seq, verb, args)
-
-    fake, client = await _client(script)
+    fake, client = await _client(
+        answering("STAT", lambda seq: [f"{seq} STAT IDLE AUTO NONE 0 0 x"]))
     with pytest.raises(PayloadError, match="malformed reply to request"):
         await client.stat()
     assert client.lost is None  # the link goes on: the frame was whole
@@ -268,10 +242,7 @@ def _frames(payloads):
     ("ABRT", "{seq} ACK BYE", "expected ACK ABRT"),
 ])
 async def test_a_reply_of_the_wrong_kind_is_a_sequence_error(verb, reply, message):
-    def script(seq, v, args):
-        return [reply.format(seq=seq)] if v == verb else well_behaved(seq, v, args)
-
-    fake, client = await _client(script)
+    fake, client = await _client(answering(verb, lambda seq: [reply.format(seq=seq)]))
     call = {"STAT": client.stat, "BYE": client.bye, "ABRT": client.abort}[verb]
     with pytest.raises(SequenceError, match=message):
         await call()
