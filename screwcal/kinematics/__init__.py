@@ -69,6 +69,7 @@ _EXPORTS = {
     "model_file_from_model": "modelfile",
     "model_from_dh": "dh",
     "numerical_ik": "ik",
+    "once_per_object": "model",
     "parameter_jacobian": "forward",
     "parse_model": "modelfile",
     "payload_mass": "compliance",

@@ -11,14 +11,13 @@ position and of the rotation vector, the order of a pose residual (dx, dy, dz, d
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.kinematics.compliance import gravity_torques_by_mass
-from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.model import SerialModel, once_per_object
 from screwcal.kinematics.se3 import Array, adjoint, cross, exp_twist, invert_transform, skew
 
 _EYE4 = np.eye(4)
@@ -38,17 +37,10 @@ def _joint_generators(model: SerialModel) -> tuple[Array, Array]:
     return G1, G2
 
 
-_PER_MODEL: weakref.WeakKeyDictionary[SerialModel, tuple[Array, Array, Array]] = \
-    weakref.WeakKeyDictionary()
-
-
+@once_per_object
 def _generators(model: SerialModel) -> tuple[Array, Array, Array]:
-    """G1, G2 and home_flange . tool of a model, computed once per model object (its arrays
-    are read-only: a changed model is a new object)."""
-    got = _PER_MODEL.get(model)
-    if got is None:
-        got = _PER_MODEL[model] = (*_joint_generators(model), model.home_flange @ model.tool)
-    return got
+    """G1, G2 and home_flange . tool of a model."""
+    return (*_joint_generators(model), model.home_flange @ model.tool)
 
 
 def _check_q(model: SerialModel, q: ArrayLike) -> Array:
@@ -164,30 +156,24 @@ def _few_poses(model: SerialModel, q: Array) -> Array:
     return T
 
 
-_FEW_POSE: weakref.WeakKeyDictionary[SerialModel, tuple[Array, bool]] = \
-    weakref.WeakKeyDictionary()
-
-
+@once_per_object
 def _few_pose_tables(model: SerialModel) -> tuple[Array, bool]:
-    """Per model, once: C (n, 3, 16) such that joint i's exponential at q + zero_i is
+    """C (n, 3, 16) such that joint i's exponential at q + zero_i is
     C[i, 0] + f(q) C[i, 1] + g(q) C[i, 2]. With Z_i = exp(hat(xi_i) zero_i), which commutes with
     the joint's own screw, a revolute joint gives Z_i (I + G2), Z_i G1, -Z_i G2 for (1, sin q,
     cos q) (Rodrigues, Annex B), a prismatic one Z_i, G1, 0 for (1, q, 0); the base is multiplied
     into the first joint's matrices and home_flange . tool into the last's. Also whether every
     joint is revolute."""
-    got = _FEW_POSE.get(model)
-    if got is None:
-        G1, G2, flange_tool = _generators(model)
-        n = model.n_joints
-        zero = model.joint_zero[:, None, None]
-        rev = model.is_revolute[:, None, None]
-        Z = _EYE4 + np.where(rev, np.sin(zero) * G1 + (1.0 - np.cos(zero)) * G2, zero * G1)
-        C = np.stack([np.where(rev, Z @ (_EYE4 + G2), Z), Z @ G1, np.where(rev, -(Z @ G2), 0.0)],
-                     axis=1)
-        C[0] = model.base @ C[0]
-        C[-1] = C[-1] @ flange_tool
-        got = _FEW_POSE[model] = (C.reshape(n, 3, 16), bool(model.is_revolute.all()))
-    return got
+    G1, G2, flange_tool = _generators(model)
+    n = model.n_joints
+    zero = model.joint_zero[:, None, None]
+    rev = model.is_revolute[:, None, None]
+    Z = _EYE4 + np.where(rev, np.sin(zero) * G1 + (1.0 - np.cos(zero)) * G2, zero * G1)
+    C = np.stack([np.where(rev, Z @ (_EYE4 + G2), Z), Z @ G1, np.where(rev, -(Z @ G2), 0.0)],
+                 axis=1)
+    C[0] = model.base @ C[0]
+    C[-1] = C[-1] @ flange_tool
+    return C.reshape(n, 3, 16), bool(model.is_revolute.all())
 
 
 def flange_kinematics(model: SerialModel, q: ArrayLike) -> Array:
@@ -198,18 +184,12 @@ def flange_kinematics(model: SerialModel, q: ArrayLike) -> Array:
     return T if tool_inv is None else T @ tool_inv
 
 
-_FRAMES: weakref.WeakKeyDictionary[SerialModel, tuple[Array | None, Array | None]] = \
-    weakref.WeakKeyDictionary()
-
-
+@once_per_object
 def frame_inverses(model: SerialModel) -> tuple[Array | None, Array | None]:
     """The inverse base and tool of a model (None for an identity), once per model."""
-    got = _FRAMES.get(model)
-    if got is None:
-        base_inv = None if np.array_equal(model.base, _EYE4) else invert_transform(model.base)
-        tool_inv = None if np.array_equal(model.tool, _EYE4) else invert_transform(model.tool)
-        got = _FRAMES[model] = (base_inv, tool_inv)
-    return got
+    base_inv = None if np.array_equal(model.base, _EYE4) else invert_transform(model.base)
+    tool_inv = None if np.array_equal(model.tool, _EYE4) else invert_transform(model.tool)
+    return base_inv, tool_inv
 
 
 def joint_positions(model: SerialModel, q: ArrayLike) -> Array:

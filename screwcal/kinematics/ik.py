@@ -28,7 +28,7 @@ from screwcal.kinematics.forward import (
     point_jacobian,
     spatial_jacobian,
 )
-from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.model import SerialModel, once_per_object
 from screwcal.kinematics.se3 import Array, rotvec_from_rotation
 
 BRANCHES = tuple((s, e, w) for s in ("front", "back") for e in ("up", "down")
@@ -232,20 +232,13 @@ _SHOULDER_T1_OFFSET = (0.0, math.pi)  # _ARM_T1_OFFSET, per shoulder
 _ELBOW_SIGN = (1.0, -1.0)  # _ARM_ELBOW_SIGN, per elbow
 
 
-_ONE_TARGET: weakref.WeakKeyDictionary[WristPartitionedGeometry,
-                                       tuple[list[float], list[list[float]]]] = \
-    weakref.WeakKeyDictionary()
-
-
+@once_per_object
 def _one_target_tables(geo: WristPartitionedGeometry) -> tuple[list[float], list[list[float]]]:
-    """Per geometry, once, as Python floats: the home offset of the flange from the wrist
-    centre in the flange frame, and the home flange rotation R_M."""
-    got = _ONE_TARGET.get(geo)
-    if got is None:
-        R_M = geo.home_flange[:3, :3]
-        o = R_M.T @ (geo.home_flange[:3, 3] - geo.wrist_home)
-        got = _ONE_TARGET[geo] = (o.tolist(), R_M.tolist())
-    return got
+    """As Python floats: the home offset of the flange from the wrist centre in the flange
+    frame, and the home flange rotation R_M."""
+    R_M = geo.home_flange[:3, :3]
+    o = R_M.T @ (geo.home_flange[:3, 3] - geo.wrist_home)
+    return o.tolist(), R_M.tolist()
 
 
 def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = _SLACK,
@@ -304,27 +297,22 @@ def _wrapped(model: SerialModel, theta: Array) -> tuple[Array, Array]:
 
 
 _TAU = 2.0 * np.pi
-_READINGS: weakref.WeakKeyDictionary[SerialModel, tuple[Array, Array, Array, Array | None,
-                                                        Array | None]] = \
-    weakref.WeakKeyDictionary()
 
 
+@once_per_object
 def _reading_tables(model: SerialModel) -> tuple[Array, Array, Array, Array | None,
                                                  Array | None]:
-    """Per model, once: pi - zero, the lower and upper limits, and per joint the reading in
-    [-pi, pi) below which a turn up brings it inside the limits (below the lower limit, and
-    the turn no further than the upper one), and above which a turn down does (-inf / +inf
-    where none can; None when no joint can)."""
-    got = _READINGS.get(model)
-    if got is None:
-        lo, hi = model.limits[:, 0].copy(), model.limits[:, 1].copy()
-        # q < lo and q + 2 pi <= hi; q > hi and q - 2 pi >= lo (nextafter: <= as <)
-        below = np.minimum(lo, np.nextafter(hi - _TAU, np.inf))
-        above = np.maximum(hi, np.nextafter(lo + _TAU, -np.inf))
-        up = below if (below > -np.pi).any() else None
-        down = above if (above < np.pi).any() else None
-        got = _READINGS[model] = (np.pi - model.joint_zero, lo, hi, up, down)
-    return got
+    """pi - zero, the lower and upper limits, and per joint the reading in [-pi, pi) below
+    which a turn up brings it inside the limits (below the lower limit, and the turn no
+    further than the upper one), and above which a turn down does (-inf / +inf where none can;
+    None when no joint can)."""
+    lo, hi = model.limits[:, 0].copy(), model.limits[:, 1].copy()
+    # q < lo and q + 2 pi <= hi; q > hi and q - 2 pi >= lo (nextafter: <= as <)
+    below = np.minimum(lo, np.nextafter(hi - _TAU, np.inf))
+    above = np.maximum(hi, np.nextafter(lo + _TAU, -np.inf))
+    up = below if (below > -np.pi).any() else None
+    down = above if (above < np.pi).any() else None
+    return np.pi - model.joint_zero, lo, hi, up, down
 
 
 def _solutions(model: SerialModel, q: Array, reach: Array, within: Array, T_world: Array,

@@ -17,8 +17,11 @@ q_i + z_i + c_i tau_i(q), tau from the lumped `masses` and the `payload` (`compl
 
 from __future__ import annotations
 
+import weakref
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, wraps
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -26,6 +29,25 @@ from numpy.typing import ArrayLike
 from screwcal.errors import JointLimitError, ModelError
 from screwcal.kinematics.compliance import LumpedMass, Payload, payload_mass
 from screwcal.kinematics.se3 import Array
+
+_K = TypeVar("_K")
+_V = TypeVar("_V")
+
+
+def once_per_object(compute: Callable[[_K], _V]) -> Callable[[_K], _V]:
+    """`compute(obj)` once per object, forgotten with it: for the tables numeric code derives
+    from a model (its arrays are read-only: a changed model is a new object)."""
+    cache: weakref.WeakKeyDictionary[_K, _V] = weakref.WeakKeyDictionary()
+
+    @wraps(compute)
+    def cached(obj: _K) -> _V:
+        got = cache.get(obj)
+        if got is None:
+            got = cache[obj] = compute(obj)
+        return got
+
+    return cached
+
 
 REVOLUTE = "R"
 PRISMATIC = "P"
