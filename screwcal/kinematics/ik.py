@@ -228,8 +228,8 @@ def _closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Ar
 
 _SLACK = 1e-12
 _NAN_ROWS = (math.nan,) * 24  # a shoulder's four branches
-_SHOULDER_T1_OFFSET = (0.0, math.pi)  # _ARM_T1_OFFSET, per shoulder
-_ELBOW_SIGN = (1.0, -1.0)  # _ARM_ELBOW_SIGN, per elbow
+_SHOULDER_T1_OFFSET = tuple(_ARM_T1_OFFSET[::2].tolist())  # per shoulder (front, back)
+_ELBOW_SIGN = tuple(_ARM_ELBOW_SIGN[:2].tolist())  # per elbow (up, down)
 
 
 @once_per_object
