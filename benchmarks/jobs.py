@@ -9,8 +9,6 @@ robots at once (one service). Targets (issue 7): <= 2 s for one, <= 10 s for twe
 from __future__ import annotations
 
 # isort: off
-import timing  # noqa: F401  (first: it pins BLAS to one core before numpy loads)
-
 # isort: on
 import argparse
 import asyncio

@@ -2,20 +2,17 @@
 
     .venv/bin/python benchmarks/kinematics.py [--repeat 5]
 
-Prints the best of `repeat` runs, single-threaded BLAS (one core). Targets (issue 2):
+Prints the best of `repeat` runs. Targets (issue 2):
 FK >= 1,000,000 poses/s, closed-form IK >= 50,000 poses/s; one pose per call (issue 14): FK
 <= 10 us, closed-form IK (all eight branches) <= 60 us.
 """
 
 from __future__ import annotations
 
-# isort: off
-from timing import best_of  # first: it pins BLAS to one core before numpy loads
-
-# isort: on
 import argparse
 
 import numpy as np
+from timing import best_of  # the benchmarks' own helper
 
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.forward import forward_kinematics, parameter_jacobian

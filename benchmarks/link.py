@@ -10,8 +10,6 @@ Target (issue 4): <= 2 ms per pose.
 from __future__ import annotations
 
 # isort: off
-import timing  # noqa: F401  (first: it pins BLAS to one core before numpy loads)
-
 # isort: on
 import argparse
 import asyncio

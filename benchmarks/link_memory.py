@@ -15,8 +15,6 @@ Target (issue 12): within 10 MB of the start in every case.
 from __future__ import annotations
 
 # isort: off
-import timing  # noqa: F401  (first: it pins BLAS to one core before numpy loads)
-
 # isort: on
 import argparse
 import asyncio

@@ -14,8 +14,6 @@ not installed is skipped and said so. Ratios are what to quote: the host is shar
 from __future__ import annotations
 
 # isort: off
-import timing  # noqa: F401  (first: it pins BLAS to one core before numpy loads)
-
 # isort: on
 import argparse
 import statistics

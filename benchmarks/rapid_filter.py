@@ -9,10 +9,6 @@ thesis's Table 11 errors.
 
 from __future__ import annotations
 
-# isort: off
-from timing import best_of  # first: it pins BLAS to one core before numpy loads
-
-# isort: on
 import argparse
 import subprocess
 import sys
@@ -20,6 +16,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from timing import best_of  # the benchmarks' own helper
 
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints

@@ -1,13 +1,14 @@
-"""Shared by the benchmark scripts: one core for BLAS, and best-of-N timing."""
+"""Shared by the benchmark scripts: best-of-N timing.
+
+BLAS threads are left as a user gets them (the benchmarks once pinned them to one core, which
+hid that numpy's and scipy's two thread pools made identification 3.5x slower on 2 cores:
+`screwcal.calibration.blas_threads`). Set OPENBLAS_NUM_THREADS yourself to compare.
+"""
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
-
-for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")  # before numpy is imported by the caller
 
 
 def best_of(repeat: int, fn: Callable[[], object]) -> float:

@@ -43,6 +43,7 @@ from scipy.optimize import differential_evolution, least_squares
 from scipy.special import fdtrc
 
 from screwcal.calibration.alignment import align_frames
+from screwcal.calibration.blas_threads import one_blas_thread
 from screwcal.calibration.diagnostics import (
     MAX_OUTLIER_FRACTION,
     acquisition_order,
@@ -415,7 +416,14 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
                   weighting=weighting, weight_mm=weight_mm, noise=noise,
                   de_link_bounds_mm=de_link_bounds_mm, seed=seed, base_guess=base_guess,
                   link_offsets=link_offsets, outliers=outliers, de_polish=de_polish)
-    result = _with_compliance(nominal, data, compliance=compliance, **common)  # type: ignore[arg-type]
+    with one_blas_thread():  # small dense problems: threads only compete (blas_threads)
+        return _with_lag(nominal, data, compliance=compliance, lag=lag, common=common)
+
+
+def _with_lag(nominal: SerialModel, data: MeasurementSet, *, compliance: str,
+              lag: Literal["none", "auto"], common: dict) -> CalibrationResult:
+    """One identification, then (`lag="auto"`) the readings' lag estimated and corrected."""
+    result = _with_compliance(nominal, data, compliance=compliance, **common)
     if lag == "none":
         return result
     flagged = [d["joint"] for d in result.diagnostics.get("lag", {}).get("per_joint", [])
@@ -429,7 +437,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     for _ in range(LAG_ROUNDS):
         trial_lag = lam + lag_increment(best.model, correct_lag(data, lam))
         trial = _with_compliance(nominal, correct_lag(data, trial_lag), compliance=chosen,
-                                 **common)  # type: ignore[arg-type]
+                                 **common)
         if trial.residuals_after.mean() >= best.residuals_after.mean():
             break
         best, lam = trial, trial_lag

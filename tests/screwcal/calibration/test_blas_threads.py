@@ -1,0 +1,68 @@
+"""Identification runs with one BLAS thread, and gives back what was there."""
+
+import numpy as np
+import pytest
+from threadpoolctl import ThreadpoolController
+
+import screwcal.calibration.identify as identify_module
+from screwcal.calibration.blas_threads import one_blas_thread
+from screwcal.calibration.posesets import random_configurations
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.robots import irb1600
+from screwcal.studies.simulate import simulate_measurements
+
+
+def blas_threads():
+    return sorted({p["num_threads"] for p in ThreadpoolController().info()
+                   if p["user_api"] == "blas"})
+
+
+@pytest.fixture
+def two_threads():
+    """Every BLAS at two threads for the test (the machines here may have two cores)."""
+    controller = ThreadpoolController()
+    with controller.limit(limits=2, user_api="blas"):
+        if blas_threads() != [2]:
+            pytest.skip(f"this machine's BLAS cannot run two threads: {blas_threads()}")
+        yield
+
+
+def test_one_thread_inside_restored_after(two_threads):
+    with one_blas_thread():
+        assert blas_threads() == [1]
+        with one_blas_thread():  # nested: still one, and the inner exit does not restore
+            pass
+        assert blas_threads() == [1]
+    assert blas_threads() == [2]
+
+
+def test_concurrent_users_restore_when_the_last_leaves(two_threads):
+    """The job service identifies in worker threads: one that finishes first must not give
+    the others their threads back. Modelled in one thread (first in, first out), since
+    OpenBLAS reports its count to the thread that set it last, though it holds for all."""
+    first, second = one_blas_thread(), one_blas_thread()
+    first.__enter__()
+    second.__enter__()
+    first.__exit__(None, None, None)
+    assert blas_threads() == [1]
+    second.__exit__(None, None, None)
+    assert blas_threads() == [2]
+
+
+def test_identify_solves_with_one_thread(two_threads, monkeypatch, rng):
+    """The least-squares solve inside identify sees one BLAS thread (scipy's and numpy's pools
+    spin against each other on small problems: blas_threads.py)."""
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    data = simulate_measurements(truth, random_configurations(30, rng), rng)
+    seen = []
+    solve = identify_module.least_squares
+
+    def watched(*args, **kwargs):
+        seen.append(blas_threads())
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(identify_module, "least_squares", watched)
+    result = identify_module.identify(irb1600(), data, kind="thesis", frames="known")
+    assert seen and all(s == [1] for s in seen)
+    assert blas_threads() == [2]
+    assert np.isfinite(result.residuals_after).all()
