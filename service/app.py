@@ -25,7 +25,7 @@ from fastapi.staticfiles import StaticFiles
 from swagger_ui_bundle import swagger_ui_path
 
 from screwcal.errors import ScrewcalError
-from screwcal.kinematics.modelfile import model_file_from_model, parse_model, resolve_model
+from screwcal.kinematics.modelfile import model_document, parse_model, resolve_model
 from service.errors import ConflictError, NotFoundError, SafetyError
 from service.manager import JobManager
 from service.plans import LISTS_OF_KIND, plan_for
@@ -149,7 +149,7 @@ def create_app(settings: ServiceSettings) -> FastAPI:
                 parse_model(body.model, "model")
         except ScrewcalError as err:
             raise HTTPException(422, f"model: {err}") from None
-        doc = json.loads(model_file_from_model(model).model_dump_json())
+        doc = model_document(model)
         return store.add_robot(body.name, body.controller_host, body.controller_port,
                                body.arm_url, doc, body.holes_mm)
 

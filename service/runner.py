@@ -27,7 +27,6 @@ the joint limits, fails the job before anything is sent.
 from __future__ import annotations
 
 import asyncio
-import json
 import time
 from dataclasses import replace
 from typing import Any
@@ -57,7 +56,7 @@ from screwcal.calibration.resultfile import result_document
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.modelfile import model_file_from_model, parse_model
+from screwcal.kinematics.modelfile import model_document, parse_model
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
 from screwcal.kinematics.se3 import invert_transform
 from screwcal.performance.evaluate import PerformanceData, PointData, point_metrics, summarise
@@ -426,8 +425,7 @@ class JobRunner:
         await self.client.zero(zero.tolist(), on_wait=gate)
         job_result = dict(self.job["result"] or {})
         doc = dict(job_result["calibration" + suffix])
-        doc["model"] = json.loads(model_file_from_model(
-            after_zero(parse_model(doc["model"]), zero)).model_dump_json())
+        doc["model"] = model_document(after_zero(parse_model(doc["model"]), zero))
         doc["model_note"] = ("the robot once ZERO made the identified offsets the new zero: "
                              "the model of the joints as the controller now reads them")
         job_result["calibration" + suffix] = doc

@@ -5,14 +5,12 @@ model. `screwcal calibrate` writes it, the job service serves it (`GET /jobs/{id
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 
 from screwcal.calibration.correction import CorrectionRefusedError, joint_correction
 from screwcal.calibration.identify import CalibrationResult
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.modelfile import PoseIn, model_file_from_model
+from screwcal.kinematics.modelfile import model_document, pose_document
 
 RESULT_FORMAT = "screwcal-calibration"
 
@@ -64,10 +62,10 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
         "diagnostics": result.diagnostics,
         "warnings": result.warnings,
         "residuals": residuals,
-        "frames": {"base": PoseIn.of(result.model.base).model_dump(),
-                   "tool": PoseIn.of(result.model.tool).model_dump()},
+        "frames": {"base": pose_document(result.model.base),
+                   "tool": pose_document(result.model.tool)},
         "correction": correction,
-        "model": json.loads(model_file_from_model(model or result.model).model_dump_json()),
+        "model": model_document(model or result.model),
         "model_note": model_note or "the identified model: the robot as the controller reads "
                                     "its joints during the calibration",
     }

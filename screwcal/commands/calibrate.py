@@ -214,13 +214,13 @@ def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
 
 def run_align(args: argparse.Namespace) -> int:
     from screwcal.calibration.base_alignment import base_from_sweeps, fit_circle, read_sweeps_csv
-    from screwcal.kinematics.modelfile import PoseIn, resolve_model
+    from screwcal.kinematics.modelfile import pose_document, resolve_model
 
     nominal = resolve_model(args.robot)
     j1, j2, q1 = read_sweeps_csv(args.sweeps)
     base = base_from_sweeps(nominal, j1, j2, q1)
     c1, c2 = fit_circle(j1), fit_circle(j2)
-    doc = {"robot": nominal.name, "base": PoseIn.of(base).model_dump(),
+    doc = {"robot": nominal.name, "base": pose_document(base),
            "meaning": "pose of the robot base frame in the measuring system's frame (mm, deg)",
            "j1_circle_rms_mm": c1.rms_mm, "j2_circle_rms_mm": c2.rms_mm}
     Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")

@@ -7,39 +7,71 @@ predict, evaluate, ...; the simulators own `emulator`.
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from collections.abc import Sequence
 
 from screwcal import __version__
-from screwcal.commands import calibrate, evaluate, predict, simulate, study, testcube
 from screwcal.errors import ScrewcalError
-from service import cli as service_cli
-from service import demo as service_demo
-from service.errors import ServiceError
-from simulators import cli as simulators_cli
+
+# Each subcommand and the module that registers it (`add_parser`) and runs it. A command named
+# on the line imports its module alone (`screwcal calibrate` need not import the service, the
+# emulators or pydantic: start-up is most of a small calibration's time); `--help`, no command
+# or an unknown one build them all, in this order. A test holds the table to the modules.
+COMMANDS = {
+    "simulate": "screwcal.commands.simulate",
+    "calibrate": "screwcal.commands.calibrate",
+    "compensate": "screwcal.commands.calibrate",
+    "align": "screwcal.commands.calibrate",
+    "predict": "screwcal.commands.predict",
+    "evaluate": "screwcal.commands.evaluate",
+    "testcube": "screwcal.commands.testcube",
+    "study": "screwcal.commands.study",
+    "demo": "service.demo",
+    "emulator": "simulators.cli",
+    "serve": "service.cli",
+    "job": "service.cli",
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every subcommand, or of `command`'s module only."""
     parser = argparse.ArgumentParser(
         prog="screwcal",
         description="Screw-theory calibration of 6-axis industrial robots (mm and degrees).")
     parser.add_argument("--version", action="version", version=f"screwcal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for module in (simulate, calibrate, predict, evaluate, testcube, study,
-                   service_demo,
-                   simulators_cli, service_cli):
-        module.add_parser(sub)
+    modules = [COMMANDS[command]] if command in COMMANDS else list(dict.fromkeys(
+        COMMANDS.values()))
+    for name in modules:
+        importlib.import_module(name).add_parser(sub)
     return parser
 
 
+def _command_named(argv: Sequence[str]) -> str | None:
+    """The subcommand on the line: its first word, when no option comes before it."""
+    return argv[0] if argv and argv[0] in COMMANDS else None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(_command_named(argv))
     args = parser.parse_args(argv)
     try:
         return int(args.func(args))
-    except (ScrewcalError, ServiceError) as err:
-        print(f"screwcal {args.command}: error: {err}", file=sys.stderr)
-        return 2
+    except ScrewcalError as err:
+        return _refused(args.command, err)
     except KeyboardInterrupt:
         print(f"screwcal {args.command}: interrupted", file=sys.stderr)
         return 130
+    except Exception as err:
+        from service.errors import ServiceError  # only the service's commands raise it
+
+        if not isinstance(err, ServiceError):
+            raise
+        return _refused(args.command, err)
+
+
+def _refused(command: str, err: Exception) -> int:
+    print(f"screwcal {command}: error: {err}", file=sys.stderr)
+    return 2

@@ -1,26 +1,16 @@
-"""The model file: JSON, validated by pydantic, in the interface units (mm, degrees).
+"""The model file's schema (pydantic): what `modelfile.parse_model` accepts, field by field.
 
-One schema, three representations of the same serial model (chosen with `representation`):
-
-- "screws": per joint a unit direction and a point on the axis at home, plus the home flange pose;
-- "dh" / "mdh": a standard or modified Denavit-Hartenberg table, with `dh_base` (robot base <-
-  DH frame 0) and `dh_flange` (DH frame n <- flange).
-
-Every representation also carries per-joint `zero_deg` and `limits_deg`, and the `base` (world
-<- robot base) and `tool` (flange <- measured point) poses; a model with joint compliance carries
-`gravity`: per-joint compliance in deg per kN m, the lumped masses that load the joints (joint
-numbers from 1, kg, centre at home in mm) and the payload (kg, centre of gravity in the flange
-frame, mm). Poses are {x, y, z} in mm and
-{rx, ry, rz} in degrees with R = Rz(rz) Ry(ry) Rx(rx). For prismatic joints, `zero_deg`,
-`limits_deg` and `theta_deg`/`d_mm` values along the joint are in mm.
+Only reading needs it: a document is written as plain JSON by `modelfile.model_document`, and a
+test holds the two to the same fields (the schema, dumping what it reads, gives back the very
+document written). Importing pydantic and building these classes costs ~90 ms and ~10 MB, which
+`screwcal calibrate` (it writes a model, it reads none) no longer pays. The file's format is
+described in `modelfile`.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import replace
-from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
@@ -28,13 +18,14 @@ from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError,
 
 from screwcal.errors import ModelError
 from screwcal.kinematics.compliance import LumpedMass, Payload
-from screwcal.kinematics.dh import DHRow, DHTable, dh_from_model, model_from_dh
+from screwcal.kinematics.dh import DHRow, DHTable, model_from_dh
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
+from screwcal.kinematics.modelfile import FORMAT
+from screwcal.kinematics.pose import transform_from_pose
 
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
-FORMAT = "screwcal-model"
+
 
 
 class PoseIn(BaseModel):
@@ -48,11 +39,6 @@ class PoseIn(BaseModel):
 
     def transform(self) -> np.ndarray:
         return transform_from_pose([self.x, self.y, self.z, self.rx, self.ry, self.rz])
-
-    @classmethod
-    def of(cls, T: np.ndarray) -> PoseIn:
-        x, y, z, rx, ry, rz = (float(v) for v in pose_from_transform(T))
-        return cls(x=x, y=y, z=z, rx=rx, ry=ry, rz=rz)
 
 
 class JointCommon(BaseModel):
@@ -129,19 +115,6 @@ class GravityIn(BaseModel):
                     masses=tuple(LumpedMass(m.joint - 1, m.kg, m.home_mm) for m in self.masses),
                     payload=Payload(self.payload.kg, self.payload.cog_mm))
 
-    @classmethod
-    def of(cls, model: SerialModel) -> GravityIn | None:
-        if not model.has_compliance and model.payload.kg == 0.0:
-            return None
-        by_mass = model.compliance_by_mass
-        return cls(compliance_deg_per_knm=[float(v) for v in np.degrees(model.compliance)
-                                           * 1000.0],
-                   compliance_by_mass_deg_per_knm=None if by_mass is None else
-                   (np.degrees(by_mass) * 1000.0).tolist(),
-                   masses=[MassIn(joint=m.link + 1, kg=m.kg, home_mm=m.home_mm)
-                           for m in model.masses],
-                   payload=PayloadIn(kg=model.payload.kg, cog_mm=model.payload.cog_mm))
-
 
 class _FileCommon(BaseModel):
     model_config = ConfigDict(extra="forbid")
@@ -203,81 +176,14 @@ class DHFile(_FileCommon):
 
 
 ModelFile = Annotated[ScrewsFile | DHFile, Field(discriminator="representation")]
-_ADAPTER: TypeAdapter[ScrewsFile | DHFile] = TypeAdapter(ModelFile)
+ADAPTER: TypeAdapter[ScrewsFile | DHFile] = TypeAdapter(ModelFile)
 
 
-def model_file_from_model(model: SerialModel,
-                          representation: Literal["screws", "dh", "mdh"] = "screws"
-                          ) -> ScrewsFile | DHFile:
-    """The file document of a model, in the chosen representation."""
-    limits = model.limits_deg
-    zero = model.joints_to_deg(model.joint_zero)
-    common = [dict(type=t, zero_deg=float(zero[i]), limits_deg=(float(limits[i, 0]),
-                                                                 float(limits[i, 1])))
-              for i, t in enumerate(model.joint_types)]
-    frames = dict(base=PoseIn.of(model.base), tool=PoseIn.of(model.tool),
-                  gravity=GravityIn.of(model))
-    if representation == "screws":
-        joints = [ScrewJoint(direction=tuple(float(c) for c in model.axis_dirs[i]),
-                             point_mm=tuple(float(c) for c in model.axis_points_mm[i]), **c)
-                  for i, c in enumerate(common)]
-        return ScrewsFile(name=model.name, representation="screws", joints=joints,
-                         home_flange=PoseIn.of(model.home_flange), **frames)
-    table = dh_from_model(model, representation)
-    dh_joints = [DHJoint(a_mm=r.a_mm, alpha_deg=math.degrees(r.alpha), d_mm=r.d_mm,
-                         theta_deg=math.degrees(r.theta), **c)
-                 for r, c in zip(table.rows, common, strict=True)]
-    return DHFile(name=model.name, representation=representation, joints=dh_joints,
-                     dh_base=PoseIn.of(table.dh_base), dh_flange=PoseIn.of(table.dh_flange),
-                     **frames)
-
-
-def _describe(err: ValidationError) -> str:
+def describe(err: ValidationError) -> str:
+    """Each failed field by its place in the document, with pydantic's message."""
     parts = []
     for e in err.errors():
         loc = e["loc"][1:] if e["loc"] and e["loc"][0] in ("screws", "dh", "mdh") else e["loc"]
         where = ".".join(str(x) for x in loc) or "document"
         parts.append(f"{where}: {e['msg']}")
     return "; ".join(parts)
-
-
-def parse_model(data: dict, source: str = "model") -> SerialModel:
-    """A serial model from a decoded JSON object. A calibration result (with a `model` member)
-    is accepted as well."""
-    if isinstance(data, dict) and "model" in data and "representation" not in data:
-        data = data["model"]
-    try:
-        return _ADAPTER.validate_python(data).to_model()
-    except ValidationError as err:
-        raise ModelError(f"{source}: invalid model file: {_describe(err)}") from None
-
-
-def load_model(path: str | Path) -> SerialModel:
-    """Read a model file (any representation)."""
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ModelError(f"{path}: model file not found") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise ModelError(f"{path}: not a JSON model file ({err})") from None
-    return parse_model(data, str(path))
-
-
-def save_model(model: SerialModel, path: str | Path,
-               representation: Literal["screws", "dh", "mdh"] = "screws") -> None:
-    """Write a model file in the chosen representation."""
-    doc = model_file_from_model(model, representation)
-    Path(path).write_text(doc.model_dump_json(indent=2) + "\n", encoding="utf-8")
-
-
-def resolve_model(name_or_path: str) -> SerialModel:
-    """A built-in model name (`irb1600`, `irb120`) or the path of a model / result file."""
-    from screwcal.kinematics.robots import BUILTIN_MODELS, builtin_model
-
-    if name_or_path in BUILTIN_MODELS:
-        return builtin_model(name_or_path)
-    if not Path(name_or_path).exists():
-        raise ModelError(f"'{name_or_path}' is neither a built-in robot "
-                         f"({', '.join(sorted(BUILTIN_MODELS))}) nor an existing model file")
-    return load_model(name_or_path)

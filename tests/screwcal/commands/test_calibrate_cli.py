@@ -1,11 +1,14 @@
 import csv
 import json
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
 from screwcal.calibration.posesets import random_configurations
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.commands.main import main
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, pose_from_transform
@@ -141,3 +144,25 @@ def test_compensate_refuses_an_unreachable_target(tmp_path, rng, truth, capsys):
     err = capsys.readouterr().err
     assert "t.csv, line 3: no compensated target: target 1 is out of the arm's reach" in err
     assert not (tmp_path / "c.csv").exists()
+
+
+def test_calibrate_imports_only_what_it_needs(tmp_path, rng):
+    """`screwcal calibrate` writes a model and reads none: pydantic (the schema) stays out of
+    the process, and so do the service and the emulators (issue 14: start-up is most of a
+    small calibration's time)."""
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    data = simulate_measurements(truth, random_configurations(30, rng), rng)
+    rxyz = euler_zyx_deg_from_rotation(data.rotations)
+    rows = np.c_[np.degrees(data.q), data.positions_mm, rxyz]
+    np.savetxt(tmp_path / "m.csv", rows, delimiter=",", fmt="%.9f",
+               header="q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz", comments="")
+    code = ("import sys\nfrom screwcal.commands.main import main\n"
+            "assert main(['calibrate', '--robot', 'irb1600', '--data', 'm.csv',"
+            " '--out', 'r.json']) == 0\n"
+            "print(sorted({m.split('.')[0] for m in sys.modules}))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    loaded = set(eval(out.stdout.strip().splitlines()[-1]))
+    assert "screwcal" in loaded and (tmp_path / "r.json").exists()
+    assert not loaded & {"pydantic", "service", "simulators", "fastapi", "httpx", "asyncio"}

@@ -111,6 +111,30 @@ def test_every_subcommand_has_help(command, capsys):
     assert capsys.readouterr().out.startswith(f"usage: screwcal {command}")
 
 
+def test_the_command_table_names_each_modules_commands():
+    """main imports only the named command's module: the table must list every command each
+    module registers, and nothing else (a command missing from it would still work, through
+    the full parser, but pay every module's import)."""
+    import argparse
+    import importlib
+
+    from screwcal.commands.main import COMMANDS as TABLE
+
+    for module in set(TABLE.values()):
+        sub = argparse.ArgumentParser().add_subparsers()
+        importlib.import_module(module).add_parser(sub)
+        assert set(sub.choices) == {c for c, m in TABLE.items() if m == module}, module
+    assert set(TABLE) >= set(COMMANDS)
+
+
+def test_a_mistyped_command_lists_them_all(capsys):
+    with pytest.raises(SystemExit) as done:
+        main(["calibrat"])
+    assert done.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'calibrat'" in err and "emulator" in err and "calibrate" in err
+
+
 def test_predict_uses_the_model_files_compliance_and_a_given_payload(tmp_path):
     from dataclasses import replace
 
@@ -131,3 +155,4 @@ def test_predict_uses_the_model_files_compliance_and_a_given_payload(tmp_path):
     rigid = forward_kinematics(stiff, q)[0, :3, 3]
     assert outs["bent"][0, 2] < rigid[2] - 0.05  # the stretched arm sags
     assert outs["loaded"][0, 2] < outs["bent"][0, 2] - 0.05  # and more under a payload
+

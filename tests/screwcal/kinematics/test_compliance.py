@@ -13,7 +13,7 @@ from screwcal.calibration.posesets import random_configurations
 from screwcal.errors import ModelError
 from screwcal.kinematics.compliance import GRAVITY_M_S2, Payload
 from screwcal.kinematics.forward import flange_kinematics, forward_kinematics, joint_torques
-from screwcal.kinematics.modelfile import model_file_from_model, parse_model
+from screwcal.kinematics.modelfile import model_document, parse_model
 from screwcal.kinematics.robots import irb120, irb1600
 from screwcal.kinematics.se3 import rotvec_from_rotation
 from screwcal.studies.simulate import simulate_measurements
@@ -74,13 +74,13 @@ def test_compliance_jacobian_matches_finite_differences():
 
 def test_the_model_file_keeps_compliance_and_payload():
     soft = replace(bent(irb120()), payload=Payload(0.4, (0.0, 0.0, 30.0)))
-    back = parse_model(model_file_from_model(soft).model_dump())
+    back = parse_model(model_document(soft))
     np.testing.assert_allclose(back.compliance, soft.compliance)
     assert back.payload == soft.payload and back.masses == soft.masses
     q = random_configurations(3, np.random.default_rng(2))
     np.testing.assert_allclose(forward_kinematics(back, q), forward_kinematics(soft, q),
                                atol=1e-9)
-    doc = model_file_from_model(soft).model_dump()
+    doc = model_document(soft)
     doc["gravity"]["compliance_deg_per_knm"] = [-1.0] * 6
     with pytest.raises(ModelError, match="compliance"):
         parse_model(doc)
@@ -139,7 +139,7 @@ def test_per_mass_compliance_jacobian_file_and_auto_choice():
         v = (Tp[:, :3, 3] - T[:, :3, 3]) / 1e-6 - np.cross(w, T[:, :3, 3])
         np.testing.assert_allclose(np.c_[w, v], J[:, :, k], atol=2e-3 * np.abs(J[:, :, k]).max())
     fitted = errors.apply(x)
-    back = parse_model(model_file_from_model(fitted).model_dump())
+    back = parse_model(model_document(fitted))
     np.testing.assert_allclose(forward_kinematics(back, q), forward_kinematics(fitted, q),
                                atol=1e-9)
     # a robot whose masses are not in the table's proportions: rich data pick the per-mass form

@@ -7,7 +7,7 @@ from screwcal.errors import ModelError
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.modelfile import (
     load_model,
-    model_file_from_model,
+    model_document,
     resolve_model,
     save_model,
 )
@@ -30,7 +30,7 @@ def test_save_and_load_round_trip(tmp_path, rng, representation):
 
 
 def _irb1600_doc() -> dict:
-    return json.loads(model_file_from_model(irb1600()).model_dump_json())
+    return model_document(irb1600())
 
 
 @pytest.mark.parametrize(("edit", "message"), [
@@ -63,3 +63,25 @@ def test_not_json_and_missing_files(tmp_path):
 def test_builtin_limits_follow_the_spec():
     np.testing.assert_allclose(irb1600().limits_deg, [[-180, 180], [-90, 150], [-245, 65],
                                                       [-200, 200], [-115, 115], [-400, 400]])
+
+
+@pytest.mark.parametrize("representation", ["screws", "dh", "mdh"])
+def test_the_written_document_is_what_the_schema_reads_and_writes(rng, representation):
+    """Documents are written without pydantic (`model_document`) and read through the schema
+    (`modelschema`): the schema, dumping what it read, must give back the very document, gravity
+    section and all, so that the writer can never drift from the reader."""
+    from dataclasses import replace
+
+    from screwcal.kinematics.compliance import Payload
+    from screwcal.kinematics.modelschema import ADAPTER
+    from screwcal.kinematics.robots import irb120
+
+    soft = replace(irb120(), compliance_by_mass=rng.uniform(0, 1e-4, (6, 3)),
+                   payload=Payload(0.7, (1.0, -2.0, 30.0)))
+    for model in (random_model(rng, "RRPRRR"), irb1600(), soft):
+        doc = model_document(model, representation)
+        assert json.loads(json.dumps(doc)) == doc  # plain JSON, no numpy scalars
+        assert ADAPTER.validate_python(doc).model_dump(mode="json") == doc
+    assert model_document(soft)["gravity"]["compliance_by_mass_deg_per_knm"] is not None
+    with pytest.raises(ModelError, match="representation"):
+        model_document(irb1600(), "euler")  # type: ignore[arg-type]
