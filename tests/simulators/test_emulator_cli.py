@@ -25,9 +25,16 @@ def start(args):
 
 
 def stop(proc):
+    """Interrupt as a user would (Ctrl-C); a process that does not end is killed, never left
+    running, and the failure shows what it printed."""
     proc.send_signal(signal.SIGINT)
-    proc.communicate(timeout=10)  # also closes the pipes
-    assert proc.returncode == 0
+    try:
+        _, err = proc.communicate(timeout=30)  # also closes the pipes
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        _, err = proc.communicate()
+        pytest.fail(f"{proc.args[3:5]} did not stop within 30 s of SIGINT; stderr:\n{err}")
+    assert proc.returncode == 0, err
 
 
 @pytest.mark.slow
@@ -50,9 +57,11 @@ async def test_emulator_processes_serve_the_robot_and_the_arm(tmp_path):
         for r in readers:
             r.close()
     finally:
-        stop(irc5)
-        if arm_proc is not None:
-            stop(arm_proc)
+        try:
+            stop(irc5)
+        finally:
+            if arm_proc is not None:
+                stop(arm_proc)
 
 
 def test_bad_errors_file_is_refused(tmp_path):
