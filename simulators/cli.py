@@ -19,10 +19,13 @@ import argparse
 import sys
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import asyncio
 
 
 async def _serve_irc5(args: argparse.Namespace) -> None:
-    import asyncio
 
     from simulators.arm import ArmEmulator, WorldFileWriter
     from simulators.irc5 import EmulatorSettings, IRC5Emulator
@@ -48,10 +51,11 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
         arm = ArmEmulator(world, seed=noise_seed)
         arm_host, arm_port = await arm.start(args.host, args.arm_port)
         line += f"; measuring arm on socket://{arm_host}:{arm_port}"
+    stopped = stop_on_signals()
     print(line, flush=True)
     print(f"world file {world_file} (for `screwcal emulator arm --world`)", flush=True)
     try:
-        await asyncio.Event().wait()
+        await stopped.wait()
     finally:
         await emu.stop()
         if arm is not None:
@@ -59,7 +63,6 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
 
 
 async def _serve_arm(args: argparse.Namespace) -> None:
-    import asyncio
 
     from simulators.arm import ArmEmulator, WorldFileSource
 
@@ -73,11 +76,30 @@ async def _serve_arm(args: argparse.Namespace) -> None:
     line = f"measuring arm on socket://{host}:{port}"
     if arm.pty_path:
         line += f" and {arm.pty_path}"
+    stopped = stop_on_signals()
     print(line, flush=True)
     try:
-        await asyncio.Event().wait()
+        await stopped.wait()
     finally:
         await arm.stop()
+
+
+def stop_on_signals() -> asyncio.Event:
+    """An event set by SIGINT (Ctrl-C) or SIGTERM (`kill`): the server awaits it, then closes.
+    Installed before the address line is printed (a peer may signal as soon as it reads it).
+
+    Installed here rather than left to Python's default: a process started in the background
+    by a shell script (`screwcal emulator irc5 &`) inherits SIGINT ignored, and Python then
+    installs no handler of its own, so Ctrl-C never reached it; SIGTERM ended it without
+    closing anything. The loop removes the handlers when it closes."""
+    import asyncio
+    import signal
+
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    return stop
 
 
 def run(args: argparse.Namespace) -> int:

@@ -16,9 +16,9 @@ from protocol.client import ControllerClient
 EXE = [sys.executable, "-m", "screwcal", "emulator"]
 
 
-def start(args):
+def start(args, **popen):
     proc = subprocess.Popen([*EXE, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, **popen)
     line = proc.stdout.readline()
     assert line, proc.stderr.read()
     return proc, line
@@ -81,3 +81,27 @@ def test_the_commands_as_named_start_and_stop():
         assert re.match(r"(measuring arm on socket://127\.0\.0\.1:\d+|"
                         r"irc5 emulator on 127\.0\.0\.1:\d+)$", line.strip()), line
         stop(proc)
+
+
+def _as_a_background_job():
+    """What a shell does to a command started with `&` without job control."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGQUIT, signal.SIG_IGN)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_started_in_the_background_the_emulators_still_stop(sig):
+    """Found when an irc5 emulator outlived its test by half an hour: started from a
+    background job, it had inherited SIGINT ignored and Ctrl-C never reached it. Both
+    emulators now stop cleanly on SIGINT and on SIGTERM, whatever they inherited."""
+    for args in (["arm", "--port", "0"], ["irc5", "--port", "0", "--arm-port", "0"]):
+        proc, _ = start(args, preexec_fn=_as_a_background_job)
+        proc.send_signal(sig)
+        try:
+            _, err = proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.communicate()
+            pytest.fail(f"{args[0]} emulator ignored {sig.name}")
+        assert proc.returncode == 0, err
