@@ -286,13 +286,17 @@ def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: fl
 def _wrapped(model: SerialModel, theta: Array) -> tuple[Array, Array]:
     """Joint angles (N, 8, 6), NaN where out of reach -> controller readings: the joint zero
     removed, wrapped to [-pi, pi), then moved by a turn where that brings a reading outside the
-    limits inside them; and whether each branch is within the limits (N, 8)."""
-    offset, lo, hi, turn_up_below, turn_down_above = _reading_tables(model)
-    q = (theta + offset) % _TAU - np.pi
-    if turn_up_below is not None:
-        q += _TAU * (q < turn_up_below)
-    if turn_down_above is not None:
-        q -= _TAU * (q > turn_down_above)
+    limits inside them; and whether each branch is within the limits (N, 8).
+
+    That rule gives each joint a window of one turn its readings fall in (`_reading_tables`),
+    so a reading is the window's start plus the angle's remainder modulo a turn: five array
+    calls, three when no window is closed at its top."""
+    sign, shift, start, lo, hi = _reading_tables(model)
+    q = theta if sign is None else theta * sign
+    q = (q + shift) % _TAU
+    if sign is not None:
+        q *= sign
+    q += start
     return q, ((q >= lo) & (q <= hi)).all(axis=-1)  # NaN compares False: out of reach is out
 
 
@@ -300,19 +304,25 @@ _TAU = 2.0 * np.pi
 
 
 @once_per_object
-def _reading_tables(model: SerialModel) -> tuple[Array, Array, Array, Array | None,
-                                                 Array | None]:
-    """pi - zero, the lower and upper limits, and per joint the reading in [-pi, pi) below
-    which a turn up brings it inside the limits (below the lower limit, and the turn no
-    further than the upper one), and above which a turn down does (-inf / +inf where none can;
-    None when no joint can)."""
+def _reading_tables(model: SerialModel) -> tuple[Array | None, Array, Array, Array, Array]:
+    """Per joint the window of one turn its readings fall in, as (sign, shift, start) with
+    reading = start + sign ((sign theta + shift) mod 2 pi), and the lower and upper limits.
+
+    The rule of `_wrapped`: wrapped to [-pi, pi), a reading below `below` (under the lower
+    limit, and a turn up no further than the upper one) is turned up, one above `above` turned
+    down. So the window is [-pi, pi) for most joints; [below, below + 2 pi) where a turn up can
+    happen; (above - 2 pi, above] where a turn down can (sign -1: closed at its top, as the
+    rule keeps a reading equal to `above`). No joint can have both (below > -pi needs
+    hi > pi, above < pi needs hi < pi). `sign` is None when every joint's is +1."""
     lo, hi = model.limits[:, 0].copy(), model.limits[:, 1].copy()
     # q < lo and q + 2 pi <= hi; q > hi and q - 2 pi >= lo (nextafter: <= as <)
     below = np.minimum(lo, np.nextafter(hi - _TAU, np.inf))
     above = np.maximum(hi, np.nextafter(lo + _TAU, -np.inf))
-    up = below if (below > -np.pi).any() else None
-    down = above if (above < np.pi).any() else None
-    return np.pi - model.joint_zero, lo, hi, up, down
+    down = above < np.pi
+    start = np.where(below > -np.pi, below, np.where(down, above, -np.pi))
+    sign = np.where(down, -1.0, 1.0)
+    shift = -sign * (model.joint_zero + start)
+    return (sign if down.any() else None), shift, start, lo, hi
 
 
 def _solutions(model: SerialModel, q: Array, reach: Array, within: Array, T_world: Array,
