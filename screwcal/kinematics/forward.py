@@ -131,20 +131,28 @@ _FEW = 16  # up to this many configurations, `_few_poses` (fewer, larger array c
 def _few_poses(model: SerialModel, q: Array) -> Array:
     """A few configurations (N, n). Each joint's exponential at q + zero is a fixed combination
     of (1, sin q, cos q) (or (1, q, 0) for a prismatic joint) with matrices `_few_pose_tables`
-    computes once per model, base and flange . tool folded in: one product gives all n
-    exponentials, then the chain pairwise; a dozen array calls in all (one pose: ~10 us)."""
-    C, revolute = _few_pose_tables(model)
+    computes once per model, base and flange . tool folded in and the joints' side by side in a
+    block-diagonal table: one matrix product gives every exponential of every configuration,
+    then the chain. One pose: 2-D products (`ndarray.dot` costs half of matmul's stacked
+    machinery at this size); several: pairwise, stacked."""
+    B, revolute = _few_pose_tables(model)
     N, n = q.shape
-    sc = np.empty((N, 3, n))
-    sc[:, 0] = 1.0
+    sc = np.empty((N, n, 3))
+    sc[:, :, 0] = 1.0
     if revolute:
-        np.sin(q, out=sc[:, 1])
-        np.cos(q, out=sc[:, 2])
+        np.sin(q, out=sc[:, :, 1])
+        np.cos(q, out=sc[:, :, 2])
     else:
         rev = model.is_revolute
-        sc[:, 1] = np.where(rev, np.sin(q), q)
-        sc[:, 2] = np.where(rev, np.cos(q), 0.0)
-    E = sc.transpose(0, 2, 1)[:, :, None, :] @ C  # (N, n, 1, 16)
+        sc[:, :, 1] = np.where(rev, np.sin(q), q)
+        sc[:, :, 2] = np.where(rev, np.cos(q), 0.0)
+    E = sc.reshape(N, 3 * n).dot(B)  # (N, 16 n): each joint's exponential, row-major
+    if N == 1:
+        E = E.reshape(n, 4, 4)
+        T = E[0]
+        for k in range(1, n):
+            T = T.dot(E[k])
+        return T[None]
     if n == 6:  # pairwise: (E1 E2)(E3 E4)(E5 E6) in one call, then two
         E = E.reshape(N, 3, 2, 4, 4)
         P = E[:, :, 0] @ E[:, :, 1]
@@ -158,12 +166,13 @@ def _few_poses(model: SerialModel, q: Array) -> Array:
 
 @once_per_object
 def _few_pose_tables(model: SerialModel) -> tuple[Array, bool]:
-    """C (n, 3, 16) such that joint i's exponential at q + zero_i is
-    C[i, 0] + f(q) C[i, 1] + g(q) C[i, 2]. With Z_i = exp(hat(xi_i) zero_i), which commutes with
-    the joint's own screw, a revolute joint gives Z_i (I + G2), Z_i G1, -Z_i G2 for (1, sin q,
-    cos q) (Rodrigues, Annex B), a prismatic one Z_i, G1, 0 for (1, q, 0); the base is multiplied
-    into the first joint's matrices and home_flange . tool into the last's. Also whether every
-    joint is revolute."""
+    """B (3 n, 16 n), zero but for joint i's block B[3 i:3 i + 3, 16 i:16 i + 16], such that
+    (1, f(q_i), g(q_i)) times that block is joint i's exponential at q_i + zero_i, flattened.
+    With Z_i = exp(hat(xi_i) zero_i), which commutes with the joint's own screw, a revolute
+    joint's block holds Z_i (I + G2), Z_i G1, -Z_i G2 for (1, sin q, cos q) (Rodrigues,
+    Annex B), a prismatic one's Z_i, G1, 0 for (1, q, 0); the base is multiplied into the first
+    joint's matrices and home_flange . tool into the last's. Also whether every joint is
+    revolute."""
     G1, G2, flange_tool = _generators(model)
     n = model.n_joints
     zero = model.joint_zero[:, None, None]
@@ -173,7 +182,10 @@ def _few_pose_tables(model: SerialModel) -> tuple[Array, bool]:
                  axis=1)
     C[0] = model.base @ C[0]
     C[-1] = C[-1] @ flange_tool
-    return C.reshape(n, 3, 16), bool(model.is_revolute.all())
+    B = np.zeros((n, 3, n, 16))
+    joints = np.arange(n)
+    B[joints, :, joints] = C.reshape(n, 3, 16)
+    return B.reshape(3 * n, 16 * n), bool(model.is_revolute.all())
 
 
 def flange_kinematics(model: SerialModel, q: ArrayLike) -> Array:
