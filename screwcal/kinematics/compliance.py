@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from screwcal.kinematics.se3 import Array
+from screwcal.kinematics.se3 import Array, skew
 
 GRAVITY_M_S2 = 9.80665
 COMPLIANCE_UNIT = "deg/kNm"
@@ -71,12 +71,12 @@ def gravity_torques_by_mass(axis_dirs: Array, axis_points: Array, partial: list[
     for k, m in enumerate(masses):
         A = partial[m.link + 1]
         r = A[:, :, :3] @ np.asarray(m.home_mm) + A[:, :, 3]  # (N, 3) the mass now
-        force = m.kg * g
+        moment = skew(m.kg * g)  # (r - a) @ skew(F) = (r - a) x F, for row vectors
         for j in range(m.link + 1):
             Aj = partial[j]
             w = Aj[:, :, :3] @ axis_dirs[j]
             a = Aj[:, :, :3] @ axis_points[j] + Aj[:, :, 3]
-            tau[:, j, k] = np.einsum("ni,ni->n", w, np.cross(r - a, force))
+            tau[:, j, k] = np.einsum("ni,ni->n", w, (r - a) @ moment)
     return tau
 
 
