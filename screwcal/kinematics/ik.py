@@ -67,9 +67,10 @@ class WristPartitionedGeometry:
         p = model.axis_points_mm
         wrist = np.array([p[4, 0], 0.0, p[3, 2]])
         if tol is not None:
-            wrong = [i + 1 for i in range(6) if not np.allclose(model.axis_dirs[i], _IDEAL_AXES[i],
-                                                                 atol=tol)]
-            off_plane = [i + 1 for i in (1, 2, 3, 4, 5) if abs(p[i, 1]) > tol]
+            # np.allclose's test (atol tol, rtol 1e-5) for all six axes in one array call
+            close = np.abs(model.axis_dirs - _IDEAL_AXES) <= tol + 1e-5 * np.abs(_IDEAL_AXES)
+            wrong = (np.flatnonzero(~close.all(axis=1)) + 1).tolist()
+            off_plane = (np.flatnonzero(np.abs(p[1:, 1]) > tol) + 2).tolist()
             if wrong or off_plane or abs(p[5, 2] - p[3, 2]) > tol:
                 raise ModelError(
                     f"model '{model.name}' is not an ideal ABB-type arm (axes z,y,y,x,y,x in the "

@@ -82,6 +82,19 @@ def test_closed_form_refuses_a_calibrated_model():
                        np.eye(4)[None])
 
 
+def test_closed_form_names_the_joints_that_are_not_ideal():
+    m = irb1600()
+    dirs = m.axis_dirs.copy()
+    dirs[2] = [0.0, np.cos(1e-4), np.sin(1e-4)]  # joint 3 tilted
+    points = m.axis_points_mm.copy()
+    points[4, 1] = 0.01  # joint 5 off the arm plane
+    with pytest.raises(ModelError, match=r"joints \[3, 5\] differ"):
+        closed_form_ik(replace(m, axis_dirs=dirs, axis_points_mm=points), np.eye(4)[None])
+    dirs[2] = [0.0, 1.0, 5e-10]  # within the tolerance: accepted
+    closed_form_ik(replace(m, axis_dirs=dirs / np.linalg.norm(dirs, axis=1, keepdims=True)),
+                   forward_kinematics(m, np.zeros((1, 6))))
+
+
 def _tilted(dirs):
     d = dirs + np.array([[0, 1e-3, 0]] + [[0, 0, 0]] * 5)
     return d / np.linalg.norm(d, axis=1, keepdims=True)
