@@ -176,17 +176,14 @@ def _closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Ar
     """`_closed_form_theta` for one flange target (4, 4) in scalar arithmetic: the same
     formulas, a fraction of the array calls' overhead (a test holds the two equal). Returns
     theta (1, 8, 6) and reach (1, 8)."""
-    o, R_M = _one_target_tables(geo)
-    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = T[:3, :3].tolist()
-    px, py, pz = T[:3, 3].tolist()
+    o, R_M, (au, af, pu, pf) = _one_target_tables(geo)
+    (r00, r01, r02, px), (r10, r11, r12, py), (r20, r21, r22, pz), _ = T.tolist()
     wx = px - (r00 * o[0] + r01 * o[1] + r02 * o[2])
     wy = py - (r10 * o[0] + r11 * o[1] + r12 * o[2])
     wz = pz - (r20 * o[0] + r21 * o[1] + r22 * o[2])
     M0, M1, M2 = ([a0 * m0 + a1 * m1 + a2 * m2 for m0, m1, m2 in R_M]  # R R_M^T
                   for a0, a1, a2 in ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22)))
     u, f = geo.upper_arm, geo.forearm
-    au, af = abs(u), abs(f)
-    pu, pf = cmath.phase(u), cmath.phase(f)
     theta: list[float] = []
     reach: list[bool] = []
     base = math.atan2(wy, wx)
@@ -234,12 +231,15 @@ _ELBOW_SIGN = tuple(_ARM_ELBOW_SIGN[:2].tolist())  # per elbow (up, down)
 
 
 @once_per_object
-def _one_target_tables(geo: WristPartitionedGeometry) -> tuple[list[float], list[list[float]]]:
+def _one_target_tables(geo: WristPartitionedGeometry
+                       ) -> tuple[list[float], list[list[float]], tuple[float, ...]]:
     """As Python floats: the home offset of the flange from the wrist centre in the flange
-    frame, and the home flange rotation R_M."""
+    frame, the home flange rotation R_M, and the upper arm's and forearm's lengths and angles
+    in the arm plane."""
     R_M = geo.home_flange[:3, :3]
     o = R_M.T @ (geo.home_flange[:3, 3] - geo.wrist_home)
-    return o.tolist(), R_M.tolist()
+    u, f = geo.upper_arm, geo.forearm
+    return o.tolist(), R_M.tolist(), (abs(u), abs(f), cmath.phase(u), cmath.phase(f))
 
 
 def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = _SLACK,
