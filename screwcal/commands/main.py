@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 
@@ -58,12 +59,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(_command_named(argv))
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args))
+        code = int(args.func(args))
+        sys.stdout.flush()  # a reader gone shows here (a pipe buffers), not at exit
+        return code
     except ScrewcalError as err:
         return _refused(args.command, err)
     except KeyboardInterrupt:
         print(f"screwcal {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader left (`screwcal calibrate ... | head`): the command
+        # stops where it was, as SIGPIPE would stop it, without a traceback (calibrate has
+        # written its result by then: it prints after)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
+        return 141  # as a shell reports a command ended by SIGPIPE
     except Exception as err:
         from service.errors import ServiceError  # only the service's commands raise it
 

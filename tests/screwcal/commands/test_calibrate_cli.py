@@ -166,3 +166,24 @@ def test_calibrate_imports_only_what_it_needs(tmp_path, rng):
     loaded = set(eval(out.stdout.strip().splitlines()[-1]))
     assert "screwcal" in loaded and (tmp_path / "r.json").exists()
     assert not loaded & {"pydantic", "service", "simulators", "fastapi", "httpx", "asyncio"}
+
+
+def test_a_reader_that_leaves_early_gets_no_traceback(tmp_path, rng):
+    """`screwcal calibrate ... | head -0`: the reader is gone before the first line; the result
+    file is complete and no traceback reaches the terminal (it printed a BrokenPipeError)."""
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    data = simulate_measurements(truth, random_configurations(30, rng), rng)
+    rows = np.c_[np.degrees(data.q), data.positions_mm,
+                 euler_zyx_deg_from_rotation(data.rotations)]
+    np.savetxt(tmp_path / "m.csv", rows, delimiter=",", fmt="%.9f",
+               header="q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz", comments="")
+    proc = subprocess.Popen([sys.executable, "-m", "screwcal", "calibrate", "--robot", "irb1600",
+                             "--data", "m.csv", "--out", "r.json"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # the reader leaves before the command prints anything
+    err = proc.stderr.read().decode()
+    proc.stderr.close()
+    proc.wait(60)
+    assert "Traceback" not in err and "BrokenPipe" not in err, err
+    assert proc.returncode == 141
+    assert json.loads((tmp_path / "r.json").read_text())["format"] == "screwcal-calibration"
