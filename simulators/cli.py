@@ -10,7 +10,8 @@ nominal IRB 1600 with the thesis's Table 11 errors, or the virtual-joint errors 
 seed. The arm runs in the IRC5 process (`--arm-port`) or in its own, following the world file
 the IRC5 process writes: `--world FILE`, or by default a new private folder per run, whose file
 the IRC5 process prints on its second line. Until a robot is known the arm answers
-`$NM ... NO_ROBOT`.
+`$NM ... NO_ROBOT`. Ctrl-C (SIGINT) or `kill` (SIGTERM) closes the servers and exits 0, also when
+started in the background by a script.
 """
 
 from __future__ import annotations
