@@ -146,16 +146,18 @@ def test_compensate_refuses_an_unreachable_target(tmp_path, rng, truth, capsys):
     assert not (tmp_path / "c.csv").exists()
 
 
-def test_calibrate_imports_only_what_it_needs(tmp_path, rng):
+@pytest.fixture
+def thirty_poses(tmp_path, rng):
+    """m.csv in tmp_path: 30 poses of the IRB 1600 with the thesis's errors."""
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    return _write_measurements(tmp_path / "m.csv",
+                               simulate_measurements(truth, random_configurations(30, rng), rng))
+
+
+def test_calibrate_imports_only_what_it_needs(tmp_path, thirty_poses):
     """`screwcal calibrate` writes a model and reads none: pydantic (the schema) stays out of
     the process, and so do the service and the emulators (issue 14: start-up is most of a
     small calibration's time)."""
-    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
-    data = simulate_measurements(truth, random_configurations(30, rng), rng)
-    rxyz = euler_zyx_deg_from_rotation(data.rotations)
-    rows = np.c_[np.degrees(data.q), data.positions_mm, rxyz]
-    np.savetxt(tmp_path / "m.csv", rows, delimiter=",", fmt="%.9f",
-               header="q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz", comments="")
     code = ("import sys\nfrom screwcal.commands.main import main\n"
             "assert main(['calibrate', '--robot', 'irb1600', '--data', 'm.csv',"
             " '--out', 'r.json']) == 0\n"
@@ -168,15 +170,9 @@ def test_calibrate_imports_only_what_it_needs(tmp_path, rng):
     assert not loaded & {"pydantic", "service", "simulators", "fastapi", "httpx", "asyncio"}
 
 
-def test_a_reader_that_leaves_early_gets_no_traceback(tmp_path, rng):
+def test_a_reader_that_leaves_early_gets_no_traceback(tmp_path, thirty_poses):
     """`screwcal calibrate ... | head -0`: the reader is gone before the first line; the result
     file is complete and no traceback reaches the terminal (it printed a BrokenPipeError)."""
-    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
-    data = simulate_measurements(truth, random_configurations(30, rng), rng)
-    rows = np.c_[np.degrees(data.q), data.positions_mm,
-                 euler_zyx_deg_from_rotation(data.rotations)]
-    np.savetxt(tmp_path / "m.csv", rows, delimiter=",", fmt="%.9f",
-               header="q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz", comments="")
     proc = subprocess.Popen([sys.executable, "-m", "screwcal", "calibrate", "--robot", "irb1600",
                              "--data", "m.csv", "--out", "r.json"], cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
