@@ -39,12 +39,8 @@ Representation = Literal["screws", "dh", "mdh"]
 
 def pose_document(T: np.ndarray) -> dict[str, float]:
     """A pose as the files write it: {x, y, z} mm and {rx, ry, rz} deg (EulerZYX)."""
-    x, y, z, rx, ry, rz = (float(v) for v in pose_from_transform(T))
-    return {"x": x, "y": y, "z": z, "rx": rx, "ry": ry, "rz": rz}
-
-
-def _floats(values: np.ndarray | tuple | list) -> list[float]:
-    return [float(v) for v in values]
+    return dict(zip(("x", "y", "z", "rx", "ry", "rz"), pose_from_transform(T).tolist(),
+                    strict=True))
 
 
 def gravity_document(model: SerialModel) -> dict | None:
@@ -52,29 +48,28 @@ def gravity_document(model: SerialModel) -> dict | None:
     if not model.has_compliance and model.payload.kg == 0.0:
         return None
     by_mass = model.compliance_by_mass
-    return {"compliance_deg_per_knm": _floats(np.degrees(model.compliance) * 1000.0),
+    return {"compliance_deg_per_knm": (np.degrees(model.compliance) * 1000.0).tolist(),
             "compliance_by_mass_deg_per_knm": None if by_mass is None else
-            [_floats(row) for row in np.degrees(by_mass) * 1000.0],
-            "masses": [{"joint": m.link + 1, "kg": float(m.kg), "home_mm": _floats(m.home_mm)}
-                       for m in model.masses],
+            (np.degrees(by_mass) * 1000.0).tolist(),
+            "masses": [{"joint": m.link + 1, "kg": float(m.kg),
+                        "home_mm": np.asarray(m.home_mm, float).tolist()} for m in model.masses],
             "payload": {"kg": float(model.payload.kg),
-                        "cog_mm": _floats(model.payload.cog_mm)}}
+                        "cog_mm": np.asarray(model.payload.cog_mm, float).tolist()}}
 
 
 def model_document(model: SerialModel, representation: Representation = "screws") -> dict:
     """The file document of a model, in the chosen representation (JSON-ready)."""
     limits = model.limits_deg
-    zero = model.joints_to_deg(model.joint_zero)
-    common = [{"type": t, "zero_deg": float(zero[i]),
-               "limits_deg": [float(limits[i, 0]), float(limits[i, 1])]}
+    zero = model.joints_to_deg(model.joint_zero).tolist()
+    common = [{"type": t, "zero_deg": zero[i], "limits_deg": limits[i].tolist()}
               for i, t in enumerate(model.joint_types)]
     doc = {"format": FORMAT, "version": 1, "name": model.name,
            "base": pose_document(model.base), "tool": pose_document(model.tool),
            "gravity": gravity_document(model), "representation": representation}
     if representation == "screws":
-        doc["joints"] = [c | {"direction": _floats(model.axis_dirs[i]),
-                              "point_mm": _floats(model.axis_points_mm[i])}
-                         for i, c in enumerate(common)]
+        doc["joints"] = [c | {"direction": d, "point_mm": p} for c, d, p in
+                         zip(common, model.axis_dirs.tolist(), model.axis_points_mm.tolist(),
+                             strict=True)]
         doc["home_flange"] = pose_document(model.home_flange)
         return doc
     if representation not in ("dh", "mdh"):
