@@ -24,16 +24,16 @@ def start(args, **popen):
     return proc, line
 
 
-def stop(proc):
-    """Interrupt as a user would (Ctrl-C); a process that does not end is killed, never left
-    running, and the failure shows what it printed."""
-    proc.send_signal(signal.SIGINT)
+def stop(proc, sig=signal.SIGINT):
+    """Interrupt as a user would (Ctrl-C, or `kill` with SIGTERM); a process that does not
+    end is killed, never left running, and the failure shows what it printed."""
+    proc.send_signal(sig)
     try:
         _, err = proc.communicate(timeout=30)  # also closes the pipes
     except subprocess.TimeoutExpired:
         proc.kill()
         _, err = proc.communicate()
-        pytest.fail(f"{proc.args[3:5]} did not stop within 30 s of SIGINT; stderr:\n{err}")
+        pytest.fail(f"{proc.args[3:5]} did not stop within 30 s of {sig.name}; stderr:\n{err}")
     assert proc.returncode == 0, err
 
 
@@ -97,11 +97,4 @@ def test_started_in_the_background_the_emulators_still_stop(sig):
     emulators now stop cleanly on SIGINT and on SIGTERM, whatever they inherited."""
     for args in (["arm", "--port", "0"], ["irc5", "--port", "0", "--arm-port", "0"]):
         proc, _ = start(args, preexec_fn=_as_a_background_job)
-        proc.send_signal(sig)
-        try:
-            _, err = proc.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.communicate()
-            pytest.fail(f"{args[0]} emulator ignored {sig.name}")
-        assert proc.returncode == 0, err
+        stop(proc, sig)
