@@ -9,10 +9,9 @@ and 403 always when no token is configured).
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import json
 import secrets
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from typing import Annotated, Any
 
@@ -25,8 +24,9 @@ from fastapi.staticfiles import StaticFiles
 from swagger_ui_bundle import swagger_ui_path
 
 from screwcal.errors import ScrewcalError
-from screwcal.kinematics.modelfile import model_document, parse_model, resolve_model
-from service.errors import ConflictError, NotFoundError, SafetyError
+from screwcal.kinematics.modelfile import model_document, parse_model
+from screwcal.kinematics.robots import builtin_model
+from service.errors import ConflictError, NotFoundError, SafetyError, StoreError, StoreLostError
 from service.manager import JobManager
 from service.plans import LISTS_OF_KIND, plan_for
 from service.report import report_html
@@ -94,16 +94,23 @@ StoreDep = Annotated[Store, Depends(store_of)]
 ManagerDep = Annotated[JobManager, Depends(manager_of)]
 
 
-def create_app(settings: ServiceSettings) -> FastAPI:
+def create_app(settings: ServiceSettings, store: Store | None = None,
+               on_fatal: Callable[[str], None] | None = None) -> FastAPI:
+    """The app; `store` an already opened store (the service opens it before it binds, so that
+    a database another service holds is refused at once), `on_fatal` what stops the service when
+    its database is lost (the server's shutdown; without it, requests then get 503)."""
+
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        store = Store(settings.db_path)
-        manager = JobManager(store, settings)
-        app.state.store, app.state.manager, app.state.settings = store, manager, settings
+        own = store if store is not None else Store(settings.db_path)
+        manager = JobManager(own, settings, on_fatal=on_fatal)
+        app.state.store, app.state.manager, app.state.settings = own, manager, settings
+        app.state.planning = set()  # robots whose job is being planned by a request now
+        app.state.plans = asyncio.Semaphore(settings.max_concurrent_plans)
         manager.resume_unfinished()
         yield
         await manager.stop()
-        store.close()
+        own.close()
 
     app = FastAPI(title="screwcal job service", version="1", lifespan=lifespan,
                   docs_url=None, redoc_url=None,
@@ -140,12 +147,18 @@ def create_app(settings: ServiceSettings) -> FastAPI:
     async def unsafe(_: Request, err: SafetyError) -> JSONResponse:
         return JSONResponse({"detail": str(err)}, status_code=422)
 
+    @app.exception_handler(StoreError)
+    async def store_unusable(request: Request, err: StoreError) -> JSONResponse:
+        if isinstance(err, StoreLostError):
+            request.app.state.manager.fatal(str(err))
+        return JSONResponse({"detail": str(err)}, status_code=503)
+
     robots = APIRouter(prefix="/robots", tags=["robots"])
 
     @robots.post("", status_code=201, response_model=RobotPublic)
     def create_robot(body: RobotCreate, _: Auth, store: StoreDep) -> dict:
-        try:
-            model = resolve_model(body.model) if isinstance(body.model, str) else \
+        try:  # a built-in name or a document: never a path on the server
+            model = builtin_model(body.model) if isinstance(body.model, str) else \
                 parse_model(body.model, "model")
         except ScrewcalError as err:
             raise HTTPException(422, f"model: {err}") from None
@@ -170,12 +183,28 @@ def create_app(settings: ServiceSettings) -> FastAPI:
                 if waiting else None}
 
     @jobs.post("", status_code=202, response_model=JobPublic)
-    async def create_job(body: JobCreate, _: Auth, store: StoreDep, manager: ManagerDep) -> dict:
+    async def create_job(body: JobCreate, _: Auth, request: Request, store: StoreDep,
+                         manager: ManagerDep) -> dict:
+        """One unfinished job per robot: refused at once when the robot has one or another
+        request is planning one for it; the database's unique index decides in the end (a
+        second service on a server database included)."""
         robot = store.robot(body.robot_id)
-        busy = manager.busy_with(body.robot_id)
+        busy = store.unfinished_job(body.robot_id)
         if busy is not None:
             raise ConflictError(f"robot {body.robot_id} is busy with job {busy}: wait for it to "
                                 f"end or abort it (screwcal job abort {busy})")
+        planning: set[int] = request.app.state.planning
+        if body.robot_id in planning:
+            raise ConflictError(f"robot {body.robot_id} is busy: another request is starting a "
+                                "job on it")
+        planning.add(body.robot_id)
+        try:
+            return await _plan_and_add(body, robot, store, manager, request.app.state.plans)
+        finally:
+            planning.discard(body.robot_id)
+
+    async def _plan_and_add(body: JobCreate, robot: dict, store: Store, manager: JobManager,
+                            plans: asyncio.Semaphore) -> dict:
         options = body.options.model_dump()
         source = options.get("frame_from_job")
         if source is not None and not (store.job(source)["result"] or {}).get("base"):
@@ -184,8 +213,9 @@ def create_app(settings: ServiceSettings) -> FastAPI:
                                 "its estimation")
         try:  # a job that cannot run is refused now, with the reason, not at run time
             model = parse_model(robot["model"], f"robot {body.robot_id}")
-            for kind in LISTS_OF_KIND[body.kind]:
-                await asyncio.to_thread(plan_for, model, kind, options)
+            async with plans:  # a bounded number of plans at once: each takes a worker thread
+                for kind in LISTS_OF_KIND[body.kind]:
+                    await asyncio.to_thread(plan_for, model, kind, options)
         except ScrewcalError as err:
             raise HTTPException(422, f"this job cannot run on robot {body.robot_id}: "
                                 f"{err}") from None
@@ -254,8 +284,13 @@ def create_app(settings: ServiceSettings) -> FastAPI:
         boot = manager.events.boot
         start = 0  # Last-Event-ID "BOOT-SEQ" of this run: go on after it; else from the start
         if last_event_id and last_event_id.startswith(f"{boot}-"):
-            with contextlib.suppress(ValueError):
-                start = int(last_event_id.split("-", 1)[1]) + 1
+            seq = last_event_id.split("-", 1)[1]
+            if not seq.isdigit() or int(seq) >= len(bus.items):
+                raise HTTPException(400, f"Last-Event-ID {last_event_id!r} names no event of "
+                                    f"this job's stream (ids {boot}-0 to {boot}-"
+                                    f"{len(bus.items) - 1}); reconnect without it for the "
+                                    "whole stream")
+            start = int(seq) + 1
 
         def frame(event: dict, seq: int | None) -> str:
             head = f"id: {boot}-{seq}\n" if seq is not None else ""

@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import socket
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -33,23 +32,19 @@ if TYPE_CHECKING:  # imported where used: `screwcal --help` pays for neither
 
 
 # -- the service --------------------------------------------------------------------------------
-def serve(settings: ServiceSettings, announce: Callable[[str], None] = print) -> None:
-    """Run the service until interrupted; announces its URL once bound (port 0: a free one)."""
-    import uvicorn
-
-    from service.app import create_app
-
-    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    sock.bind((settings.host, settings.port))
-    sock.listen(2048)  # connections wait in the backlog from the moment the address is announced
-    host, port = sock.getsockname()[:2]
-    server = uvicorn.Server(uvicorn.Config(create_app(settings), log_level="warning"))
-    announce(f"screwcal service on http://{host}:{port} (database {settings.db_path})")
-    sys.stdout.flush()
+def serve(settings: ServiceSettings, announce: Callable[[str], None] = print) -> int:
+    """Run the service until interrupted; announces its URL once bound (port 0: a free one).
+    Exit code 1 when it stopped because its database was lost."""
     import asyncio
 
-    asyncio.run(server.serve(sockets=[sock]))
+    from service.server import bind
+
+    server = bind(settings)
+    host, port = server.address
+    announce(f"screwcal service on http://{host}:{port} (database {settings.db_path})")
+    sys.stdout.flush()
+    asyncio.run(server.serve())
+    return 1 if server.fatal else 0
 
 
 def run_serve(args: argparse.Namespace) -> int:
@@ -62,10 +57,9 @@ def run_serve(args: argparse.Namespace) -> int:
         print("warning: no token (--token or SCREWCAL_TOKEN): every request that moves a robot "
               "or changes data will be refused", file=sys.stderr)
     try:
-        serve(settings)
+        return serve(settings)
     except KeyboardInterrupt:
-        pass
-    return 0
+        return 0
 
 
 # -- the operator's client ---------------------------------------------------------------------

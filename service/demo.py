@@ -14,7 +14,6 @@ import argparse
 import contextlib
 import re
 import secrets
-import socket
 import subprocess
 import sys
 import tempfile
@@ -60,16 +59,12 @@ def service(settings: ServiceSettings) -> Iterator[str]:
     """The service in a thread of this process, on a free port; yields its URL."""
     import asyncio
 
-    import uvicorn  # here, not at import: every `screwcal` command would pay for it
+    from service.server import bind  # here, not at import: every command would pay for uvicorn
 
-    from service.app import create_app
-
-    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    sock.bind((settings.host, 0))
-    host, port = sock.getsockname()[:2]
-    server = uvicorn.Server(uvicorn.Config(create_app(settings), log_level="warning"))
-    thread = threading.Thread(target=lambda: asyncio.run(server.serve(sockets=[sock])),
-                              daemon=True)
+    bound = bind(settings, port=0)
+    host, port = bound.address
+    server = bound.uvicorn
+    thread = threading.Thread(target=lambda: asyncio.run(bound.serve()), daemon=True)
     thread.start()
     deadline = time.monotonic() + 20
     while not server.started and thread.is_alive() and time.monotonic() < deadline:
@@ -81,7 +76,7 @@ def service(settings: ServiceSettings) -> Iterator[str]:
     finally:
         server.should_exit = True
         thread.join(timeout=10)
-        sock.close()
+        bound.sock.close()
 
 
 def run(args: argparse.Namespace) -> int:

@@ -3,7 +3,11 @@
     ServiceError
     ├── NotFoundError      no such robot or job (HTTP 404)
     ├── ConflictError      the request does not fit the job's state (HTTP 409)
-    └── SafetyError        a target or correction refused before anything is sent (HTTP 422)
+    ├── SafetyError        a target or correction refused before anything is sent (HTTP 422)
+    └── StoreError         the database cannot be used (HTTP 503)
+        ├── StoreBusyError     another live service holds the database file
+        ├── StoreFullError     the disk (or the database's size limit) is full: jobs pause
+        └── StoreLostError     the database file was deleted or replaced under the service
 """
 
 
@@ -20,4 +24,20 @@ class ConflictError(ServiceError):
 
 
 class SafetyError(ServiceError):
+    pass
+
+
+class StoreError(ServiceError):
+    """The job store cannot be used: nothing can be committed."""
+
+
+class StoreBusyError(StoreError):
+    pass
+
+
+class StoreFullError(StoreError):
+    pass
+
+
+class StoreLostError(StoreError):
     pass

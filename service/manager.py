@@ -4,29 +4,42 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import sys
+from collections.abc import Callable
 
 from screwcal.errors import ScrewcalError
 from service.errors import ConflictError, ServiceError
 from service.events import EventBus
 from service.runner import JobRunner
 from service.settings import ServiceSettings
-from service.store import Store
-
-UNFINISHED = ("queued", "running", "paused")
+from service.store import UNFINISHED, Store
 
 
 class JobManager:
-    def __init__(self, store: Store, settings: ServiceSettings):
+    def __init__(self, store: Store, settings: ServiceSettings,
+                 on_fatal: Callable[[str], None] | None = None):
         self.store, self.settings = store, settings
         self.events = EventBus()
         self.runners: dict[int, JobRunner] = {}
         self.tasks: dict[int, asyncio.Task[None]] = {}
+        self._on_fatal = on_fatal
+        self.fatal_reason: str | None = None
+
+    def fatal(self, reason: str) -> None:
+        """The database is gone: say why and stop the service (once)."""
+        if self.fatal_reason is not None:
+            return
+        self.fatal_reason = reason
+        print(f"screwcal service stops: {reason}", file=sys.stderr)
+        if self._on_fatal is not None:
+            self._on_fatal(reason)
 
     def start(self, job_id: int) -> bool:
         """Run a job; one whose records cannot make a runner (a robot stored before its fields
         were validated, say) fails with the reason instead. True when it runs."""
         try:
-            runner = JobRunner(self.store, self.settings, self.events.of(job_id), job_id)
+            runner = JobRunner(self.store, self.settings, self.events.of(job_id), job_id,
+                               on_fatal=self.fatal)
         except (ScrewcalError, ServiceError, ValueError, KeyError, TypeError) as err:
             self.store.set_job(job_id, state="failed", reason=f"cannot run: {err}")
             return False
@@ -41,8 +54,7 @@ class JobManager:
 
     def busy_with(self, robot_id: int) -> int | None:
         """The unfinished job of this robot, if any."""
-        return next((j["id"] for j in self.store.jobs(UNFINISHED)
-                     if j["robot_id"] == robot_id), None)
+        return self.store.unfinished_job(robot_id)
 
     def runner(self, job_id: int) -> JobRunner:
         runner = self.runners.get(job_id)

@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import asyncio
 import time
+from collections import Counter
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -61,9 +63,10 @@ from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
 from screwcal.kinematics.se3 import invert_transform
 from screwcal.performance.evaluate import PerformanceData, PointData, point_metrics, summarise
 from screwcal.performance.straightness import straightness
-from service.errors import SafetyError
+from service.errors import ConflictError, SafetyError, StoreFullError, StoreLostError
 from service.events import JobEvents
 from service.plans import PlannedPose, plan_for
+from service.readings import MotionTolerance, PoseReading, refusal
 from service.settings import ServiceSettings
 from service.store import Store
 
@@ -94,8 +97,11 @@ class JobAborted(Exception):  # noqa: N818 (control flow, not an error)
 
 
 class JobRunner:
-    def __init__(self, store: Store, settings: ServiceSettings, events: JobEvents, job_id: int):
+    def __init__(self, store: Store, settings: ServiceSettings, events: JobEvents, job_id: int,
+                 on_fatal: Callable[[str], None] | None = None):
         self.store, self.settings, self.events, self.job_id = store, settings, events, job_id
+        self.on_fatal = on_fatal
+        self.discarded: Counter[str] = Counter()  # arm readings refused, by kind
         self.job = store.job(job_id)
         self.robot = store.robot(self.job["robot_id"])
         self.model = parse_model(self.robot["model"], f"robot {self.robot['id']}")
@@ -162,28 +168,39 @@ class JobRunner:
 
     # -- the job -------------------------------------------------------------------------------
     async def run(self) -> None:
-        phases: dict[str, Any] = dict(self.job["phases"])
+        """The steps in order. Before each, the step is claimed in the store, which re-reads the
+        job's phases there: what is done is skipped, a correction that was started and not
+        finished is never sent again, and a runner whose job another ended stops."""
         try:
             self._set("running", "")
             t0 = time.perf_counter()
             await self._with_links("setup")
-            phases.setdefault("setup", {"seconds": time.perf_counter() - t0})
+            if "setup" not in self.job["phases"]:
+                self.store.finish_step(self.job_id, "setup", time.perf_counter() - t0)
             for step in self.steps():
+                phases = self.store.claim_step(self.job_id, step)
                 if phases.get(step, {}).get("done"):
                     continue
                 if step.startswith("correction") and phases.get(step, {}).get("started") \
                         and self.route.startswith("zero"):
                     raise SafetyError("the job stopped during the correction: whether ZERO took "
                                       "effect is unknown; check the controller, then start anew")
-                phases[step] = {"started": True}
-                self.store.set_job(self.job_id, phases=phases)
+                self.job = self.store.job(self.job_id)  # the results as stored, not our copy
                 start = time.perf_counter()
                 await self._with_links(step)
-                phases[step] = {"done": True, "seconds": time.perf_counter() - start}
-                self.store.set_job(self.job_id, phases=phases)
-                await self.events.publish("phase", phase=step, seconds=phases[step]["seconds"])
+                seconds = time.perf_counter() - start
+                self.store.finish_step(self.job_id, step, seconds)
+                await self.events.publish("phase", phase=step, seconds=seconds)
             self._set("done", "")
             await self.events.publish("done")
+        except ConflictError as err:  # a stale runner: another ended this job; touch nothing
+            await self.events.publish("stale", reason=str(err))
+        except StoreFullError as err:  # nothing committed is lost: the job waits for space
+            await self._store_full(err)
+        except StoreLostError as err:
+            if self.on_fatal is not None:
+                self.on_fatal(str(err))
+            await self.events.publish("failed", reason=str(err))
         except JobAborted:
             await self._aborted()
         except ControllerError as err:
@@ -202,12 +219,22 @@ class JobRunner:
         finally:
             await self._disconnect()
 
+    async def _store_full(self, err: StoreFullError) -> None:
+        """Paused, not failed: a restart with free space resumes the job from its last
+        committed pose (an unfinished job is resumed; if even this small write fails, the job
+        stays as stored, unfinished, and is resumed all the same)."""
+        try:
+            self._set("paused", str(err))
+        except StoreFullError:
+            pass
+        await self.events.publish("paused", reason=str(err))
+
     async def _aborted(self) -> None:
         self._set("aborted", "aborted by the operator")
         await self.events.publish("aborted")
 
     def _set(self, state: str, reason: str) -> None:
-        self.job = self.store.set_job(self.job_id, state=state, reason=reason)
+        self.job = self.store.set_state(self.job_id, state, reason)
 
     async def _with_links(self, step: str) -> None:
         """Run a step; a lost link pauses the job until it is back, then the step goes on."""
@@ -277,6 +304,9 @@ class JobRunner:
             if not self.model.within_limits(np.radians(p.joints_deg)):
                 raise SafetyError(f"{phase} pose {p.idx} is outside the joint limits")
         list_name = "CAL" if phase.startswith("cal") else "PERF"
+        last = self.store.last_measurement(self.job_id)
+        previous = None if last is None else self._reading(
+            last["holes_mm"], last["flange_pose"], last["joints_deg"])
         while True:
             measured = self.store.measured_indices(self.job_id, phase)  # once per chunk
             todo = [p for p in plan if p.idx not in measured]
@@ -291,14 +321,70 @@ class JobRunner:
 
             async for got in self.client.run(list_name, "STEP", on_wait=gate, count=len(chunk)):
                 planned = chunk[got.idx]
-                holes = await asyncio.to_thread(self.arm.read_holes, self.settings.arm_timeout_s)
-                flange = self.flange.flange_poses(np.array(holes.points_mm))[0]
+                reading = await self._read_pose(phase, planned.idx, got.joints_deg, previous)
                 self.store.add_measurement(self.job_id, phase, planned.idx, list(got.joints_deg),
-                                           list(got.tool0), [list(h) for h in holes.points_mm],
-                                           pose_from_transform(flange).tolist())
+                                           list(got.tool0), reading.holes_mm.tolist(),
+                                           pose_from_transform(reading.flange).tolist())
+                previous = reading
                 done += 1
                 await self.events.publish("measured", phase=phase, index=planned.idx,
                                           done=done, total=len(plan))
+            self._count_discarded()
+
+    def _reading(self, holes_mm: Any, flange_pose: Any, joints_deg: Any) -> PoseReading:
+        nominal = flange_kinematics(self.model, np.radians([joints_deg]))[0]
+        flange = transform_from_pose(np.asarray(flange_pose, dtype=float))
+        return PoseReading(np.asarray(holes_mm, dtype=float), flange, nominal)
+
+    async def _read_pose(self, phase: str, idx: int, joints_deg: Any,
+                         previous: PoseReading | None) -> PoseReading:
+        """The arm reading of the pose the robot reported arriving at (service/readings.py): a
+        duplicated, stale or early triple is discarded and logged and the next one read; when
+        none is accepted in time, the arm is asked to probe again (`remeasure_attempts`), then
+        the job pauses and the pose is measured anew."""
+        assert self.arm is not None
+        tol = MotionTolerance(self.settings.motion_tolerance_mm,
+                              self.settings.motion_tolerance_rel,
+                              self.settings.motion_tolerance_deg)
+        attempts = 0
+        deadline = time.monotonic() + self.settings.arm_timeout_s
+        while True:
+            try:
+                holes = await asyncio.to_thread(self.arm.read_holes,
+                                                max(0.05, deadline - time.monotonic()))
+            except LinkTimeoutError:
+                if attempts >= self.settings.remeasure_attempts or not self.discarded:
+                    raise
+                attempts += 1
+                await asyncio.to_thread(self.arm.request)
+                deadline = time.monotonic() + self.settings.arm_timeout_s
+                continue
+            points = np.array(holes.points_mm)
+            flange = self.flange.flange_poses(points)[0]
+            nominal = flange_kinematics(self.model, np.radians([joints_deg]))[0]
+            reading = PoseReading(points, flange, nominal)
+            refused = refusal(previous, reading, tol)
+            if refused is None:
+                return reading
+            kind, why = refused
+            self.discarded[kind] += 1
+            await self.events.publish("discarded", phase=phase, index=idx, reason=why,
+                                      seqs=list(holes.seqs))
+
+    def _count_discarded(self) -> None:
+        """The result says how many arm readings were refused and why (and the arm's lines
+        that were not readings at all)."""
+        assert self.arm is not None
+        if not self.discarded and not self.arm.problems:
+            return
+        job_result = dict(self.store.job(self.job_id)["result"] or {})
+        job_result["arm_readings_discarded"] = {
+            "duplicate": self.discarded["duplicate"], "motion": self.discarded["motion"],
+            "bad_lines": len(self.arm.problems),
+            "meaning": "arm triples not used as a pose's reading: repeats of the previous "
+                       "pose's, readings whose measured motion disagreed with the commanded "
+                       "one (stale, early), and lines that broke a triple"}
+        self.job = self.store.set_job(self.job_id, result=job_result)
 
     async def _gate(self, phase: str, planned: PlannedPose, note: str = "") -> None:
         """Before the robot moves to `planned`: the previous pose is committed; drop stale arm

@@ -22,3 +22,20 @@ class ServiceSettings(BaseSettings):
     reconnect_interval_s: float = 0.5  # a paused job retries its links this often
     arm_timeout_s: float = 10.0  # waiting for the three holes of one pose
     pose_timeout_s: float = 120.0  # waiting for one pose of a running list
+    max_concurrent_plans: int = Field(2, ge=1, description="job plans computed at once (each "
+                                      "takes a worker thread); more requests wait")
+    motion_tolerance_mm: float = Field(
+        5.0, gt=0, description="an arm reading is refused when the distance it measured from "
+        "the previous pose differs from the commanded one by more than this (plus "
+        "motion_tolerance_rel of the distance): a stale, duplicated or early reading")
+    motion_tolerance_rel: float = Field(0.3, ge=0, le=0.9, description="(an uncalibrated "
+                                        "robot's errors change a motion by up to ~10 %)")
+    motion_tolerance_deg: float = Field(2.0, gt=0, description="the same for the rotation "
+                                        "angle between the two poses, degrees (plus "
+                                        "motion_tolerance_rel of the angle)")
+    remeasure_attempts: int = Field(2, ge=0, description="fresh probes asked for a pose whose "
+                                    "readings were all refused before the job pauses")
+    header_timeout_s: float = Field(10.0, gt=0, description="a client that has not sent its "
+                                    "request within this is disconnected")
+    max_connections: int = Field(200, ge=8, description="open connections beyond which new "
+                                 "ones are answered 503 at once (the operator's room)")

@@ -1,0 +1,72 @@
+"""Which measuring-arm reading belongs to a pose.
+
+The arm streams triples (P1, P2, P3) whenever it probes; nothing in a triple names the pose. A
+reading is taken for a pose only when all of these hold:
+- it was received after the go-ahead for the pose was sent (the line is drained just before: a
+  triple of the previous pose, or an early one, is never read as this pose's);
+- it is not a repeat of the previous pose's triple (the arm prints 4 decimals and its noise is
+  0.013 mm: two probes never agree to the last digit, so an identical triple is a duplicate);
+- the motion it measured agrees with the motion commanded: the distance between the previous
+  pose's measured flange and this one (and the angle between their orientations) against the
+  same between the nominal flanges at the joints read. Distances and angles do not depend on the
+  arm's frame. An uncalibrated robot's own errors change them by up to ~10 % (the thesis's
+  Table 11 robot: 279 mm measured for 254 mm commanded), hence the relative tolerance (30 % by
+  default); a stale or repeated reading measures no motion at all and is refused whenever the
+  commanded motion exceeds the tolerance (about 7 mm by default).
+A refused reading is discarded, counted and logged; the pose is measured again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+DUPLICATE_MM = 5e-4  # below the arm's last printed digit (0.1 um): the same line sent twice
+
+
+@dataclass(frozen=True)
+class PoseReading:
+    """One pose's accepted reading: the holes (3, 3) and the measured tool0 (4, 4), both in the
+    arm's frame, and the nominal tool0 (4, 4) at the joints the controller read, base frame."""
+
+    holes_mm: np.ndarray
+    flange: np.ndarray
+    nominal: np.ndarray
+
+
+@dataclass(frozen=True)
+class MotionTolerance:
+    mm: float = 5.0
+    rel: float = 0.3
+    deg: float = 2.0
+
+
+def _angle_deg(Ra: np.ndarray, Rb: np.ndarray) -> float:
+    cos = (np.trace(Ra.T @ Rb) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+
+
+def refusal(previous: PoseReading | None, new: PoseReading, tol: MotionTolerance
+            ) -> tuple[str, str] | None:
+    """(kind, reason) when `new` cannot be the reading of its pose, None when it is accepted.
+    Kinds: 'duplicate', 'motion'."""
+    if previous is None:
+        return None
+    if np.max(np.abs(new.holes_mm - previous.holes_mm)) < DUPLICATE_MM:
+        return "duplicate", "the same triple as the previous pose's (a line sent twice)"
+    measured = float(np.linalg.norm(new.flange[:3, 3] - previous.flange[:3, 3]))
+    commanded = float(np.linalg.norm(new.nominal[:3, 3] - previous.nominal[:3, 3]))
+    allowed = tol.mm + tol.rel * commanded
+    if abs(measured - commanded) > allowed:
+        return "motion", (f"measured motion {measured:.2f} mm from the previous pose, commanded "
+                          f"{commanded:.2f} mm (tolerance {allowed:.2f} mm): a stale, early or "
+                          "foreign reading")
+    turned = _angle_deg(new.flange[:3, :3], previous.flange[:3, :3])
+    told = _angle_deg(new.nominal[:3, :3], previous.nominal[:3, :3])
+    allowed_deg = tol.deg + tol.rel * told
+    if abs(turned - told) > allowed_deg:
+        return "motion", (f"measured rotation {turned:.2f} deg from the previous pose, "
+                          f"commanded {told:.2f} deg (tolerance {allowed_deg:.2f} deg): a stale, "
+                          "early or foreign reading")
+    return None
