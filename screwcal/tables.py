@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 import os
 import tempfile
@@ -130,7 +131,8 @@ def write_csv_atomic(path: str | Path, header: Sequence[str], rows: Iterable[Seq
 
 def write_text_atomic(path: str | Path, data: bytes) -> None:
     """Write bytes through a temporary file in the same folder, renamed into place at the end:
-    a failure leaves the old file (or none), never half a file."""
+    a failure leaves the old file (or none), never half a file. The file gets the mode a new
+    file gets under the user's umask, as every command's outputs do."""
     path = Path(path)
     directory = path.parent if str(path.parent) else Path(".")
     try:
@@ -140,10 +142,23 @@ def write_text_atomic(path: str | Path, data: bytes) -> None:
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
+            os.fchmod(handle.fileno(), _mode_from_umask())  # mkstemp's 0600 -> the user's
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _mode_from_umask() -> int:
+    """0666 less the process's umask: the mode `open()` would give a new file."""
+    mask = os.umask(0o022)  # reading the umask means setting it: put it back at once
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+def write_json_atomic(path: str | Path, document: object) -> None:
+    """A JSON document (indented, ending with a newline), written as `write_text_atomic`."""
+    write_text_atomic(path, (json.dumps(document, indent=2) + "\n").encode("utf-8"))
 
 
 def joint_columns(n: int) -> list[str]:

@@ -24,10 +24,15 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.optimize import least_squares
 
 from screwcal.errors import JointLimitError, ScrewcalError, UnreachableError
-from screwcal.kinematics.forward import flange_kinematics
-from screwcal.kinematics.ik import local_ik, numerical_ik
+from screwcal.kinematics.forward import (
+    flange_kinematics,
+    forward_kinematics,
+    spatial_jacobian,
+)
+from screwcal.kinematics.ik import _pose_error, local_ik, numerical_ik
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
@@ -135,6 +140,14 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
     change = calibrated.joints_to_deg(q - ref)
     inside = calibrated.within_limits(q)
     plausible = np.abs(change).max(axis=1, initial=0.0) <= bound_deg
+    wrist = _wrist_singular(nominal, ref) & ~(reached & inside & plausible)
+    if wrist.any():  # joints 4 and 6 trade freely there: solve on every branch instead
+        k = np.flatnonzero(wrist)
+        q_w, ok_w, measure = _wrist_solutions(robot, T[k], ref[k])
+        ok_w &= measure <= bound_deg
+        k, q_w = k[ok_w], q_w[ok_w]
+        q[k], reached[k], inside[k], plausible[k] = q_w, True, True, True
+        change[k] = calibrated.joints_to_deg(q_w - ref[k])
     refused = []
     for k in np.flatnonzero(~(reached & inside & plausible)):
         if not reached[k]:
@@ -156,6 +169,116 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
     bad = [k for k, _ in refused]
     q[bad], change[bad] = ref[bad], 0.0
     return Compensation(q, flange_kinematics(nominal, q), change, tuple(refused))
+
+
+WRIST_SINGULAR_DEG = 10.0  # axes 4 and 6 this close to parallel: the wrist singularity's band
+# At a calibrated wrist's singularity: the position met to this, the orientation to this
+SINGULAR_TOL_MM = 1e-3
+SINGULAR_TOL_DEG = 0.05
+WRIST_SEED_TILT = np.radians(1.0)
+
+
+def _wrist_axes_cos(model: SerialModel, q: Array) -> Array:
+    """(N,) cosine of the angle between axes 4 and 6 at joints q (N, 6)."""
+    J = spatial_jacobian(model, q)
+    return np.sum(J[:, :3, 3] * J[:, :3, 5], axis=-1)
+
+
+def _wrist_singular(model: SerialModel, q: Array) -> Array:
+    """(N,) joints q (N, n) within WRIST_SINGULAR_DEG of a 6R arm's wrist singularity (axes 4
+    and 6 in line)."""
+    if model.n_joints != 6 or not np.all(model.is_revolute):
+        return np.zeros(len(q), bool)
+    return np.abs(_wrist_axes_cos(model, q)) > np.cos(np.radians(WRIST_SINGULAR_DEG))
+
+
+def _wrist_solutions(robot: SerialModel, T: Array, ref: Array) -> tuple[Array, Array, Array]:
+    """Near the wrist singularity: the joints (M, 6) nearest the reference that reach T
+    (M, 4, 4), counting for joints 4 and 6 only their combined turn (what moves the tool
+    there); exactly at the singularity the two share that turn equally, so each stays nearest
+    its reference value. A calibrated wrist is not quite spherical: at its singularity a sliver
+    of orientations is out of reach, so the position is met and the orientation as closely as
+    it goes (within SINGULAR_TOL_DEG, else refused). Levenberg-Marquardt from the reference,
+    and from it with joint 5 tilted +-1 deg (on the singular point itself the tilt has no
+    gradient). Returns the joints, which have one, and each one's largest change (deg,
+    joints 4 and 6 combined)."""
+    M = len(T)
+    s = np.sign(_wrist_axes_cos(robot, ref))  # axes 4 and 6 alike (+1) or opposed (-1)
+    q_out, ok, measure = ref.copy(), np.zeros(M, bool), np.full(M, np.inf)
+    for k in range(M):
+        best = None
+        for tilt in (0.0, -WRIST_SEED_TILT, WRIST_SEED_TILT):
+            start = ref[k].copy()
+            start[4] += tilt
+            sol = least_squares(lambda q, k=k: _pose_error(T[k:k + 1], forward_kinematics(
+                robot, q[None]))[0] * _POSE_SCALE, start, method="lm", xtol=1e-15,
+                ftol=1e-15, gtol=1e-15)
+            if best is None or sol.cost < best.cost:
+                best = sol
+        assert best is not None
+        err = _pose_error(T[k:k + 1], forward_kinematics(robot, best.x[None]))[0]
+        if np.linalg.norm(err[:3]) > SINGULAR_TOL_MM or \
+                np.linalg.norm(err[3:]) > np.radians(SINGULAR_TOL_DEG):
+            continue
+        q = _turned_toward(best.x, ref[k])
+        d = np.degrees(q - ref[k])
+        combined = d[3] + s[k] * d[5]
+        if abs(_wrist_axes_cos(robot, q[None])[0]) > np.cos(1e-6):  # exactly singular
+            d[3], d[5] = 0.5 * combined, 0.5 * s[k] * combined
+            q = ref[k] + np.radians(d)
+        q_out[k], ok[k] = q, bool(robot.within_limits(q[None])[0])
+        measure[k] = float(np.max(np.abs([d[0], d[1], d[2], d[4], combined])))
+    return q_out, ok, measure
+
+
+# Residual scale: mm, and rad x 10 mm, so that the position is met first where the two
+# cannot both be (the wrist singularity)
+_POSE_SCALE = np.r_[np.ones(3), np.full(3, 10.0)]
+
+
+def _turned_toward(q: Array, ref: Array) -> Array:
+    """q (6,) with each revolute joint moved by whole turns as close as it gets to ref."""
+    return ref + np.mod(q - ref + np.pi, 2 * np.pi) - np.pi
+
+
+def compensate_each(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLike, *,
+                    frame: Literal["base", "measuring"] = "measuring",
+                    bound_deg: float = PLAUSIBLE_CHANGE_DEG) -> Compensation:
+    """Every target of T_desired (N, 4, 4) that can be compensated, from the nominal solution
+    nearest home (`frame="base"`) or the calibrated one nearest home (`"measuring"`); the
+    others are listed in `refused` with why (their rows hold zeros), never raised."""
+    T = np.asarray(T_desired, dtype=float)
+    try:
+        return _compensate_from_home(calibrated, nominal, T, frame, bound_deg)
+    except (UnreachableError, JointLimitError, CorrectionRefusedError):
+        pass  # one target fails the batch: each on its own
+    n = calibrated.n_joints
+    q, tool0, change = np.zeros((len(T), n)), np.tile(np.eye(4), (len(T), 1, 1)), \
+        np.zeros((len(T), n))
+    refused = []
+    for k in range(len(T)):
+        try:
+            one = _compensate_from_home(calibrated, nominal, T[k:k + 1], frame, bound_deg)
+        except (UnreachableError, JointLimitError, CorrectionRefusedError) as err:
+            refused.append((k, str(err).replace("target 0 is", "it is")
+                            .replace("target 0: ", "").replace("target 0", "it")))
+            continue
+        if one.refused:
+            refused.append((k, one.refused[0][1]))
+            continue
+        q[k], tool0[k], change[k] = one.q_rad[0], one.nominal_tool0[0], one.change_deg[0]
+    return Compensation(q, tool0, change, tuple(refused))
+
+
+def _compensate_from_home(calibrated: SerialModel, nominal: SerialModel, T: Array,
+                          frame: Literal["base", "measuring"], bound_deg: float
+                          ) -> Compensation:
+    if frame == "measuring":
+        return compensate(calibrated, nominal, T, frame=frame, bound_deg=bound_deg)
+    q_ref = numerical_ik(nominal.with_frames(np.eye(4), np.eye(4)), T).nearest(
+        np.zeros(nominal.n_joints))
+    return compensate(calibrated, nominal, T, q_ref, frame=frame, bound_deg=bound_deg,
+                      strict=False)
 
 
 def after_zero(model: SerialModel, zero_command_deg: ArrayLike) -> SerialModel:

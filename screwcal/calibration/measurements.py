@@ -79,12 +79,33 @@ def previous_rows(q: Array) -> Array:
     return out
 
 
-def read_measurements_csv(path: str | Path, model: SerialModel) -> MeasurementSet:
+LENGTH_UNITS_MM = {"mm": 1.0, "m": 1000.0, "in": 25.4}
+JOINT_UNITS = ("deg", "rad")
+# Joint readings that all lie within +-this (deg) look like radians: no calibration set keeps
+# every joint within a few degrees of zero
+RADIAN_LOOKING_DEG = 3.2
+# The measured points' spread over the model's: outside these bounds the lengths are not mm
+SPREAD_RATIO = (0.3, 3.0)
+
+
+def read_measurements_csv(path: str | Path, model: SerialModel, *, joint_unit: str = "deg",
+                          length_unit: str = "mm") -> MeasurementSet:
     """The measurement file (docs/formats.md): q1..qn (deg), x, y, z (mm),
-    optionally rx, ry, rz (deg) on every row, optional id."""
+    optionally rx, ry, rz (deg) on every row, optional id. `joint_unit` ("rad") and
+    `length_unit` ("m", "in") read files written in other units; numbers that look like
+    another unit than the one given are refused with the fix (`check_units`)."""
+    if joint_unit not in JOINT_UNITS or length_unit not in LENGTH_UNITS_MM:
+        raise ScrewcalError(f"joint unit is one of {JOINT_UNITS}, length unit one of "
+                            f"{tuple(LENGTH_UNITS_MM)}; not {joint_unit!r}, {length_unit!r}")
     table = read_numeric_csv(path, [*joint_columns(model.n_joints), "x", "y", "z"],
                              optional_groups=[["rx", "ry", "rz"]])
-    q = model.joints_from_deg(table.take(joint_columns(model.n_joints)))
+    q_given = table.take(joint_columns(model.n_joints))
+    # revolute joints in degrees; prismatic ones are lengths
+    q_deg = np.where(model.is_revolute, np.degrees(q_given) if joint_unit == "rad" else q_given,
+                     q_given * LENGTH_UNITS_MM[length_unit])
+    positions = table.take(["x", "y", "z"]) * LENGTH_UNITS_MM[length_unit]
+    check_units(table.path, model, q_deg, positions, joint_unit, length_unit)
+    q = model.joints_from_deg(q_deg)
     outside = ~model.within_limits(q)
     if outside.any():
         k = int(np.flatnonzero(outside)[0])
@@ -93,5 +114,50 @@ def read_measurements_csv(path: str | Path, model: SerialModel) -> MeasurementSe
     rotations = None
     if "rx" in table.columns:
         rotations = rotation_from_euler_zyx_deg(table.take(["rx", "ry", "rz"]))
-    return MeasurementSet(q, table.take(["x", "y", "z"]), rotations, table.ids, table.lines,
+    return MeasurementSet(q, positions, rotations, table.ids, table.lines,
                           previous_rows(q))  # the file's rows are in acquisition order
+
+
+def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array,
+                joint_unit: str = "deg", length_unit: str = "mm") -> None:
+    """Refuse (DataFileError, with the fix) joint readings that look like radians and
+    positions that look like metres or inches: every revolute reading within
+    +-RADIAN_LOOKING_DEG, or measured points spread over a region whose size differs from the
+    model's flange at the same joints by more than SPREAD_RATIO allows (the measuring frame
+    and the tool offset change where the points are, not how far apart)."""
+    revolute = model.is_revolute
+    if len(q_deg) >= 2 and revolute.any() and \
+            np.abs(q_deg[:, revolute]).max() < RADIAN_LOOKING_DEG:
+        fix = "they are radians: give --joint-unit rad, or convert them to degrees" \
+            if joint_unit == "deg" else "check the file's joint columns"
+        raise DataFileError(path, f"every joint reading lies within +-{RADIAN_LOOKING_DEG:g} "
+                            f"deg as read ({joint_unit}): {fix}")
+    if joint_unit == "rad" and revolute.any() and \
+            np.abs(q_deg[:, revolute]).max() > 360.0 + RADIAN_LOOKING_DEG:
+        raise DataFileError(path, "joint readings beyond a whole turn when read as radians: "
+                            "they look like degrees; leave out --joint-unit rad")
+    q = model.joints_from_deg(q_deg)
+    if len(q) < 3 or not model.within_limits(q).all():
+        return  # the limits' own check names the line
+    from screwcal.kinematics.forward import flange_kinematics
+
+    flange = flange_kinematics(model, q)[:, :3, 3]
+    model_spread = _spread(flange)
+    if model_spread < 10.0:
+        return  # the poses hardly move the flange: nothing to compare
+    ratio = _spread(positions_mm) / model_spread
+    if SPREAD_RATIO[0] <= ratio <= SPREAD_RATIO[1]:
+        return
+    # the unit the numbers look like: the one that makes the spread nearest the model's
+    looks = min(LENGTH_UNITS_MM, key=lambda u: abs(np.log(
+        ratio * LENGTH_UNITS_MM[u] / LENGTH_UNITS_MM[length_unit])))
+    fix = f"give --length-unit {looks}, or convert them to mm" if looks != length_unit else \
+        "check the file's x, y, z columns and the robot model"
+    raise DataFileError(path, f"the measured points spread over {ratio:.3g} times the "
+                        f"distance the model's flange does at the same joints, read as "
+                        f"{length_unit}: they look like {looks}; {fix}")
+
+
+def _spread(points: Array) -> float:
+    """RMS distance (mm) of points (N, 3) from their centroid."""
+    return float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))

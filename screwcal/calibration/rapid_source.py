@@ -32,6 +32,9 @@ _N = rf"\s*({NUMBER.pattern})\s*"
 # matched in one go; anything else goes through the general parser.
 _ROBTARGET = re.compile(rf"\s*\[\s*\[{_N},{_N},{_N}\]\s*,\s*\[{_N},{_N},{_N},{_N}\]\s*,"
                         rf"\s*\[{_N},{_N},{_N},{_N}\]\s*,\s*\[([^\[\]]*)\]\s*\]")
+# A module's first statement (comments and blank lines before it; a UTF-8 byte-order mark as
+# read in latin-1 too): `MODULE name` with optional attributes in parentheses
+MODULE_HEADER = re.compile(r"\A(?:\xef\xbb\xbf|\ufeff)?\s*MODULE[ \t]+[A-Za-z]\w*", re.I)
 RUNTIME_TARGETS = re.compile(r"\b(Offs|RelTool|CRobT|CalcRobT|MirPos)\s*\(", re.I)
 
 
@@ -192,6 +195,10 @@ def _motion(match: re.Match[str], lines: _Lines) -> Motion:
 def read_rapid_module(path: str, text: str) -> RapidModule:
     """The module's data declarations, motion instructions and run-time targets."""
     code = _blank_comments_and_strings(text)
+    if not MODULE_HEADER.match(code):
+        first = next((line.strip() for line in text.splitlines() if line.strip()), "")
+        raise DataFileError(path, "not a RAPID module: it must begin with 'MODULE <name>' "
+                            f"(comments before it allowed), not '{first[:40]}'", line=1)
     module = RapidModule(path, text)
     lines = module._lines
     for m in DECLARATION.finditer(code):

@@ -17,11 +17,21 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from screwcal.commands.options import (
+    check_outputs,
+    finite_float,
+    non_negative_float,
+    positive_float,
+)
+
 if TYPE_CHECKING:
     from screwcal.kinematics.model import SerialModel
+
+PARTIAL_EXIT = 3  # compensate: some targets refused (listed), the others written
 
 # The numeric modules are imported inside each command: `screwcal --help` and the other
 # subcommands do not pay for scipy.optimize and pydantic.
@@ -48,6 +58,13 @@ byte for byte, and lists what a static filter cannot compensate (Offs, RelTool, 
 targets, stationary tools, moving work objects) with its line. --targets takes tool0 poses in
 the robot base frame (what a program commands); --measuring-targets poses of the measured point
 in the measuring system's frame (what the measuring system will see).
+
+Exit status: 0 every target compensated; 3 some refused (each listed on stderr with its line
+and why; the others are written); 2 nothing written: no target could be compensated, the
+input is not a RAPID module, --out names an input, or the model is position-only (calibrated
+from positions of a point on joint 6's axis: it does not know the orientation).
+A target at the wrist singularity is solved with joints 4 and 6 kept nearest the nominal
+solution.
 """
 
 
@@ -58,9 +75,12 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from screwcal.calibration.resultfile import result_document
     from screwcal.errors import DataFileError
     from screwcal.kinematics.modelfile import resolve_model
+    from screwcal.tables import write_json_atomic
 
+    check_outputs([args.out], [args.data, args.base_guess, args.robot])
     nominal = with_payload(resolve_model(args.robot), args)
-    data = read_measurements_csv(args.data, nominal)
+    data = read_measurements_csv(args.data, nominal, joint_unit=args.joint_unit,
+                                 length_unit=args.length_unit)
     weighting = "eq2.4" if args.weight_mm is not None else "statistical"
     noise = NoiseModel(position_mm=args.noise_mm, joint_deg=args.joint_noise_deg)
     base_guess = None
@@ -80,7 +100,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
                 "poses": len(data), "compliance": args.compliance, "lag": args.lag,
                 "outliers": args.outliers}
     doc = result_document(result, nominal.name, settings)
-    Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    write_json_atomic(args.out, doc)
     b, a = doc["residuals"]["summary_before"], doc["residuals"]["summary_after"]
     print(f"{args.model} model, {len(data)} poses, rank {result.rank}/{result.n_candidates}: "
           f"residual mean {b['mean']:.3f} -> {a['mean']:.3f} mm, max {b['max']:.3f} -> "
@@ -121,7 +141,7 @@ def with_payload(model: SerialModel, args: argparse.Namespace) -> SerialModel:
 
 
 def add_payload_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--payload-kg", type=float, default=None,
+    p.add_argument("--payload-kg", type=non_negative_float, default=None,
                    help="mass on the flange (joint compliance scales with it; default: the "
                    "model's)")
     p.add_argument("--payload-cog-mm", type=_vec3, default=(0.0, 0.0, 0.0), metavar="X,Y,Z",
@@ -133,8 +153,8 @@ def _vec3(text: str) -> tuple[float, float, float]:
     if len(parts) != 3:
         raise argparse.ArgumentTypeError(f"give x,y,z in mm, not '{text}'")
     try:
-        x, y, z = (float(v) for v in parts)
-    except ValueError:
+        x, y, z = (finite_float(v) for v in parts)
+    except argparse.ArgumentTypeError:
         raise argparse.ArgumentTypeError(f"give x,y,z in mm, not '{text}'") from None
     return x, y, z
 
@@ -151,44 +171,60 @@ def _noise_line(noise: dict) -> str:
 
 
 def run_compensate(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from screwcal.calibration.correction import CorrectionRefusedError, compensate
-    from screwcal.errors import DataFileError, JointLimitError, UnreachableError
-    from screwcal.kinematics.ik import numerical_ik
+    from screwcal.calibration.correction import compensate_each
+    from screwcal.errors import DataFileError
     from screwcal.kinematics.modelfile import load_model, resolve_model
     from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
+    source = args.rapid or args.targets or args.measuring_targets
+    check_outputs([args.out], [args.model, source])
     calibrated = with_payload(load_model(args.model), args)  # a payload other than the model's
-    robot = args.robot or json.loads(Path(args.model).read_text(encoding="utf-8")).get("robot")
+    document = json.loads(Path(args.model).read_text(encoding="utf-8"))
+    robot = args.robot or document.get("robot")
     nominal = resolve_model(robot) if robot else calibrated
+    _refuse_position_only(document, args.model)
     if args.rapid:
         return _compensate_rapid(args, calibrated, nominal)
     frame = "base" if args.targets else "measuring"
-    table = read_numeric_csv(args.targets or args.measuring_targets,
-                             ["x", "y", "z", "rx", "ry", "rz"])
+    table = read_numeric_csv(source, ["x", "y", "z", "rx", "ry", "rz"])
     T = transform_from_pose(table.take(["x", "y", "z", "rx", "ry", "rz"]))
-    try:
-        q_ref = None
-        if frame == "base":  # from the nominal solution nearest home: its branch and turn
-            q_ref = numerical_ik(nominal.with_frames(np.eye(4), np.eye(4)), T).nearest(
-                np.zeros(nominal.n_joints))
-        comp = compensate(calibrated, nominal, T, q_ref, frame=frame)
-    except (UnreachableError, JointLimitError, CorrectionRefusedError) as err:
-        line = table.lines[err.index] if getattr(err, "index", None) is not None else None
-        raise DataFileError(table.path, f"no compensated target: {err}", line=line) from None
+    comp = compensate_each(calibrated, nominal, T, frame=frame)
+    ok = comp.ok
+    for k, why in comp.refused:
+        print(f"refused: {table.path}, line {table.lines[k]} (id {table.ids[k]}): {why}",
+              file=sys.stderr)
+    if not ok.any():
+        raise DataFileError(table.path, f"no target compensated ({len(comp.refused)} refused, "
+                            f"listed above); {args.out} not written")
     q_deg = calibrated.joints_to_deg(comp.q_rad)
     poses = pose_from_transform(comp.nominal_tool0)
     header = ["id", *joint_columns(calibrated.n_joints), "x", "y", "z", "rx", "ry", "rz"]
     write_csv_atomic(args.out, header, ([i, *(f"{v:.4f}" for v in q), *(f"{v:.4f}" for v in p)]
-                                        for i, q, p in zip(table.ids, q_deg, poses, strict=True)))
+                                        for i, q, p, good in zip(table.ids, q_deg, poses, ok,
+                                                                 strict=True) if good))
     where = "tool0 in the robot base frame" if frame == "base" else \
         "measured point in the measuring frame"
-    print(f"compensated {len(q_deg)} targets ({where}) -> {args.out}: joint targets, and the "
-          f"nominal tool0 poses of model '{nominal.name}' to program; largest joint change "
-          f"{comp.max_change_deg:.3f} deg")
+    print(f"compensated {int(ok.sum())} of {len(ok)} targets ({where}) -> {args.out}: joint "
+          f"targets, and the nominal tool0 poses of model '{nominal.name}' to program; largest "
+          f"joint change {comp.max_change_deg:.3f} deg")
+    if comp.refused:
+        print(f"{len(comp.refused)} targets refused (listed on stderr), not in {args.out}")
+        return PARTIAL_EXIT
     return 0
+
+
+def _refuse_position_only(document: dict, path: str) -> None:
+    """A model that predicts positions but not the orientation cannot compensate targets that
+    carry one (every robtarget and target row does)."""
+    from screwcal.errors import DataFileError
+
+    why = document.get("predicts", {}).get("orientation_unknown") \
+        if isinstance(document.get("predicts"), dict) else None
+    if why:
+        raise DataFileError(path, f"the model is position-only ({why}): it cannot compensate "
+                            "targets with an orientation; calibrate with full-pose data or a "
+                            "measured point off joint 6's axis")
 
 
 def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
@@ -207,15 +243,20 @@ def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
     module = read_rapid_module(str(path), text)
     out_text, report = filter_rapid(module, calibrated, nominal, tool=args.tool,
                                     wobj=args.wobj)
+    if report.compensated == 0:
+        print(report.summary(), file=sys.stderr)
+        raise DataFileError(str(path), f"no robtarget compensated; {args.out} not written")
     write_text_atomic(args.out, out_text.encode("latin-1"))
     print(report.summary().replace(f"{path}:", f"{path} -> {args.out}:", 1))
-    return 0
+    return PARTIAL_EXIT if report.refused else 0
 
 
 def run_align(args: argparse.Namespace) -> int:
     from screwcal.calibration.base_alignment import base_from_sweeps, fit_circle, read_sweeps_csv
     from screwcal.kinematics.modelfile import pose_document, resolve_model
+    from screwcal.tables import write_json_atomic
 
+    check_outputs([args.out], [args.sweeps, args.robot])
     nominal = resolve_model(args.robot)
     j1, j2, q1 = read_sweeps_csv(args.sweeps)
     base = base_from_sweeps(nominal, j1, j2, q1)
@@ -223,7 +264,7 @@ def run_align(args: argparse.Namespace) -> int:
     doc = {"robot": nominal.name, "base": pose_document(base),
            "meaning": "pose of the robot base frame in the measuring system's frame (mm, deg)",
            "j1_circle_rms_mm": c1.rms_mm, "j2_circle_rms_mm": c2.rms_mm}
-    Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    write_json_atomic(args.out, doc)
     b = doc["base"]
     print(f"robot base in the measuring frame: x {b['x']:.3f} y {b['y']:.3f} z {b['z']:.3f} mm, "
           f"rx {b['rx']:.4f} ry {b['ry']:.4f} rz {b['rz']:.4f} deg; circle fits RMS "
@@ -246,10 +287,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--robot", required=True, help="built-in robot (irb1600, irb120) or model file")
     p.add_argument("--data", required=True, help="measurement CSV (q1..q6, x, y, z[, rx, ry, rz])")
     p.add_argument("--out", required=True, help="result JSON to write")
+    p.add_argument("--joint-unit", choices=["deg", "rad"], default="deg",
+                   help="unit of the file's q1..q6 (default deg; readings that look like "
+                   "radians are refused)")
+    p.add_argument("--length-unit", choices=["mm", "m", "in"], default="mm",
+                   help="unit of the file's x, y, z (default mm; points that look like metres "
+                   "or inches are refused)")
     p.add_argument("--model", choices=["full", "thesis", "joints", "frames"], default="full",
                    help="error model (frames: the nominal robot, only the frames fitted)")
     p.add_argument("--solver", choices=["lm", "de"], default="lm")
-    p.add_argument("--weight-mm", type=float, default=None,
+    p.add_argument("--weight-mm", type=positive_float, default=None,
                    help="W of Eq. 2.4 (selects that objective; default: statistical weighting)")
     p.add_argument("--base-frame", choices=["unknown", "known"], default="unknown")
     p.add_argument("--residual", choices=["pose", "position", "distance"], default=None,
@@ -259,10 +306,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--outliers", choices=["reject", "keep"], default="reject",
                    help="poses whose residual says they do not belong: left out of the fit "
                    "(default) or kept; listed either way")
-    p.add_argument("--noise-mm", type=float, default=None,
+    p.add_argument("--noise-mm", type=positive_float, default=None,
                    help="fix the measuring noise, 1 sigma (default: estimated from the data)")
-    p.add_argument("--joint-noise-deg", type=float, default=None,
-                   help="fix the random joint error, uniform +- (default: estimated)")
+    p.add_argument("--joint-noise-deg", type=non_negative_float, default=None,
+                   help="fix the random joint error, uniform +- (0: none; default: "
+                   "estimated)")
     p.add_argument("--compliance", choices=["auto", "none", "j23", "j23-free", "wrist"],
                    default="auto",
                    help="joint compliance under gravity, identified with the geometry: joints "

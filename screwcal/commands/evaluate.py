@@ -13,8 +13,9 @@ With `--before`, the report and plots compare the two (e.g. before and after cal
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
+
+from screwcal.commands.options import check_outputs
 
 
 def run(args: argparse.Namespace) -> int:
@@ -25,7 +26,9 @@ def run(args: argparse.Namespace) -> int:
         read_performance_csv,
     )
     from screwcal.performance.straightness import straightness
+    from screwcal.tables import write_json_atomic
 
+    check_outputs([args.out], [args.data, args.before, args.path, args.path_before])
     after = read_performance_csv(args.data)
     before = read_performance_csv(args.before) if args.before else None
     line = straightness(read_path_csv(args.path)) if args.path else None
@@ -46,8 +49,7 @@ def run(args: argparse.Namespace) -> int:
                                                                  "after": line}
             written.append(plots.straightness_along_path(lines, folder / "straightness.png"))
         report["plots"] = [str(p) for p in written]
-    text = json.dumps(report, indent=2) + "\n"
-    Path(args.out).write_text(text, encoding="utf-8")
+    write_json_atomic(args.out, report)
     overall = report["result"]["overall"]
     print(f"{overall['points']} points: AP mean {overall['ap_mm_mean']:.3f} mm, max "
           f"{overall['ap_mm_max']:.3f} mm; RP max {overall['rp_mm_max']:.3f} mm -> {args.out}")

@@ -18,11 +18,13 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from screwcal.commands.calibrate import with_payload
+    from screwcal.commands.options import check_outputs
     from screwcal.kinematics.forward import forward_kinematics
     from screwcal.kinematics.modelfile import resolve_model
     from screwcal.kinematics.pose import pose_from_transform
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
+    check_outputs([args.out], [args.joints, args.model])
     model = with_payload(resolve_model(args.model), args)
     table = read_numeric_csv(args.joints, joint_columns(model.n_joints))
     q_deg = table.values

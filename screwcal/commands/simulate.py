@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import argparse
 
+from screwcal.commands.options import positive_int
+
 
 def run(args: argparse.Namespace) -> int:
     from screwcal.studies.simulated_calibration import format_report, run_demo
@@ -25,7 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seed", type=int, default=None,
                    help="also impose random axis errors drawn from this seed")
-    p.add_argument("--poses", type=int, default=40, help="calibration poses (default 40)")
-    p.add_argument("--validation", type=int, default=200,
+    p.add_argument("--poses", type=positive_int, default=40, help="calibration poses (default 40)")
+    p.add_argument("--validation", type=positive_int, default=200,
                    help="unseen validation poses (default 200)")
     p.set_defaults(func=run)

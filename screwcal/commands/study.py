@@ -11,6 +11,8 @@ import argparse
 import time
 from pathlib import Path
 
+from screwcal.commands.options import positive_int
+
 # The studies' names, for --help without importing the studies (a test holds them to
 # screwcal.studies.study.STUDIES).
 STUDY_NAMES = ("planar", "table8", "table9", "solvers", "weight", "replications",
@@ -34,8 +36,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("name", choices=[*STUDY_NAMES, "all"])
     p.add_argument("--seed", type=int, default=2018)
-    p.add_argument("--samples", type=int, default=20)
-    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--samples", type=positive_int, default=20)
+    p.add_argument("--workers", type=positive_int, default=2)
     p.add_argument("--out", default="studies")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the samples on a Dask distributed cluster (tcp://host:port)")

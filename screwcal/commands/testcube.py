@@ -9,6 +9,13 @@ from __future__ import annotations
 
 import argparse
 
+from screwcal.commands.options import (
+    check_outputs,
+    finite_float,
+    positive_float,
+    positive_int,
+)
+
 
 def run(args: argparse.Namespace) -> int:
     import numpy as np
@@ -23,6 +30,7 @@ def run(args: argparse.Namespace) -> int:
         write_pose_list,
     )
 
+    check_outputs([args.out, args.plot], [args.robot])
     model = resolve_model(args.robot)
     arm = ArmSphere(tuple(args.arm_centre), args.arm_radius) if args.arm_centre else None
     cube = find_test_cube(model, args.edge_mm, orientation_deg=args.orientation or FLANGE_DOWN_DEG,
@@ -46,18 +54,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--robot", required=True, help="built-in robot or model file")
     p.add_argument("--out", required=True, help="pose list CSV to write")
-    p.add_argument("--edge-mm", type=float, default=None,
+    p.add_argument("--edge-mm", type=positive_float, default=None,
                    help="cube edge (default: the largest that fits)")
-    p.add_argument("--centre", type=float, nargs=3, metavar=("X", "Y", "Z"),
+    p.add_argument("--centre", type=finite_float, nargs=3, metavar=("X", "Y", "Z"),
                    help="use the cube with this centre (mm, robot base frame; needs --edge-mm)")
-    p.add_argument("--cycles", type=int, default=30, help="measuring cycles (default 30)")
-    p.add_argument("--orientation", type=float, nargs=3, default=None,
+    p.add_argument("--cycles", type=positive_int, default=30, help="measuring cycles (default 30)")
+    p.add_argument("--orientation", type=finite_float, nargs=3, default=None,
                    metavar=("RX", "RY", "RZ"), help="tool orientation, deg (default flange down)")
-    p.add_argument("--approach", type=float, nargs=3, default=[0.0, 0.0, 50.0],
+    p.add_argument("--approach", type=finite_float, nargs=3, default=[0.0, 0.0, 50.0],
                    metavar=("DX", "DY", "DZ"), help="return point offset, mm (default 0 0 50)")
-    p.add_argument("--arm-centre", type=float, nargs=3, metavar=("X", "Y", "Z"),
+    p.add_argument("--arm-centre", type=finite_float, nargs=3, metavar=("X", "Y", "Z"),
                    help="measuring arm base in the robot frame, mm: keep the cube in its reach")
-    p.add_argument("--arm-radius", type=float, default=1200.0, help="arm reach, mm")
-    p.add_argument("--floor-z", type=float, default=0.0, help="lowest allowed z, mm")
+    p.add_argument("--arm-radius", type=positive_float, default=1200.0, help="arm reach, mm")
+    p.add_argument("--floor-z", type=finite_float, default=0.0, help="lowest allowed z, mm")
     p.add_argument("--plot", help="PNG of the cube, plane, points and robot")
     p.set_defaults(func=run)

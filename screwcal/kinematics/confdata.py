@@ -21,6 +21,7 @@ from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, cross
 
 QUADRANT_RAD = np.pi / 2
+TOL_RAD = 1e-5  # a joint this close (0.0006 deg) to a quadrant edge, or joint 5 to zero, is on it
 
 
 def _axis_points(J: Array) -> tuple[Array, Array]:
@@ -71,6 +72,27 @@ def confdata(model: SerialModel, q: ArrayLike) -> Array:
     return np.column_stack([_quadrants(q), cfx]).astype(int)
 
 
+def _wrist_split(model: SerialModel, q: Array, conf: Array) -> Array:
+    """Branches (N, 8, 6) with joint 5 at zero (axes 4 and 6 in line: only their combined
+    turn reaches the pose): the turn shared so that joints 4 and 6 lie nearest their asked
+    quadrants' points nearest zero (home: both at 0), not wherever the closed form put them."""
+    singular = np.abs(np.nan_to_num(q[..., 4], nan=1.0)) < TOL_RAD
+    if not singular.any():
+        return q
+    n, b = np.nonzero(singular)
+    qs = q[n, b]
+    J = spatial_jacobian(model, qs)
+    s = np.where(np.sum(J[:, :3, 3] * J[:, :3, 5], axis=-1) < 0.0, -1.0, 1.0)
+    lo4, lo6 = conf[n, 1] * QUADRANT_RAD, conf[n, 2] * QUADRANT_RAD
+    r4 = np.clip(0.0, lo4, lo4 + QUADRANT_RAD - TOL_RAD)
+    r6 = np.clip(0.0, lo6, lo6 + QUADRANT_RAD - TOL_RAD)
+    c = qs[:, 3] + s * qs[:, 5]  # what the pose fixes
+    q4 = 0.5 * (r4 + c - s * r6)  # nearest (r4, r6) on q4 + s q6 = c
+    out = q.copy()
+    out[n, b, 3], out[n, b, 5] = q4, s * (c - q4)
+    return out
+
+
 def solution_for_confdata(model: SerialModel, T_flange: ArrayLike, conf: ArrayLike,
                           strict: bool = True) -> tuple[Array, Array]:
     """The joint readings (N, 6) rad that reach flange poses T_flange (N, 4, 4) (robot base
@@ -85,14 +107,22 @@ def solution_for_confdata(model: SerialModel, T_flange: ArrayLike, conf: ArrayLi
     centre = np.zeros((N, 6))
     centre[:, [0, 3, 5]] = (conf[:, :3] + 0.5) * QUADRANT_RAD
     q = sol.toward(centre)  # (N, 8, 6): axes 1, 4, 6 turned toward the asked quadrants
+    q = _wrist_split(model, q, conf)
     # The arm's configuration (wrist centre against axis 1 and the lower arm) does not depend
     # on the wrist: computed on the four no-flip branches, the flip ones share it.
     noflip = [k for k, b in enumerate(sol.branches) if b[2] == "noflip"]
     partner = [noflip.index(sol.branches.index((b[0], b[1], "noflip"))) for b in sol.branches]
     arm = _arm_bits(model, np.nan_to_num(q[:, noflip].reshape(-1, 6))).reshape(N, 4)[:, partner]
-    cfx = arm + (q[:, :, 4] < 0.0)
-    got = np.concatenate([_quadrants(np.nan_to_num(q)), cfx[..., None]], axis=-1)
-    match = sol.valid & np.all(got == conf[:, None, :], axis=-1)
+    # A reading within TOL_RAD of a quadrant's edge (or of joint 5's zero) is in either: the
+    # numbers of a robtarget (9-decimal quaternions, 0.1 um positions) place the joints no
+    # closer than that, and the nominal home is on every edge at once
+    qq = np.nan_to_num(q)
+    quadrant_ok = (_quadrants(qq - TOL_RAD) == conf[:, None, :3]) | \
+        (_quadrants(qq + TOL_RAD) == conf[:, None, :3])
+    wanted_arm, wanted_negative = conf[:, None, 3] & ~1, (conf[:, None, 3] & 1).astype(bool)
+    q5 = qq[:, :, 4]
+    sign_ok = np.where(wanted_negative, q5 < TOL_RAD, q5 > -TOL_RAD)
+    match = sol.valid & np.all(quadrant_ok, axis=-1) & (arm == wanted_arm) & sign_ok
     none = ~match.any(axis=1)
     if strict and none.any():
         k = int(np.flatnonzero(none)[0])

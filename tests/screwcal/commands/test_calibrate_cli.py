@@ -140,10 +140,17 @@ def test_compensate_refuses_an_unreachable_target(tmp_path, rng, truth, capsys):
     targets.write_text("id,x,y,z,rx,ry,rz\na," + ",".join(f"{v:.6f}" for v in reachable)
                        + "\nb,99999,0,0,0,0,0\n")
     assert main(["compensate", "--model", str(out), "--measuring-targets", str(targets), "--out",
-                 str(tmp_path / "c.csv")]) == 2
+                 str(tmp_path / "c.csv")]) == 3  # some refused: the others written
     err = capsys.readouterr().err
-    assert "t.csv, line 3: no compensated target: target 1 is out of the arm's reach" in err
-    assert not (tmp_path / "c.csv").exists()
+    assert "t.csv, line 3 (id b): it is out of the arm's reach" in err, err
+    with (tmp_path / "c.csv").open() as f:
+        assert [r["id"] for r in csv.DictReader(f)] == ["a"]
+    # nothing to compensate: nothing written, the error says so
+    targets.write_text("id,x,y,z,rx,ry,rz\nb,99999,0,0,0,0,0\n")
+    assert main(["compensate", "--model", str(out), "--measuring-targets", str(targets), "--out",
+                 str(tmp_path / "d.csv")]) == 2
+    assert "no target compensated" in capsys.readouterr().err
+    assert not (tmp_path / "d.csv").exists()
 
 
 @pytest.fixture
