@@ -44,6 +44,11 @@ from scipy.special import fdtrc
 
 from screwcal.calibration.alignment import align_frames
 from screwcal.calibration.blas_threads import one_blas_thread
+from screwcal.calibration.degenerate import (
+    NEAR_AXIS_MM,
+    data_warnings,
+    point_axis_distance_mm,
+)
 from screwcal.calibration.diagnostics import (
     MAX_OUTLIER_FRACTION,
     acquisition_order,
@@ -68,6 +73,12 @@ from screwcal.calibration.identifiability import (
 )
 from screwcal.calibration.lag import correct_lag, lag_increment
 from screwcal.calibration.measurements import MeasurementSet
+from screwcal.calibration.plausible import (
+    PlausibleRanges,
+    held_directions,
+    outside_ranges,
+    prior_sigma,
+)
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
 from screwcal.kinematics.model import SerialModel
@@ -82,6 +93,7 @@ LAG_ROUNDS = 4  # estimate-correct-refit rounds of lag="auto", while the residua
 COMPLIANCE_T = 5.0  # |value| / std error above which "auto" keeps a joint compliance
 FREE_MIN_POSES = 200  # enough poses to let auto try a compliance per joint and arm mass
 FREE_P = 0.001  # ...and keep it when the residual's drop is this unlikely by chance
+DEFAULT_RANGES = PlausibleRanges()
 PRIOR_NOISE = (0.013, 0.013 / 50.0 * np.sqrt(2) * 180 / np.pi, 0.05)  # FARO arm, holes 50 mm
 
 
@@ -194,11 +206,22 @@ class CalibrationResult:
     unabsorbed: dict[str, float] = field(default_factory=dict)  # compliance: see _unabsorbed
     reading_lag: Array | None = None  # (n,) per joint, when lag="auto" corrected the readings
     lag_note: str = ""
+    data_warnings: tuple[str, ...] = ()  # degenerate data, named before the fit
+    held_by_prior: tuple[str, ...] = ()  # directions the data left to the prior (nominal)
+    implausible: tuple[str, ...] = ()  # parameters beyond their plausible range
+    orientation_unknown: str = ""  # why the model predicts positions, not the orientation
 
     @property
     def warnings(self) -> list[str]:
         """What the user must read: data-quality findings and the poses left out."""
-        out = [d["warning"] for d in self.diagnostics.values() if d.get("warning")]
+        out = list(self.data_warnings)
+        out += [d["warning"] for d in self.diagnostics.values() if d.get("warning")]
+        if self.implausible:
+            out.append("implausible parameters (check the data, the set-up and the nominal "
+                       "model before using this one): " + "; ".join(self.implausible))
+        if self.orientation_unknown:
+            out.append(f"position-only model: {self.orientation_unknown}; compensate refuses "
+                       "targets with an orientation")
         rejected = [o for o in self.outliers if o.rejected]
         if rejected:
             out.append(f"{len(rejected)} poses rejected as outliers: " + ", ".join(
@@ -243,12 +266,19 @@ def _whitening(cov: Array) -> Array:
     """W_i with W_i^T W_i = cov_i^-1, per pose (N, k, k)."""
     return np.linalg.inv(np.linalg.cholesky(cov))
 
+def _prior_weights(errors: ErrorModel, ranges: PlausibleRanges | None) -> Array:
+    """1 / sigma of the prior per parameter (numeric units); zeros without one."""
+    if ranges is None:
+        return np.zeros(len(errors.params))
+    return 1.0 / prior_sigma(errors.params, ranges)
+
+
 class _Problem:
     """Residuals and Jacobian of one identification, pure functions of x."""
 
     def __init__(self, errors: ErrorModel, data: MeasurementSet, residual: Residual,
                  weighting: str, weight_mm: float, noise: NoiseModel,
-                 weights_at: Array | None = None):
+                 weights_at: Array | None = None, ranges: PlausibleRanges | None = None):
         self.errors = errors
         self.data = data
         self.residual = residual
@@ -256,6 +286,17 @@ class _Problem:
         at = np.zeros(len(errors.params)) if weights_at is None else weights_at
         self._whiten = self._weights(weighting, weight_mm, noise, at)
         self._last: tuple[bytes, tuple[Array, Array]] | None = None
+        self.ranges = ranges
+        self.prior = _prior_weights(errors, ranges)
+
+    def posterior(self, x: Array) -> tuple[Array, Array]:
+        """The weighted residuals and Jacobian with the prior's rows (plausible.py) below:
+        what the solvers minimise."""
+        r, J = self.weighted(x)
+        return np.concatenate([r, self.prior * x]), np.vstack([J, np.diag(self.prior)])
+
+    def posterior_residuals(self, x: Array) -> Array:
+        return np.concatenate([self.residuals(x), self.prior * x])
 
     def restricted(self, errors: ErrorModel) -> _Problem:
         """The same data and weights (taken at the same starting model) for a subset of the
@@ -263,6 +304,7 @@ class _Problem:
         out = object.__new__(_Problem)
         out.errors, out.data, out.residual, out.rows = errors, self.data, self.residual, self.rows
         out._whiten, out._last = self._whiten, None
+        out.ranges, out.prior = self.ranges, _prior_weights(errors, self.ranges)
         return out
 
     def with_whitening(self, whiten: Array) -> _Problem:
@@ -373,14 +415,14 @@ class _Problem:
             d_model = np.linalg.norm(P[:, i] - P[:, j], axis=2)
             d_meas = np.linalg.norm(self.data.positions_mm[i] - self.data.positions_mm[j], axis=1)
             r = (d_model - d_meas) * self._whiten
-            return np.sum(r**2, axis=1)
+            return np.sum(r**2, axis=1) + np.sum((self.prior[:, None] * X) ** 2, axis=0)
         r = T[:, :, :3, 3] - self.data.positions_mm
         if self.residual == "pose":
             dR = T[:, :, :3, :3] @ np.swapaxes(self.data.rotations, 1, 2)
             rot = rotvec_from_rotation(dR)
             r = np.concatenate([r, rot], axis=2)
         rw = np.einsum("nij,snj->sni", self._whiten, r)
-        return np.sum(rw**2, axis=(1, 2))
+        return np.sum(rw**2, axis=(1, 2)) + np.sum((self.prior[:, None] * X) ** 2, axis=0)
 
 
 def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "full",
@@ -392,7 +434,8 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
              link_offsets: Sequence[str] | None = None,
              outliers: Literal["reject", "keep"] = "reject",
              de_polish: bool = True, compliance: str = "none",
-             lag: Literal["none", "auto"] = "none") -> CalibrationResult:
+             lag: Literal["none", "auto"] = "none",
+             plausible: PlausibleRanges | None = DEFAULT_RANGES) -> CalibrationResult:
     """Identify the error model `kind` of `nominal` from measured data. With unknown frames,
     `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there. With
     `solver="de"`, `de_polish=False` returns differential evolution's own best (the thesis's
@@ -411,11 +454,17 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     Poses whose residual says they do not belong (data snooping, `diagnostics.pose_tests`) are
     rejected, the worst first, and the fit repeated (`outliers="keep"`: listed, kept); at most
     a tenth of the poses. The result lists them and the data-quality
-    diagnostics."""
+    diagnostics.
+
+    `plausible`: every parameter carries a weak zero-mean prior scaled by its plausible range
+    (`screwcal.calibration.plausible`): among models that fit equally, the one nearest nominal;
+    the result names the directions the prior decided (`held_by_prior`) and warns of any
+    parameter beyond its range. None: plain least squares."""
     common = dict(kind=kind, residual=residual, frames=frames, solver=solver,
                   weighting=weighting, weight_mm=weight_mm, noise=noise,
                   de_link_bounds_mm=de_link_bounds_mm, seed=seed, base_guess=base_guess,
-                  link_offsets=link_offsets, outliers=outliers, de_polish=de_polish)
+                  link_offsets=link_offsets, outliers=outliers, de_polish=de_polish,
+                  ranges=plausible)
     with one_blas_thread():  # small dense problems: threads only compete (blas_threads)
         return _with_lag(nominal, data, compliance=compliance, lag=lag, common=common)
 
@@ -510,13 +559,14 @@ def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, *, kind: Mod
                         seed: int, base_guess: Array | None,
                         link_offsets: Sequence[str] | None,
                         outliers: Literal["reject", "keep"], de_polish: bool,
-                        compliance: str) -> CalibrationResult:
+                        compliance: str, ranges: PlausibleRanges | None) -> CalibrationResult:
     """One identification (see `identify`), rejecting outliers."""
     started = time.perf_counter()
     settings = dict(kind=kind, residual=residual, frames=frames, solver=solver,
                     weighting=weighting, weight_mm=weight_mm, noise=noise,
                     de_link_bounds_mm=de_link_bounds_mm, seed=seed, base_guess=base_guess,
-                    link_offsets=link_offsets, de_polish=de_polish, compliance=compliance)
+                    link_offsets=link_offsets, de_polish=de_polish, compliance=compliance,
+                    ranges=ranges)
     found: list[Outlier] = []
     current = data
     limit = max(1, int(MAX_OUTLIER_FRACTION * len(data)))
@@ -555,7 +605,8 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
                    weighting: str, weight_mm: float, noise: NoiseModel | None,
                    de_link_bounds_mm: tuple[float, float], seed: int,
                    base_guess: Array | None, link_offsets: Sequence[str] | None,
-                   de_polish: bool = True, compliance: str = "none"
+                   de_polish: bool = True, compliance: str = "none",
+                   ranges: PlausibleRanges | None = None
                    ) -> tuple[CalibrationResult, _Problem, Array]:
     """One fit of all the poses given: the result, the final problem and its estimate."""
     started = time.perf_counter()
@@ -577,7 +628,8 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
                              tool_position=unknown, link_offsets=link_offsets,
                              compliance=compliance)
     errors_all = ErrorModel(start, tuple(cands))
-    problem_all = _Problem(errors_all, data, residual, weighting, weight_mm, noise)
+    problem_all = _Problem(errors_all, data, residual, weighting, weight_mm, noise,
+                           ranges=ranges)
     r0, J0 = problem_all.weighted(np.zeros(len(cands)))
     # The frames are unknown whatever the robot: take them first, then the model's own
     # parameters (joint and link offsets: what a controller can correct), then axis terms.
@@ -600,6 +652,7 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
     degenerate = rank < needed or (kind != "full" and any(k in removed_idx
                                                           for k in requested_robot))
 
+    notes = data_warnings(start, data, residual, m, rank, [n for n, _ in removed])
     errors = errors_all.subset(keep)
     problem = problem_all.restricted(errors)
     p = len(keep)
@@ -607,8 +660,8 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
 
     def lm(problem: _Problem, x_start: Array, tol: float = 1e-12
            ) -> tuple[Array, bool, str, int]:
-        sol = least_squares(problem.residuals, x_start,
-                            jac=lambda x: problem.weighted(x)[1], method="lm", x_scale="jac",
+        sol = least_squares(problem.posterior_residuals, x_start,
+                            jac=lambda x: problem.posterior(x)[1], method="lm", x_scale="jac",
                             xtol=tol, ftol=tol, gtol=tol, max_nfev=200 * (p + 1))
         return sol.x, bool(sol.status > 0), str(sol.message), int(sol.nfev)
 
@@ -621,13 +674,15 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
         # weights at the starting model mis-shape it by the size of the errors being
         # identified) and solve once. If that step does not lower the cost, solve from the
         # start and re-weight afterwards.
-        x_gn = -np.linalg.lstsq(J0[:, keep], r0, rcond=None)[0]
+        prior0 = problem.prior
+        x_gn = -np.linalg.lstsq(np.vstack([J0[:, keep], np.diag(prior0)]),
+                                np.r_[r0, np.zeros(p)], rcond=None)[0]
         if estimate_noise:  # the noise levels' own loop re-weights and solves from there
             x, converged, message, nfev = x_gn, True, "", 0
             reweighted = True
         elif statistical and problem.cost(x_gn) < float(r0 @ r0):
             problem = _Problem(errors, data, residual, weighting, weight_mm, noise,
-                               weights_at=x_gn)
+                               weights_at=x_gn, ranges=ranges)
             x, converged, message, nfev = lm(problem, x_gn)
             reweighted = True
         else:
@@ -653,8 +708,8 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
         start_x = np.zeros(p)
         start_x[searched] = de.x
         if de_polish:
-            polish = least_squares(problem.residuals, start_x,
-                                   jac=lambda x: problem.weighted(x)[1], method="trf",
+            polish = least_squares(problem.posterior_residuals, start_x,
+                                   jac=lambda x: problem.posterior(x)[1], method="trf",
                                    x_scale="jac", bounds=tuple(zip(*bounds, strict=True)),
                                    xtol=1e-12, ftol=1e-12)
             x, converged = polish.x, bool(de.success or polish.status > 0)
@@ -696,17 +751,25 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
     elif statistical and not reweighted:
         # Re-weight at the estimate and solve again (iteratively re-weighted GLS; one pass is
         # enough, the weights' own error is then second order).
-        problem = _Problem(errors, data, residual, weighting, weight_mm, noise, weights_at=x)
+        problem = _Problem(errors, data, residual, weighting, weight_mm, noise, weights_at=x,
+                           ranges=ranges)
         x, converged_again, message_again, nfev_again = lm(problem, x)
         converged = converged and converged_again
         message, nfev = f"{message}; re-weighted: {message_again}", nfev + nfev_again
     if statistical and noise_used is None:
         noise_used = NoiseEstimate(*noise.filled(), None, None, None)
+    if not converged and _stationary(problem, x):
+        converged, message = True, f"{message}; at a stationary point of the cost (the " \
+            "solver's own tolerances were not met, its steps no longer lower the cost)"
+    elif not converged:
+        message += ("; NOT converged: try a simpler model (--model thesis or joints), more "
+                    "poses spread over the joint ranges, or a starting base frame "
+                    "(--base-guess)")
 
     r, Jw = problem.weighted(x)
     dof = max(m - p, 1)
     chi2 = float(r @ r) / dof
-    cov = scipy.linalg.pinvh(Jw.T @ Jw)
+    cov = scipy.linalg.pinvh(Jw.T @ Jw + np.diag(problem.prior ** 2))  # the posterior's
     if weighting == "eq2.4" or (statistical and not estimate_noise and chi2 > 1.0):
         cov = cov * chi2  # the noise was understated: the a-posteriori variance factor
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
@@ -716,6 +779,11 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
     to_if = errors.to_interface
     calibrated = errors.apply(x)
     unabsorbed = _unabsorbed(Jw, errors.params)
+    names_kept = list(errors.names)
+    held = held_directions(Jw, 1.0 / problem.prior, names_kept) if ranges is not None else []
+    implausible = outside_ranges(errors.params, to_if(x), to_if(std), ranges) \
+        if ranges is not None else []
+    orientation_unknown = _orientation_unknown(residual, calibrated)
     before = _pose_errors(start, data, residual)
     after = _pose_errors(calibrated, data, residual)
     return CalibrationResult(
@@ -728,7 +796,37 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
         message=str(message), n_evaluations=nfev, seconds=time.perf_counter() - started,
         residuals_before=before[0], residuals_after=after[0], rotation_before_deg=before[1],
         rotation_after_deg=after[1], degenerate=degenerate, covariance=cov, noise=noise_used,
-        unabsorbed=unabsorbed), problem, x
+        unabsorbed=unabsorbed, data_warnings=tuple(notes), held_by_prior=tuple(held),
+        implausible=tuple(implausible), orientation_unknown=orientation_unknown), problem, x
+
+
+def _orientation_unknown(residual: str, model: SerialModel) -> str:
+    """Why a model fitted to positions predicts no orientation, or "". Positions of a point
+    on (or near) the last joint's axis see neither that axis' tilt nor its zero; a point off
+    it sees the tilt, and only the zero stays with the measured point's unknown place on the
+    flange (held at nominal: the orientation is then known but for the turn about the last
+    axis, as the nominal robot's)."""
+    if residual == "pose":
+        return ""
+    n = model.n_joints
+    d = point_axis_distance_mm(model)
+    if d >= NEAR_AXIS_MM:
+        return ""
+    return (f"the measured point is {d:.1f} mm from joint {n}'s axis (under "
+            f"{NEAR_AXIS_MM:g} mm) and the data are positions only: they see neither the "
+            f"tilt of that axis nor joint {n}'s zero, so the model does not know the "
+            "orientation")
+
+
+def _stationary(problem: _Problem, x: Array) -> bool:
+    """Whether x is a stationary point of the (posterior) cost: a Gauss-Newton step from it
+    would lower the cost by less than a millionth (the solver stopped on its evaluation count
+    or step tolerances, not short of the minimum)."""
+    r, J = problem.posterior(x)
+    dx = np.linalg.lstsq(J, -r, rcond=None)[0]
+    cost = float(r @ r)
+    gain = cost - float(np.sum((r + J @ dx) ** 2))
+    return bool(gain <= 1e-6 * max(cost, 1.0))
 
 
 def _unabsorbed(Jw: Array, params: Sequence[Param]) -> dict[str, float]:
@@ -779,14 +877,15 @@ def _estimate_noise(problem: _Problem, noise: NoiseModel, x: Array,
         iteration += 1
         W = _whitening(np.einsum("k,knij->nij", theta, V))
         # The weighted linear least-squares step, and the residuals carried there.
-        dx = -np.linalg.lstsq((W @ A).reshape(-1, A.shape[-1]),
-                              (W @ e[..., None]).reshape(-1), rcond=None)[0]
+        P = problem.prior
+        dx = -np.linalg.lstsq(np.vstack([(W @ A).reshape(-1, A.shape[-1]), np.diag(P)]),
+                              np.r_[(W @ e[..., None]).reshape(-1), P * x], rcond=None)[0]
         x, e = x + dx, e + A @ dx
         Cinv = np.swapaxes(W, 1, 2) @ W
         Ce = (Cinv @ e[..., None])[..., 0]
         CA = Cinv @ A
         p_ = A.shape[-1]
-        Ninv = scipy.linalg.pinvh(A.reshape(-1, p_).T @ CA.reshape(-1, p_))
+        Ninv = scipy.linalg.pinvh(A.reshape(-1, p_).T @ CA.reshape(-1, p_) + np.diag(P ** 2))
         Vk = V[idx]
         K = len(idx)
         M = Cinv @ Vk  # C^-1 V_k per pose

@@ -57,6 +57,13 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
         "convergence": {"converged": result.converged, "message": result.message,
                         "evaluations": result.n_evaluations, "seconds": result.seconds,
                         "chi2_reduced": result.chi2_reduced},
+        "predicts": {"position": True, "orientation": not result.orientation_unknown,
+                     "orientation_unknown": result.orientation_unknown or None},
+        "nearest_nominal": {
+            "rule": "a weak prior on every parameter, its plausible range as the standard "
+                    "deviation: among models that fit equally, the one nearest nominal",
+            "held_by_prior": list(result.held_by_prior),
+            "implausible": list(result.implausible)},
         "noise": result.noise.to_dict() if result.noise is not None else None,
         "outliers": [o.to_dict() for o in result.outliers],
         "diagnostics": result.diagnostics,

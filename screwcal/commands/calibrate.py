@@ -120,6 +120,9 @@ def run_calibrate(args: argparse.Namespace) -> int:
         print(f"joint compliance {gravity['note']}")
     if result.reading_lag is not None:
         print(f"joint readings {result.lag_note}")
+    if result.held_by_prior:
+        print("held at nominal, the data leave them (nearly) free: "
+              + "; ".join(result.held_by_prior))
     for warning in result.warnings:
         print(f"warning: {warning}")
     if result.degenerate:
