@@ -8,13 +8,13 @@ any of many equivalent models (one had joint 5's zero at 151 deg and axes tilted
 predicted positions to 0.02 mm). A zero-mean Gaussian prior on every parameter, with the
 plausible range as its standard deviation, picks the solution nearest nominal in those
 directions (the maximum a posteriori estimate; Tikhonov regularisation with the prior's
-scaling):
+scaling), sigma_k being half the range (the range holds 95 % of the prior):
 
     minimise |W (f(x) - y)|^2 + sum_k (x_k / sigma_k)^2
 
 A determined direction, with standard error s from the data, is pulled toward nominal by the
 factor s^2 / (s^2 + sigma^2): for the well-determined ones (s ~ 0.001-0.01 deg against sigma
-2-10 deg) by less than 1e-5 of itself, far below its own standard error; a test holds this.
+1-5 deg) by less than 1e-4 of itself, far below its own standard error; a test holds this.
 
 The directions the prior decided are those where the data carry less information than the
 prior: the eigenvectors of D J^T J D (J the whitened Jacobian, D = diag(sigma)) with
@@ -31,6 +31,8 @@ import numpy as np
 from screwcal.calibration.errors_model import Param
 from screwcal.kinematics.compliance import COMPLIANCE_UNIT
 from screwcal.kinematics.se3 import Array
+
+RANGE_SIGMAS = 2.0  # a plausible range is this many of the prior's standard deviations (95 %)
 
 
 @dataclass(frozen=True)
@@ -67,8 +69,10 @@ class PlausibleRanges:
 
 
 def prior_sigma(params: Sequence[Param], ranges: PlausibleRanges) -> Array:
-    """The prior's standard deviation per parameter, numeric units (rad, mm): its range."""
-    return np.array([np.radians(ranges.of(p)) if p.is_angle else ranges.of(p) for p in params])
+    """The prior's standard deviation per parameter, numeric units (rad, mm): its range over
+    RANGE_SIGMAS."""
+    return np.array([np.radians(ranges.of(p)) if p.is_angle else ranges.of(p)
+                     for p in params]) / RANGE_SIGMAS
 
 
 def held_directions(Jw: Array, sigma: Array, names: Sequence[str], limit: int = 8
