@@ -140,8 +140,9 @@ def sample_chapter5(seed: int) -> list[Row]:
     ours = identify(nominal, in_arm, kind="full", frames="unknown", base_guess=hand)
     # The measured point is the flange: the targets, seen from the arm through our frames.
     comp = compensate(ours.model, nominal, ours.model.base @ targets, q_perf, strict=False)
-    # Home is wrist-singular (joint 5 at 0): joints 4 and 6 trade freely there, and the
-    # compensation that turns them against each other is refused as implausible.
+    # Home is wrist-singular (joint 5 at 0): joints 4 and 6 trade freely there; the
+    # compensation keeps them nearest home, judged by their combined turn (it was refused as
+    # implausible before issue 26).
     at_home = compensate(ours.model, nominal,
                          ours.model.base @ flange_kinematics(nominal, home[None]), home[None],
                          strict=False)

@@ -79,6 +79,8 @@ def test_chapter5_ours_leaves_less_in_the_robot_than_the_thesis_route():
     assert all(r["before_tpo_mm"] > 20 for r in rows)
     assert np.mean([r["home_mm"] for r in thesis]) < np.mean([r["home_before_mm"]
                                                               for r in thesis])
+    # home is wrist-singular: compensated, not refused (it was nan), and reached better
+    assert all(r["home_mm"] < 2.0 < r["home_before_mm"] for r in ours)
 
 
 def test_the_w_study_says_what_sets_the_best_w():
