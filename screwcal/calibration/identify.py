@@ -666,7 +666,9 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
         return sol.x, bool(sol.status > 0), str(sol.message), int(sol.nfev)
 
     statistical = weighting == "statistical"
-    estimate_noise = statistical and residual != "distance" and any(noise.free)
+    # a level to estimate that these data measure (positions carry no orientation noise)
+    estimate_noise = statistical and residual != "distance" and any(
+        free for k, free in enumerate(noise.free) if residual == "pose" or k != 1)
     reweighted = False
     if solver == "lm":
         # The candidate Jacobian at the start gives one Gauss-Newton step for free; with
@@ -757,7 +759,10 @@ def _identify_once(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKin
         converged = converged and converged_again
         message, nfev = f"{message}; re-weighted: {message_again}", nfev + nfev_again
     if statistical and noise_used is None:
-        noise_used = NoiseEstimate(*noise.filled(), None, None, None)
+        levels = list(noise.filled())
+        if residual != "pose":
+            levels[1] = float("nan")  # positions carry no orientation: not measured
+        noise_used = NoiseEstimate(*levels, None, None, None)
     if not converged and _stationary(problem, x):
         converged, message = True, f"{message}; at a stationary point of the cost (the " \
             "solver's own tolerances were not met, its steps no longer lower the cost)"

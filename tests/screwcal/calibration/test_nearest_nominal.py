@@ -131,3 +131,29 @@ def test_compensate_refuses_a_position_only_model(tmp_path, capsys):
                  "--out", str(tmp_path / "c.csv")]) == 2
     assert "position-only" in capsys.readouterr().err
     assert not (tmp_path / "c.csv").exists()
+
+
+def test_a_fit_at_the_noise_floor_is_converged_whatever_stopped_the_solver(monkeypatch):
+    """The solver stopped on its evaluation budget (here forced to one evaluation) at the
+    minimum: converged, and the message says why; it used to say NOT converged."""
+    import screwcal.calibration.identify as identify_module
+
+    real = identify_module.least_squares
+    monkeypatch.setattr(identify_module, "least_squares",
+                        lambda *a, **k: real(*a, **{**k, "max_nfev": 1}))
+    _, data, _ = _on_axis(5, poses=60)
+    result = identify(irb1600(), data)
+    assert result.converged and "stationary point" in result.message
+
+
+def test_position_data_with_every_level_fixed(tmp_path, capsys):
+    """--noise-mm and --joint-noise-deg on position-only data: the orientation level is not
+    measured, not "free to estimate" (it ended in a traceback, an empty variance component)."""
+    _, data, _ = _on_axis(4)
+    csv_path = _write_measurements(tmp_path / "m.csv", data, full_pose=False)
+    assert main(["calibrate", "--robot", "irb1600", "--data", str(csv_path), "--out",
+                 str(tmp_path / "r.json"), "--noise-mm", "0.013",
+                 "--joint-noise-deg", "0.05"]) == 0
+    printed = capsys.readouterr().out
+    assert "position 0.013 mm (fixed)" in printed and "orientation" not in printed.split(
+        "noise levels:")[1].splitlines()[0]
