@@ -128,7 +128,7 @@ def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array
     revolute = model.is_revolute
     if len(q_deg) >= 2 and revolute.any() and \
             np.abs(q_deg[:, revolute]).max() < RADIAN_LOOKING_DEG:
-        fix = "they are radians: give --joint-unit rad, or convert them to degrees" \
+        fix = "they look like radians: give --joint-unit rad, or convert them to degrees" \
             if joint_unit == "deg" else "check the file's joint columns"
         raise DataFileError(path, f"every joint reading lies within +-{RADIAN_LOOKING_DEG:g} "
                             f"deg as read ({joint_unit}): {fix}")

@@ -90,7 +90,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
         result = identify(nominal, data, kind=args.model, residual=args.residual,
                           frames=args.base_frame, solver=args.solver, weighting=weighting,
                           weight_mm=args.weight_mm or 1.0, noise=noise, base_guess=base_guess,
-                          outliers=args.outliers, compliance=args.compliance, lag=args.lag)
+                          outliers=args.outliers, compliance=args.compliance, lag=args.lag,
+                          plausible=args.plausible or plausible_ranges(""))
     except IdentificationError as err:  # the data cannot give what was asked: say which data
         raise DataFileError(args.data, str(err)) from None
     settings = {"model": args.model, "solver": args.solver, "base_frame": args.base_frame,
@@ -129,6 +130,25 @@ def run_calibrate(args: argparse.Namespace) -> int:
         print("warning: some requested parameters cannot be identified from these data; see "
               "removed_parameters in the result")
     return 0 if result.converged else 1
+
+
+RANGE_KEYS = {"zero": "zero_deg", "tilt": "tilt_deg", "length": "length_mm",
+              "frame-deg": "frame_rotation_deg", "frame-mm": "frame_position_mm",
+              "compliance": "compliance_deg_per_knm"}
+
+
+def plausible_ranges(text: str) -> object:
+    """--plausible zero=5,tilt=1: PlausibleRanges with those fields changed."""
+    from screwcal.calibration.plausible import PlausibleRanges
+
+    changes = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        key, _, value = item.partition("=")
+        if key.strip() not in RANGE_KEYS:
+            raise argparse.ArgumentTypeError(f"'{key.strip()}' is not one of "
+                                             f"{', '.join(RANGE_KEYS)}")
+        changes[RANGE_KEYS[key.strip()]] = positive_float(value.strip())
+    return PlausibleRanges(**changes)
 
 
 def with_payload(model: SerialModel, args: argparse.Namespace) -> SerialModel:
@@ -306,6 +326,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="default: pose for full-pose data, position otherwise")
     p.add_argument("--base-guess", metavar="SWEEPS_CSV",
                    help="start the base frame from the thesis's joint 1/joint 2 sweeps (4.6)")
+    p.add_argument("--plausible", type=plausible_ranges, default=None,
+                   metavar="KEY=VALUE,...",
+                   help="plausible ranges (+-): zero (deg), tilt (deg), length (mm), frame-deg, "
+                   "frame-mm (of the alignment), compliance (deg/kNm); defaults 10, 2, 10, 10, "
+                   "100, 10. Their halves scale the prior that keeps what the data leave free "
+                   "at nominal; a parameter beyond its range is a warning")
     p.add_argument("--outliers", choices=["reject", "keep"], default="reject",
                    help="poses whose residual says they do not belong: left out of the fit "
                    "(default) or kept; listed either way")
