@@ -266,6 +266,7 @@ def _whitening(cov: Array) -> Array:
     """W_i with W_i^T W_i = cov_i^-1, per pose (N, k, k)."""
     return np.linalg.inv(np.linalg.cholesky(cov))
 
+
 def _prior_weights(errors: ErrorModel, ranges: PlausibleRanges | None) -> Array:
     """1 / sigma of the prior per parameter (numeric units); zeros without one."""
     if ranges is None:
