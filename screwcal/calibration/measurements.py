@@ -122,9 +122,9 @@ def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array
                 joint_unit: str = "deg", length_unit: str = "mm") -> None:
     """Refuse (DataFileError, with the fix) joint readings that look like radians and
     positions that look like metres or inches: every revolute reading within
-    +-RADIAN_LOOKING_DEG, or measured points spread over a region whose size differs from the
-    model's flange at the same joints by more than SPREAD_RATIO allows (the measuring frame
-    and the tool offset change where the points are, not how far apart)."""
+    +-RADIAN_LOOKING_DEG, or measured points whose spread differs from the model's flange at
+    the same joints by more than SPREAD_RATIO allows and that another unit brings within it
+    (the measuring frame changes where the points are, not how far apart)."""
     revolute = model.is_revolute
     if len(q_deg) >= 2 and revolute.any() and \
             np.abs(q_deg[:, revolute]).max() < RADIAN_LOOKING_DEG:
@@ -148,14 +148,20 @@ def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array
     ratio = _spread(positions_mm) / model_spread
     if SPREAD_RATIO[0] <= ratio <= SPREAD_RATIO[1]:
         return
-    # the unit the numbers look like: the one that makes the spread nearest the model's
-    looks = min(LENGTH_UNITS_MM, key=lambda u: abs(np.log(
-        ratio * LENGTH_UNITS_MM[u] / LENGTH_UNITS_MM[length_unit])))
-    fix = f"give --length-unit {looks}, or convert them to mm" if looks != length_unit else \
-        "check the file's x, y, z columns and the robot model"
+
+    def misfit(unit: str) -> float:  # how far the spread in `unit` is from the model's
+        return abs(float(np.log(ratio * LENGTH_UNITS_MM[unit] / LENGTH_UNITS_MM[length_unit])))
+
+    # the unit the numbers look like: one that brings the spread within SPREAD_RATIO of the
+    # model's (a long tool swung by the wrist spreads the point more than the flange: no unit
+    # explains that, and it is not refused)
+    looks = min(LENGTH_UNITS_MM, key=misfit)
+    if looks == length_unit or misfit(looks) > np.log(SPREAD_RATIO[1]):
+        return
     raise DataFileError(path, f"the measured points spread over {ratio:.3g} times the "
                         f"distance the model's flange does at the same joints, read as "
-                        f"{length_unit}: they look like {looks}; {fix}")
+                        f"{length_unit}: they look like {looks}; give --length-unit {looks}, "
+                        "or convert them to mm")
 
 
 def _spread(points: Array) -> float:

@@ -225,3 +225,17 @@ def test_targets_writes_every_target_it_can_and_lists_the_rest(tmp_path, model_f
     assert "t.csv, line 3 (id far)" in captured.err and "1 targets refused" in captured.out
     with out.open() as f:
         assert [r["id"] for r in csv.DictReader(f)] == ["t0", "t1", "t2"]
+
+
+def test_a_long_tool_is_not_taken_for_another_unit(tmp_path, rng):
+    """A point 600 mm out on the tool, poses that mostly turn the wrist: the points spread far
+    more than the flange does, and no unit explains it: accepted."""
+    from screwcal.calibration.measurements import read_measurements_csv
+
+    truth = _table11().with_frames(BASE, exp_twist([0, 0, 0, 0, 0, 600]))
+    q = np.zeros((30, 6))
+    q[:, 1:3] = np.radians([10, 10])
+    q[:, 3:] = rng.uniform(-1.5, 1.5, (30, 3))
+    data = simulate_measurements(truth, q, rng, full_pose=False)
+    path = _write_measurements(tmp_path / "m.csv", data, full_pose=False)
+    assert len(read_measurements_csv(path, irb1600())) == 30
