@@ -28,6 +28,7 @@ COMMANDS = {
     "evaluate": "screwcal.commands.evaluate",
     "testcube": "screwcal.commands.testcube",
     "study": "screwcal.commands.study",
+    "robot": "screwcal.commands.robot",
     "demo": "service.demo",
     "emulator": "simulators.cli",
     "serve": "service.cli",

@@ -5,15 +5,20 @@ Conventions
 - "dh" (standard, Annex A): A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i); joint i turns about
   (or slides along) z_{i-1}.
 - "mdh" (modified, Craig): A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i); joint i turns
-  about z_i. Row i carries (alpha_{i-1}, a_{i-1}, theta_i, d_i). (Hayati's extra beta rotation,
-  which the thesis also calls "DHM", is not part of this table: the screw model needs no such fix.)
+  about z_i. Row i carries (alpha_{i-1}, a_{i-1}, theta_i, d_i), and Hayati's beta_{i-1} (the
+  thesis's "DHM", 2.2.1.1) for a pair of (nearly) parallel axes: A_i = Tx(a_{i-1})
+  Rx(alpha_{i-1}) Ry(beta_{i-1}) Rz(theta_i) Tz(d_i), equal to Craig's form when beta = 0. There
+  x_{i-1} points to where axis i crosses the plane normal to z_{i-1} through frame i-1's origin,
+  instead of along the common normal that runs off to infinity as the axes turn parallel.
 
 The chain is T_robot_flange = dh_base . prod_i A_i(q_i + zero_i) . dh_flange, where `theta`
 (revolute) or `d` (prismatic) holds the value at q = 0. DH frames are not unique; from a screw
 model this module picks frame 0 at the foot of the robot origin on axis 1, x along the common
 normal (a >= 0), d = 0 where axes are parallel, and the last frame on the last axis at the
-flange's height. Near-parallel axes give large d: that is the DH discontinuity the thesis
-describes (2.2.1.1), not an error of the conversion.
+flange's height. Near-parallel axes give large d in standard DH: the discontinuity the thesis
+describes (2.2.1.1); `dh_from_model` refuses such a table (`DegenerateTableError`) and names the
+modified form with Hayati's beta, which `dh_from_model(..., "mdh")` uses for every pair of axes
+within `HAYATI_DEG` of parallel.
 """
 
 from __future__ import annotations
@@ -31,6 +36,12 @@ from screwcal.kinematics.se3 import Array, invert_transform, transform_from_rota
 Convention = Literal["dh", "mdh"]
 _PARALLEL_TOL = 1e-9
 _DIST_TOL = 1e-9
+HAYATI_DEG = 5.0  # mdh: consecutive axes closer than this to parallel take a beta
+DEGENERATE_RATIO = 10.0  # dh: an offset this many times the robot's size is refused
+
+
+class DegenerateTableError(ModelError):
+    """A standard DH table would need offsets far beyond the robot (near-parallel axes)."""
 
 
 @dataclass(frozen=True)
@@ -43,6 +54,7 @@ class DHRow:
     d_mm: float
     theta: float
     joint_type: str = "R"
+    beta: float = 0.0  # Hayati's rotation about y_{i-1}, "mdh" only (rad)
 
 
 @dataclass(frozen=True)
@@ -58,6 +70,15 @@ def _rot_x(a: Array) -> Array:
     R = np.zeros((*np.shape(a), 4, 4))
     R[..., 0, 0] = 1
     R[..., 1, 1], R[..., 1, 2], R[..., 2, 1], R[..., 2, 2] = c, -s, s, c
+    R[..., 3, 3] = 1
+    return R
+
+
+def _rot_y(a: Array) -> Array:
+    c, s = np.cos(a), np.sin(a)
+    R = np.zeros((*np.shape(a), 4, 4))
+    R[..., 0, 0], R[..., 0, 2], R[..., 2, 0], R[..., 2, 2] = c, s, -s, c
+    R[..., 1, 1] = 1
     R[..., 3, 3] = 1
     return R
 
@@ -88,8 +109,10 @@ def dh_link_transform(convention: Convention, row: DHRow, value: ArrayLike) -> A
     if convention == "dh":
         return _rot_z(theta) @ _trans(2, d) @ _trans(0, np.full(v.shape, row.a_mm)) @ _rot_x(
             np.full(v.shape, row.alpha))
-    return _rot_x(np.full(v.shape, row.alpha)) @ _trans(0, np.full(v.shape, row.a_mm)) @ _rot_z(
-        theta) @ _trans(2, d)
+    A = _rot_x(np.full(v.shape, row.alpha)) @ _trans(0, np.full(v.shape, row.a_mm))
+    if row.beta:
+        A = A @ _rot_y(np.full(v.shape, row.beta))
+    return A @ _rot_z(theta) @ _trans(2, d)
 
 
 def dh_forward_kinematics(table: DHTable, q: ArrayLike, joint_zero: ArrayLike | None = None
@@ -206,28 +229,70 @@ def dh_from_model(model: SerialModel, convention: Convention = "dh") -> DHTable:
                               d_mm=float(np.dot(o - op, zp)), theta=_angle_about(xp, x, zp),
                               joint_type=model.joint_types[i - 1]))
     else:
-        # Frames 1..n on their own axes; x_i along the common normal to axis i+1.
-        for i in range(n):
-            Fp = frames[-1]
-            xp, zp, op = Fp[:3, 0], Fp[:3, 2], Fp[:3, 3]
-            z = w[i]
-            # Where x_{i-1} meets axis i (it was built as the normal from axis i-1 to axis i).
-            h = op + np.dot(_foot(op, p[i], z) - op, xp) * xp
-            if i < n - 1:
-                feet = _common_normal(p[i], z, p[i + 1], w[i + 1])
-                if feet is None:
-                    o = h
-                    f2 = _foot(o, p[i + 1], w[i + 1])
-                    x = _perp_unit(f2 - o, z, xp) if np.linalg.norm(f2 - o) > _DIST_TOL else \
-                        _perp_unit(xp, z, xp)
-                else:
-                    o = feet[0]
-                    x = _normal_direction(feet[0], feet[1], z, w[i + 1], xp)
-            else:
-                o, x = h, _perp_unit(xp, z, xp)
-            frames.append(_frame(x, z, o))
-            rows.append(DHRow(a_mm=float(np.dot(o - op, xp)), alpha=_angle_about(zp, z, xp),
-                              d_mm=float(np.dot(o - op, z)), theta=_angle_about(xp, x, z),
-                              joint_type=model.joint_types[i]))
+        _mdh_frames(model, frames, rows)
     dh_flange = invert_transform(frames[-1]) @ model.home_flange
+    if convention == "dh":
+        _refuse_degenerate(model, rows, w)
     return DHTable(convention=convention, rows=tuple(rows), dh_base=frames[0], dh_flange=dh_flange)
+
+
+def _refuse_degenerate(model: SerialModel, rows: list[DHRow], w: Array) -> None:
+    """Standard DH of (nearly, not exactly) parallel axes puts the common normal where the axes
+    meet, far off: refuse offsets beyond DEGENERATE_RATIO times the robot's size."""
+    size = max(1.0, float(np.abs(model.axis_points_mm).max()),
+               float(np.linalg.norm(model.home_flange[:3, 3])))
+    for i, r in enumerate(rows):
+        worst = max(abs(r.a_mm), abs(r.d_mm))
+        if worst > DEGENERATE_RATIO * size:
+            j = min(i + 1, len(rows) - 1)  # row i's d and a come from axes i+1 and i+2's normal
+            angle = np.degrees(np.arcsin(min(1.0, float(np.linalg.norm(np.cross(w[j - 1], w[j]))))))
+            raise DegenerateTableError(
+                f"model '{model.name}': standard DH needs an offset of {worst:.3g} mm at joint "
+                f"{i + 1} (axes {j} and {j + 1} are {angle:.3g} deg from parallel, so their "
+                f"common normal lies far outside the {size:.0f} mm robot); use the modified DH "
+                "table with Hayati's beta (mdh), or the screw table (screws), instead")
+
+
+def _mdh_frames(model: SerialModel, frames: list[Array], rows: list[DHRow]) -> None:
+    """Frames 1..n of the modified table on their own axes, x_i along the common normal to axis
+    i + 1, or for axes within HAYATI_DEG of parallel towards where axis i + 1 crosses the plane
+    normal to z_i (Hayati's beta then takes the tilt)."""
+    n, w, p = model.n_joints, model.axis_dirs, model.axis_points_mm
+    near = np.sin(np.radians(HAYATI_DEG))
+    cross_pt: Array | None = None  # where x_{i-1} meets axis i
+    hayati = False  # whether the pair (i-1, i) takes a beta
+    for i in range(n):
+        Fp = frames[-1]
+        xp, zp, op = Fp[:3, 0], Fp[:3, 2], Fp[:3, 3]
+        z = w[i]
+        h = cross_pt if cross_pt is not None else op + np.dot(_foot(op, p[i], z) - op, xp) * xp
+        next_hayati = False
+        if i < n - 1:
+            zn, pn = w[i + 1], p[i + 1]
+            if np.linalg.norm(np.cross(z, zn)) < near:
+                o = h
+                cross_pt = pn + np.dot(o - pn, z) / np.dot(zn, z) * zn
+                x = _unit(cross_pt - o) if np.linalg.norm(cross_pt - o) > _DIST_TOL else \
+                    _perp_unit(xp, z, xp)
+                next_hayati = True
+            else:
+                feet = _common_normal(p[i], z, pn, zn)
+                o, cross_pt = feet[0], feet[1]  # type: ignore[index]
+                x = _normal_direction(feet[0], feet[1], z, zn, xp)  # type: ignore[index]
+        else:
+            o, x = h, _perp_unit(xp, z, xp)
+        frames.append(_frame(x, z, o))
+        a = float(np.dot(h - op, xp))
+        if hayati:  # Eq. of the Hayati row: z_i = Rx(alpha) Ry(beta) e_z in frame i-1
+            z_rel = Fp[:3, :3].T @ z
+            beta = float(np.arcsin(np.clip(z_rel[0], -1.0, 1.0)))
+            alpha = float(np.arctan2(-z_rel[1], z_rel[2]))
+            c, s = np.cos(alpha), np.sin(alpha)
+            x_tilted = Fp[:3, :3] @ np.array([np.cos(beta), s * np.sin(beta),
+                                              -c * np.sin(beta)])
+        else:
+            beta, alpha, x_tilted = 0.0, _angle_about(zp, z, xp), xp
+        rows.append(DHRow(a_mm=a, alpha=alpha, d_mm=float(np.dot(o - h, z)),
+                          theta=_angle_about(x_tilted, x, z), joint_type=model.joint_types[i],
+                          beta=beta))
+        hayati = next_hayati

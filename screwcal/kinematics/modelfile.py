@@ -4,7 +4,9 @@ One format, three representations of the same serial model (chosen with `represe
 
 - "screws": per joint a unit direction and a point on the axis at home, plus the home flange pose;
 - "dh" / "mdh": a standard or modified Denavit-Hartenberg table, with `dh_base` (robot base <-
-  DH frame 0) and `dh_flange` (DH frame n <- flange).
+  DH frame 0) and `dh_flange` (DH frame n <- flange); "mdh" rows carry Hayati's `beta_deg` for
+  nearly parallel axes (0 elsewhere, and always 0 in "dh", which refuses a calibrated model
+  whose parallel axes would need huge offsets: `dh.DegenerateTableError`).
 
 Every representation also carries per-joint `zero_deg` and `limits_deg`, and the `base` (world
 <- robot base) and `tool` (flange <- measured point) poses; a model with joint compliance carries
@@ -44,8 +46,9 @@ def pose_document(T: np.ndarray) -> dict[str, float]:
 
 
 def gravity_document(model: SerialModel) -> dict | None:
-    """The `gravity` section: compliance (deg per kN m), masses, payload; None without any."""
-    if not model.has_compliance and model.payload.kg == 0.0:
+    """The `gravity` section: compliance (deg per kN m), masses, payload; None without any
+    (a robot's masses alone are kept: an imported robot calibrates its compliance with them)."""
+    if not model.has_compliance and model.payload.kg == 0.0 and not model.masses:
         return None
     by_mass = model.compliance_by_mass
     return {"compliance_deg_per_knm": (np.degrees(model.compliance) * 1000.0).tolist(),
@@ -76,7 +79,8 @@ def model_document(model: SerialModel, representation: Representation = "screws"
         raise ModelError(f"representation must be screws, dh or mdh, not {representation!r}")
     table = dh_from_model(model, representation)
     doc["joints"] = [c | {"a_mm": float(r.a_mm), "alpha_deg": math.degrees(r.alpha),
-                          "d_mm": float(r.d_mm), "theta_deg": math.degrees(r.theta)}
+                          "d_mm": float(r.d_mm), "theta_deg": math.degrees(r.theta),
+                          "beta_deg": math.degrees(r.beta)}
                      for r, c in zip(table.rows, common, strict=True)]
     doc |= {"dh_base": pose_document(table.dh_base), "dh_flange": pose_document(table.dh_flange)}
     return doc
@@ -117,12 +121,13 @@ def save_model(model: SerialModel, path: str | Path,
 
 
 def resolve_model(name_or_path: str) -> SerialModel:
-    """A built-in model name (`irb1600`, `irb120`) or the path of a model / result file."""
-    from screwcal.kinematics.robots import BUILTIN_MODELS, builtin_model
+    """A library robot's name (`screwcal robot list`) or the path of a robot, model or result
+    file."""
+    from screwcal.kinematics.robots import BUILTIN_MODELS, accepted_robots, builtin_model
 
     if name_or_path in BUILTIN_MODELS:
         return builtin_model(name_or_path)
     if not Path(name_or_path).exists():
-        raise ModelError(f"'{name_or_path}' is neither a built-in robot "
-                         f"({', '.join(sorted(BUILTIN_MODELS))}) nor an existing model file")
+        raise ModelError(f"'{name_or_path}' is neither a library robot nor an existing file; "
+                         f"give {accepted_robots()}")
     return load_model(name_or_path)

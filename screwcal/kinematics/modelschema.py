@@ -73,6 +73,7 @@ class DHJoint(JointCommon):
     alpha_deg: FiniteFloat
     d_mm: FiniteFloat
     theta_deg: FiniteFloat
+    beta_deg: FiniteFloat = 0.0  # Hayati's, "mdh" only (dh.py)
 
 
 class MassIn(BaseModel):
@@ -166,8 +167,14 @@ class DHFile(_FileCommon):
 
     def to_model(self) -> SerialModel:
         limits, zero = self._numeric(self.joints)
+        if self.representation == "dh":
+            for i, j in enumerate(self.joints):
+                if j.beta_deg != 0.0:
+                    raise ModelError(f"joints.{i}.beta_deg: Hayati's beta belongs to the "
+                                     "modified table (representation mdh), not standard dh")
         rows = tuple(DHRow(a_mm=j.a_mm, alpha=math.radians(j.alpha_deg), d_mm=j.d_mm,
-                           theta=math.radians(j.theta_deg), joint_type=j.type)
+                           theta=math.radians(j.theta_deg), joint_type=j.type,
+                           beta=math.radians(j.beta_deg))
                      for j in self.joints)
         table = DHTable(convention=self.representation, rows=rows,
                         dh_base=self.dh_base.transform(), dh_flange=self.dh_flange.transform())

@@ -83,7 +83,7 @@ def test_unknown_model_is_refused(tmp_path, capsys):
     joints = _write(tmp_path / "j.csv", "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n")
     assert main(["predict", "--model", "irb9999", "--joints", str(joints),
                  "--out", str(tmp_path / "o.csv")]) == 2
-    assert "neither a built-in robot" in capsys.readouterr().err
+    assert "neither a library robot" in capsys.readouterr().err
 
 
 def test_out_of_limit_joints_are_predicted_with_a_warning(tmp_path, capsys):

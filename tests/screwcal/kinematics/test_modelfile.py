@@ -56,7 +56,7 @@ def test_not_json_and_missing_files(tmp_path):
     bad.write_text("{not json")
     with pytest.raises(ModelError, match="not a JSON model file"):
         load_model(bad)
-    with pytest.raises(ModelError, match="neither a built-in robot"):
+    with pytest.raises(ModelError, match="neither a library robot"):
         resolve_model(str(tmp_path / "absent.json"))
 
 

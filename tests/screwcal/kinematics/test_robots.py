@@ -1,0 +1,149 @@
+"""The robot library against its datasheets, and every library robot through every export and
+back (issue 27)."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from screwcal.errors import ModelError
+from screwcal.kinematics.describe import description_text, read_description
+from screwcal.kinematics.dh import DegenerateTableError, dh_forward_kinematics, dh_from_model
+from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
+from screwcal.kinematics.robots import ENTRIES, LIBRARY, builtin_model, reach_mm
+from screwcal.kinematics.se3 import exp_twist, rotation_from_rotvec
+from screwcal.kinematics.urdf import model_from_urdf, urdf_from_model
+from tests.conftest import random_q
+
+NAMES = [e.name for e in ENTRIES]
+
+
+def calibrated(model, rng):
+    """The model as a calibration leaves it: axes tilted by ~0.01 deg, moved by ~0.2 mm, joint
+    zeros, measuring frame and measured point (parallel axes stop being parallel)."""
+    dirs = np.array([rotation_from_rotvec(rng.normal(0, 2e-4, 3)) @ d for d in model.axis_dirs])
+    return replace(model, axis_dirs=dirs,
+                   axis_points_mm=model.axis_points_mm + rng.normal(0, 0.2, (6, 3)),
+                   joint_zero=rng.normal(0, 1e-3, 6),
+                   base=exp_twist([0.1, 0.2, -0.3, 500, 100, -20]),
+                   tool=exp_twist([0.0, 0.0, 0.1, 10, 20, 150]))
+
+
+def test_the_library_has_the_arms_the_issue_lists():
+    assert set(NAMES) >= {"irb120", "irb1200", "irb1600", "irb2600", "irb4600", "irb6700",
+                          "kr6-r900", "kr10-r900", "kr16", "lrmate200id", "m20ia", "ur5e",
+                          "ur10e"}
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_each_robot_reproduces_its_datasheet_figure(name):
+    entry = LIBRARY[name]
+    model = entry.model()
+    check = entry.check
+    if check.what == "reach_mm":
+        assert reach_mm(model) == pytest.approx(check.value[0], abs=check.tol_mm)
+    else:
+        np.testing.assert_allclose(model.home_flange[:3, 3], check.value, atol=check.tol_mm)
+    assert entry.source and entry.total_kg > 0
+    assert model.masses and sum(m.kg for m in model.masses) < entry.total_kg
+    assert np.all(model.limits[:, 0] < 0) and np.all(model.limits[:, 1] > 0)
+
+
+def test_a_wrong_dimension_fails_the_reach_check():
+    """The check is not built from the figure it holds: a forearm 20 mm short misses it."""
+    from screwcal.kinematics.robots import wrist_arm
+
+    short = wrist_arm("x", base_mm=330, shoulder_mm=50, upper_arm_mm=330, forearm_offset_mm=35,
+                      forearm_mm=315, flange_mm=80, limits_deg=[[-170, 170]] * 6)
+    assert abs(reach_mm(short) - 717.0) > LIBRARY["lrmate200id"].check.tol_mm
+
+
+def test_unknown_robot_names_what_is_accepted():
+    with pytest.raises(ModelError, match=r"irb6700.*ur10e.*robot import"):
+        builtin_model("kuka-kr16")
+
+
+@pytest.mark.parametrize("fmt", ["urdf", "mdh", "screws", "json"])
+@pytest.mark.parametrize("name", NAMES)
+def test_calibrated_robot_exports_and_reads_back_to_the_same_kinematics(tmp_path, rng, name, fmt):
+    model = calibrated(LIBRARY[name].model(), rng)
+    text, _ = description_text(model, fmt)
+    path = tmp_path / f"robot.{fmt}"
+    path.write_text(text)
+    back, _ = read_description(path)
+    q = random_q(model, rng, 2000)
+    err = np.abs(forward_kinematics(back, q)[:, :3, 3] - forward_kinematics(model, q)[:, :3, 3])
+    assert err.max() < 1e-6
+    rot = np.abs(forward_kinematics(back, q)[:, :3, :3] - forward_kinematics(model, q)[:, :3, :3])
+    assert rot.max() < 1e-9
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_nominal_robot_exports_as_standard_dh(tmp_path, rng, name):
+    model = LIBRARY[name].model()
+    path = tmp_path / "dh.json"
+    path.write_text(description_text(model, "dh")[0])
+    back, form = read_description(path, "dh")
+    q = random_q(model, rng, 500)
+    assert form == "dh"
+    np.testing.assert_allclose(flange_kinematics(back, q), flange_kinematics(model, q), atol=1e-9)
+
+
+def test_standard_dh_of_a_calibrated_robot_is_refused_with_the_form_to_use(rng):
+    """Parallel axes 2-3 off by ~0.01 deg gave d = 3.2e7 mm (KUKA) silently; now refused."""
+    model = calibrated(LIBRARY["kr16"].model(), rng)
+    with pytest.raises(DegenerateTableError, match=r"axes 2 and 3 .*mdh"):
+        dh_from_model(model, "dh")
+
+
+def test_mdh_has_hayati_beta_and_no_huge_offsets_for_parallel_axes(rng):
+    for name in NAMES:
+        model = calibrated(LIBRARY[name].model(), rng)
+        table = dh_from_model(model, "mdh")
+        size = np.abs(model.axis_points_mm).max() + np.linalg.norm(model.home_flange[:3, 3])
+        assert max(max(abs(r.a_mm), abs(r.d_mm)) for r in table.rows) < size
+        assert any(abs(r.beta) > 0 for r in table.rows)  # axes 2-3 (and UR's 3-4) take beta
+        q = random_q(model, rng, 500)
+        np.testing.assert_allclose(dh_forward_kinematics(table, q, model.joint_zero),
+                                   flange_kinematics(model, q), atol=1e-8)
+
+
+def test_dh_file_with_beta_is_refused(tmp_path):
+    import json
+
+    doc = json.loads(description_text(LIBRARY["irb120"].model(), "dh")[0])
+    doc["joints"][2]["beta_deg"] = 0.1
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ModelError, match=r"beta.*mdh"):
+        read_description(path)
+
+
+def test_urdf_has_ros_industrial_links_and_the_measuring_links():
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(urdf_from_model(LIBRARY["irb2600"].model()))
+    links = [e.get("name") for e in root.findall("link")]
+    assert links[:7] == ["base_link", *(f"link_{i}" for i in range(1, 7))]
+    assert {"flange", "tool0", "measuring_frame", "measured_point"} <= set(links)
+
+
+def test_urdf_keeps_masses_and_limits():
+    model = LIBRARY["irb4600"].model()
+    back, _ = model_from_urdf(urdf_from_model(model))
+    np.testing.assert_allclose(back.limits, model.limits, atol=1e-12)
+    assert [m.kg for m in back.masses] == pytest.approx([m.kg for m in model.masses])
+    np.testing.assert_allclose([m.home_mm for m in back.masses],
+                               [m.home_mm for m in model.masses], atol=1e-9)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("<robot name='x'><link name='a'/></robot>", "no moving joint"),
+    ("<robt/>", "not a URDF"),
+    ("<robot", "XML error"),
+    ("<robot name='x'><link name='base_link'/><link name='b'/><joint name='j' type='revolute'>"
+     "<parent link='base_link'/><child link='b'/><axis xyz='0 0 z'/></joint></robot>", "axis"),
+])
+def test_bad_urdf_is_refused_with_the_reason(text, message):
+    with pytest.raises(ModelError, match=message):
+        model_from_urdf(text, "r.urdf")
