@@ -1,7 +1,8 @@
 """The calibration result document (`result.json`): parameters with units and standard errors,
 identifiability, convergence, residuals, frames, the joint-offset correction and the calibrated
-model. `screwcal calibrate` writes it, the job service serves it (`GET /jobs/{id}/model`), and
-`predict`, `compensate` and the RAPID filter read its `model` member."""
+model, and the nominal model it was calibrated against (`nominal_model`). `screwcal calibrate`
+writes it, the job service serves it (`GET /jobs/{id}/model`), `predict`, `compensate`, the
+RAPID filter and `robot export` read its `model` member, `compensate` its `nominal_model`."""
 
 from __future__ import annotations
 
@@ -73,6 +74,9 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
                    "tool": pose_document(result.model.tool)},
         "correction": correction,
         "model": model_document(model or result.model),
+        # the robot calibrated against, frames aside: compensate, the RAPID filter and export
+        # need no robot named again, whether it came from the library or a file
+        "nominal_model": model_document(result.start_model.with_frames(np.eye(4), np.eye(4))),
         "model_note": model_note or "the identified model: the robot as the controller reads "
                                     "its joints during the calibration",
     }

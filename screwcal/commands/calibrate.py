@@ -196,7 +196,7 @@ def _noise_line(noise: dict) -> str:
 def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.calibration.correction import compensate_each
     from screwcal.errors import DataFileError
-    from screwcal.kinematics.modelfile import load_model, resolve_model
+    from screwcal.kinematics.modelfile import load_model
     from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
@@ -204,8 +204,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     check_outputs([args.out], [args.model, source])
     calibrated = with_payload(load_model(args.model), args)  # a payload other than the model's
     document = json.loads(Path(args.model).read_text(encoding="utf-8"))
-    robot = args.robot or document.get("robot")
-    nominal = resolve_model(robot) if robot else calibrated
+    nominal = nominal_of(document, args.model, args.robot) or calibrated
     _refuse_position_only(document, args.model)
     if args.rapid:
         return _compensate_rapid(args, calibrated, nominal)
@@ -248,6 +247,31 @@ def _refuse_position_only(document: dict, path: str) -> None:
         raise DataFileError(path, f"the model is position-only ({why}): it cannot compensate "
                             "targets with an orientation; calibrate with full-pose data or a "
                             "measured point off joint 6's axis")
+
+
+def nominal_of(doc: object, result_path: str, robot: str | None) -> SerialModel | None:
+    """The nominal robot a result was calibrated against: `--robot` when given, else the
+    result's own `nominal_model`, else (older results) its robot's library name; None for a
+    model file that names none."""
+    from screwcal.errors import ModelError
+    from screwcal.kinematics.modelfile import parse_model, resolve_model
+    from screwcal.kinematics.robots import BUILTIN_MODELS, accepted_robots
+
+    if robot:
+        return resolve_model(robot)
+    if not isinstance(doc, dict):
+        return None
+    if isinstance(doc.get("nominal_model"), dict):
+        return parse_model(doc["nominal_model"], f"{result_path}, nominal_model")
+    name = doc.get("robot")
+    if not name:
+        return None
+    if name not in BUILTIN_MODELS:
+        raise ModelError(f"{result_path} was calibrated against robot '{name}', which is not in "
+                         "the library, and (written before results carried their robot) does "
+                         "not hold its nominal model: give --robot FILE, the robot file it was "
+                         f"calibrated with; --robot takes {accepted_robots()}")
+    return resolve_model(name)
 
 
 def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
@@ -369,6 +393,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "instruction of the module uses (default tool0)")
     c.add_argument("--wobj", default="wobj0", help="--rapid: the wobjdata for those targets "
                    "(default wobj0)")
-    c.add_argument("--robot", help="nominal model, when the result does not name it")
+    c.add_argument("--robot", help="the nominal robot (library name or robot file); default: "
+                   "the one the result holds")
     add_payload_arguments(c)
     c.set_defaults(func=run_compensate)

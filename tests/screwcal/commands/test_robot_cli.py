@@ -54,3 +54,64 @@ def test_import_of_a_wrong_form_names_the_template(tmp_path, capsys):
     assert main(["robot", "import", str(path), "--format", "mdh", "--out",
                  str(tmp_path / "o.json")]) == 2
     assert "docs/robots.md" in capsys.readouterr().err
+
+
+def test_a_result_carries_its_robot_to_compensate(tmp_path, rng, capsys):
+    """A robot given as a file at calibrate: compensate once failed with "'my-arm' is neither a
+    built-in robot nor an existing model file" unless given --robot again."""
+    from dataclasses import replace
+
+    from screwcal.calibration.posesets import random_configurations
+    from screwcal.kinematics.modelfile import save_model
+    from screwcal.kinematics.pose import pose_from_transform
+    from screwcal.studies.simulate import simulate_measurements
+    from tests.screwcal.calibration.test_identify import BASE, TOOL, full_truth
+    from tests.screwcal.commands.test_calibrate_cli import _write_measurements
+
+    robot = tmp_path / "my-arm.json"
+    save_model(replace(LIBRARY["irb1600"].model(), name="my-arm"), robot)
+    truth = full_truth(rng).with_frames(BASE, TOOL)
+    data = simulate_measurements(truth, random_configurations(40, rng), rng, joint_noise_deg=0)
+    result = tmp_path / "r.json"
+    assert main(["calibrate", "--robot", str(robot), "--data",
+                 str(_write_measurements(tmp_path / "m.csv", data)), "--out", str(result)]) == 0
+    robot.unlink()  # the result alone is enough from here on
+    targets = tmp_path / "t.csv"
+    wanted = forward_kinematics(LIBRARY["irb1600"].model(), random_configurations(3, rng))
+    targets.write_text("id,x,y,z,rx,ry,rz\n" + "\n".join(
+        f"t{k}," + ",".join(f"{v:.8f}" for v in pose)
+        for k, pose in enumerate(pose_from_transform(wanted))) + "\n")
+    comp = tmp_path / "c.csv"
+    assert main(["compensate", "--model", str(result), "--targets", str(targets),
+                 "--out", str(comp)]) == 0
+    assert "model 'my-arm'" in capsys.readouterr().out
+    assert main(["robot", "export", str(result), "--format", "urdf",
+                 "--out", str(tmp_path / "cal.urdf")]) == 0
+    old = json.loads(result.read_text())  # a result written before results held the robot
+    del old["nominal_model"]
+    result.write_text(json.dumps(old))
+    assert main(["compensate", "--model", str(result), "--targets", str(targets),
+                 "--out", str(comp)]) == 2
+    err = capsys.readouterr().err
+    assert "robot 'my-arm', which is not in the library" in err and "--robot FILE" in err
+
+
+def test_the_templates_in_the_docs_import_to_the_library_robots(tmp_path, rng):
+    """docs/robots.md's JSON examples are real: each imports and equals its library robot."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[3] / "docs" / "robots.md").read_text()
+    blocks = re.findall(r"```json\n(.*?)```", text, re.S)
+    assert len(blocks) == 2
+    for k, block in enumerate(blocks):
+        doc = json.loads(block)
+        path = tmp_path / f"t{k}.json"
+        path.write_text(block)
+        out = tmp_path / f"r{k}.json"
+        assert main(["robot", "import", str(path), "--format", doc["representation"],
+                     "--out", str(out)]) == 0
+        model, back = LIBRARY[doc["name"]].model(), load_model(out)
+        q = random_q(model, rng, 300)
+        np.testing.assert_allclose(forward_kinematics(back, q), forward_kinematics(model, q),
+                                   atol=1e-9)
