@@ -147,3 +147,25 @@ def test_urdf_keeps_masses_and_limits():
 def test_bad_urdf_is_refused_with_the_reason(text, message):
     with pytest.raises(ModelError, match=message):
         model_from_urdf(text, "r.urdf")
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_exported_urdf_loads_in_a_urdf_library_with_our_kinematics(tmp_path, rng, name):
+    """yourdfpy (as ROS tools read URDF) gives the calibrated robot's tool0 in base_link and the
+    measured point in the measuring frame as our model does."""
+    yourdfpy = pytest.importorskip("yourdfpy")
+    model = calibrated(LIBRARY[name].model(), rng)
+    path = tmp_path / "robot.urdf"
+    path.write_text(urdf_from_model(model))
+    urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False,
+                              load_collision_meshes=False)
+    assert urdf.actuated_joint_names == [f"joint_{i}" for i in range(1, 7)]
+    q = random_q(model, rng, 20)
+    tool0, measured = flange_kinematics(model, q), forward_kinematics(model, q)
+    for k in range(len(q)):
+        urdf.update_cfg(q[k])
+        T = urdf.get_transform("tool0", "base_link")
+        assert np.abs(T[:3, 3] * 1000.0 - tool0[k, :3, 3]).max() < 1e-6
+        np.testing.assert_allclose(T[:3, :3], tool0[k, :3, :3], atol=1e-9)
+        T = urdf.get_transform("measured_point", "measuring_frame")
+        assert np.abs(T[:3, 3] * 1000.0 - measured[k, :3, 3]).max() < 1e-6
