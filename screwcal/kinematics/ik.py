@@ -423,15 +423,28 @@ def local_ik(model: SerialModel, T_world_tool: ArrayLike, q_seed: ArrayLike, *,
     return _refine(model, T, seed, tol_mm, tol_rad, max_iter, damping)
 
 
+@once_per_object
+def _signed_ideal(model: SerialModel) -> tuple[Array, SerialModel]:
+    """Per joint +1 or -1: whether its axis turns with or against the ABB-type direction it is
+    nearest (KUKA's A1, A4, A6 and FANUC's J3-J6 turn the other way), and the model with those
+    axes reversed, whose angles are the signs times the model's: the closed form seeds it."""
+    signs = np.where(np.einsum("ij,ij->i", model.axis_dirs, _IDEAL_AXES) < 0, -1.0, 1.0)
+    if (signs > 0).all():
+        return signs, model
+    return signs, model.derived(axis_dirs=model.axis_dirs * signs[:, None])
+
+
 def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float = 1e-9,
                  tol_rad: float = 1e-11, max_iter: int = 30, damping: float = 1e-9
                  ) -> IKSolutions:
     """IK of any 6R model, every branch refined by damped Gauss-Newton from the closed form of
     the model's nearest ideal geometry. A branch counts as reachable when it converged."""
     T_target, T_flange = _flange_targets(model, T_world_tool)
-    geo = WristPartitionedGeometry.from_model(model, tol=None)
+    signs, ideal = _signed_ideal(model)
+    geo = WristPartitionedGeometry.from_model(ideal, tol=None)
     # A calibrated arm may reach a little beyond its ideal twin: seed from the stretched pose.
     theta0, reach0 = _closed_form_theta(geo, T_flange, slack=0.05, elbow_floor=0.02)
+    theta0 = theta0 * signs
     _raise_unreachable(reach0)
     N = T_target.shape[0]
     q0 = np.nan_to_num(theta0 - model.joint_zero).reshape(-1, 6)
