@@ -21,14 +21,16 @@ ALLOWED = {
 
 # Inside screwcal: what each layer may import of ours (its __init__ docstring says the same).
 # The root modules (errors, tables, _lazy) are the ground floor; commands/ is the top and the
-# only module of screwcal that may import service or simulators.
+# only module of screwcal that may import service or simulators. rapid/ (the RAPID parser) is a
+# floor of its own: it imports nothing of ours, so that the simulators' interpreter can use it.
 _BASE = {"screwcal", "screwcal.errors", "screwcal.tables", "screwcal._lazy"}
 LAYERS = {
+    "rapid": {"screwcal.rapid"},
     "kinematics": {*_BASE - {"screwcal.tables"}, "screwcal.kinematics"},
-    "calibration": {*_BASE, "screwcal.kinematics", "screwcal.calibration"},
+    "calibration": {*_BASE, "screwcal.kinematics", "screwcal.rapid", "screwcal.calibration"},
     "performance": {*_BASE, "screwcal.kinematics", "screwcal.performance"},
-    "studies": {*_BASE, "screwcal.kinematics", "screwcal.calibration", "screwcal.performance",
-                "screwcal.studies"},
+    "studies": {*_BASE, "screwcal.kinematics", "screwcal.rapid", "screwcal.calibration",
+                "screwcal.performance", "screwcal.studies"},
 }
 
 

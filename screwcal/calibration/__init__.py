@@ -3,8 +3,8 @@
 hand (`base_alignment`), the correction of the robot (`correction`), pose sets and their design
 (`posesets`, `design`).
 
-May import: `screwcal.kinematics`, `screwcal.errors`, `screwcal.tables`; never performance,
-studies, commands, nor `protocol`, `service` or `simulators`.
+May import: `screwcal.kinematics`, `screwcal.rapid` (the RAPID parser), `screwcal.errors`,
+`screwcal.tables`; never performance, studies, commands, nor `protocol`, `service` or `simulators`.
 """
 
 from screwcal._lazy import lazy_exports

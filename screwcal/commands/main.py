@@ -29,6 +29,7 @@ COMMANDS = {
     "testcube": "screwcal.commands.testcube",
     "study": "screwcal.commands.study",
     "robot": "screwcal.commands.robot",
+    "rapid": "screwcal.commands.rapid",
     "demo": "service.demo",
     "emulator": "simulators.cli",
     "serve": "service.cli",

@@ -4,8 +4,8 @@ experiment in `chapter5`), the Cramer-Rao efficiency study (`montecarlo`), the s
 calibration behind `screwcal simulate` (`simulated_calibration`), simulated measurements
 (`simulate`) and the real laser-tracker data set (`tracker_dataset`, `tracker_study`).
 
-Sits on top: may import kinematics, calibration and performance; never `protocol`, `service` or
-`simulators`.
+Sits on top: may import kinematics, rapid, calibration and performance; never `protocol`,
+`service` or `simulators`.
 """
 
 from screwcal._lazy import lazy_exports

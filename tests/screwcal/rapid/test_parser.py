@@ -1,0 +1,184 @@
+"""The RAPID parser: the shipped server module, every statement and declaration form (modules
+written in the forms public ABB code uses), positions, and syntax errors with line and column."""
+
+from dataclasses import FrozenInstanceError
+from pathlib import Path
+
+import pytest
+
+from protocol.rapid import module_text
+from screwcal.rapid import RapidSyntaxError, parse_expression, parse_module
+from screwcal.rapid import ast as rapid_ast
+from screwcal.rapid.ast import (
+    Aggregate,
+    Assign,
+    Binary,
+    Call,
+    Connect,
+    For,
+    Goto,
+    If,
+    Index,
+    Label,
+    Num,
+    ProcCall,
+    Raise,
+    Return,
+    Simple,
+    Str,
+    Unary,
+    While,
+)
+from screwcal.rapid.check import _children
+
+DATA = Path(__file__).parent / "data"
+
+
+def _parse(name: str):
+    return parse_module((DATA / name).read_text(), name)
+
+
+def _all(node, kind):
+    return [n for n in _children(node) if isinstance(n, kind)]
+
+
+def test_the_shipped_server_module_parses():
+    module = parse_module(module_text(), "ScrewcalServer.mod")
+    assert module.name == "ScrewcalServer"
+    names = {r.name for r in module.routines}
+    assert {"main", "Dispatch", "TokPose", "InLimits"} <= names
+    tok_pose = next(r for r in module.routines if r.name == "TokPose")
+    assert tok_pose.kind == "FUNC" and tok_pose.error  # an ERROR handler in a FUNC
+    assert tok_pose.params[1].mode == "INOUT"
+    dispatch = next(r for r in module.routines if r.name == "Dispatch")
+    test = next(s for s in dispatch.body if isinstance(s, rapid_ast.Test))
+    assert test.default and [c.labels[0].value for c in test.cases][:3] == ["HELO", "STAT",
+                                                                            "LOAD"]
+    # expressions as array indices: tok{first + i - 1}
+    assert any(isinstance(i.indices[0], Binary) for i in _all(module, Index))
+
+
+def test_server_forms():
+    m = _parse("server.mod")
+    main = m.routines[0]
+    assert main.error_numbers and [n.name for n in main.error_numbers] == ["ERR_SOCK_TIMEOUT",
+                                                                          "ERR_SOCK_CLOSED"]
+    assert main.undo and isinstance(main.error[0], If) and len(main.error[0].branches) == 2
+    assert any(isinstance(s, Connect) and s.trap == "OnStop" for s in main.body)
+    accept = next(s for s in main.body if isinstance(s, ProcCall) and s.name == "SocketAccept")
+    assert [(a.name, a.optional) for a in accept.args] == [(None, False), (None, False),
+                                                           ("Time", True)]
+    serve = m.routines[1]
+    test = serve.body[0]
+    assert [len(c.labels) for c in test.cases] == [3, 1]  # CASE 1, 2, 3:
+    compact = serve.body[1]
+    assert compact.compact and isinstance(compact.branches[0][1][0], Goto)
+    assert any(isinstance(s, Label) and s.name == "done" for s in serve.body)
+    assert isinstance(serve.error[0], Simple) and serve.error[0].keyword == "TRYNEXT"
+    checked = m.routines[2]
+    low = checked.params[1]
+    assert low.optional and low.alternatives[0].name == "Positive"
+    assert isinstance(checked.error[0], Return)
+    late = m.routines[3].body[0]
+    assert late.name == "" and isinstance(late.late, Binary)
+    trap = m.routines[-1]
+    assert trap.kind == "TRAP" and trap.name == "OnStop"
+    assert any(c.text.startswith("! A socket server") for c in m.comments)
+    assert _all(m, Raise) and _all(m, While)
+
+
+def test_motion_forms():
+    m = _parse("motion.mod")
+    seams = next(d for d in m.data if d.name == "pSeam")
+    assert len(seams.dims) == 2 and len(seams.value.items) == 2
+    first = seams.value.items[0].items[0]
+    assert first.items[0].items[0].text == "10" and first.items[0].items[0].line == 10
+    torch = m.data[0]
+    assert torch.storage == "PERS" and torch.value.items[1].items[0].items[0].text == "10.5"
+    wfix = m.data[1]
+    assert wfix.scope == "TASK"
+    approach = next(d for d in m.data if d.name == "pApproach")
+    assert approach.scope == "LOCAL" and approach.value.items[3].items[0].text == "9E+09"
+    loops = _all(m.routines[0], For)
+    assert loops[1].step is not None and loops[1].step.text == "-2"  # a signed literal
+    weld = m.routines[1]
+    movec = next(s for s in weld.body if isinstance(s, ProcCall) and s.name == "MoveC")
+    reltool = movec.args[0].value
+    assert isinstance(reltool, Call) and reltool.args[-1].name == "Rz"
+    search = next(s for s in weld.body if isinstance(s, ProcCall) and s.name == "SearchL")
+    assert search.args[0].name == "Stop" and search.args[0].value is None
+    shift = m.routines[-1]
+    assert [p.mode for p in shift.params] == ["INOUT", "PERS", "VAR"] and shift.params[2].dims
+    assert isinstance(shift.body[1], Assign)
+
+
+def test_system_module_forms():
+    m = _parse("common.sys")
+    assert m.attributes == ("SYSMODULE", "NOSTEPIN")
+    record = m.records[0]
+    assert record.name == "partinfo" and [f.name for f in record.fields] == ["name", "weight",
+                                                                             "centre"]
+    assert m.aliases[0].type == "num" and m.aliases[0].name == "partcount"
+    assert m.routines[-1].local and m.routines[-1].type == "num"
+    value = m.data[0].value
+    assert isinstance(value, Aggregate) and isinstance(value.items[0], Str)
+
+
+def test_nodes_are_frozen_and_know_their_place():
+    text = "MODULE m\n  VAR num x := -1.5;\nENDMODULE\n"
+    m = parse_module(text)
+    value = m.data[0].value
+    assert isinstance(value, Num) and value.value == -1.5
+    assert (value.line, value.col) == (2, 16) and text[value.start:value.end] == "-1.5"
+    with pytest.raises(FrozenInstanceError):
+        value.text = "2"  # type: ignore[misc]
+
+
+@pytest.mark.parametrize("text, value", [
+    ("1 + 2 * 3", ("+", "1", ("*", "2", "3"))),
+    ("a OR b AND c", ("OR", "a", ("AND", "b", "c"))),
+    ("NOT ok OR n < 2", ("OR", ("NOT", "ok"), ("<", "n", "2"))),
+    ("-x + 1", ("+", ("-", "x"), "1")),
+    ("a DIV 2 MOD 3", ("MOD", ("DIV", "a", "2"), "3")),
+])
+def test_operator_precedence(text, value):
+    def shape(e):
+        if isinstance(e, Binary):
+            return (e.op, shape(e.left), shape(e.right))
+        if isinstance(e, Unary):
+            return (e.op, shape(e.operand))
+        return getattr(e, "text", None) or e.name
+
+    assert shape(parse_expression(text)) == value
+
+
+def test_string_escapes():
+    s = parse_expression('"say ""hi"" \\\\ \\41"')
+    assert isinstance(s, Str) and s.value == 'say "hi" \\ A'
+
+
+@pytest.mark.parametrize("text, line, col, says", [
+    ("PROC main()\nENDPROC\n", 1, 1, "must begin with 'MODULE"),
+    ("MODULE m\n  VAR num x := 1\n  VAR num y;\nENDMODULE\n", 3, 3, "does not end with ';'"),
+    ("MODULE m\n  PROC p()\n    IF x THEN\n      y := 1;\n  ENDPROC\nENDMODULE\n", 5, 3,
+     "expected ELSE or ELSEIF or ENDIF"),
+    ("MODULE m\n  PROC p()\n    MoveL p1 v100, z10, tool0;\n  ENDPROC\nENDMODULE\n", 3, 14,
+     "expected ',' or ';' between arguments"),
+    ("MODULE m\n  CONST robtarget p:=[[1,2,3],[1,0,0,0];\nENDMODULE\n", 2, 40,
+     "expected ',' or ']'"),
+    ('MODULE m\n  VAR string s := "open;\nENDMODULE\n', 2, 19, "never closes"),
+    ("MODULE m\n  PROC p()\n    WHILE TRUE DO\n  ENDPROC\nENDMODULE\n", 4, 3,
+     "expected ENDWHILE"),
+    ("MODULE m\n  PROC p()\n  ENDFUNC\nENDMODULE\n", 3, 3,
+     "expected BACKWARD or ENDPROC or ERROR or UNDO in PROC p (line 2), found 'ENDFUNC'"),
+    ("MODULE m\n  PROC p()\n    IF x WHILE y DO ENDWHILE\n  ENDPROC\nENDMODULE\n", 3, 10,
+     "compact IF takes one simple statement"),
+    ("MODULE m\nENDMODULE\nMODULE n\nENDMODULE\n", 3, 1, "text after ENDMODULE"),
+    ("MODULE m\n  PROC p()\n", 3, 1, "the file ends inside PROC p (line 2)"),
+])
+def test_syntax_errors_name_line_and_column(text, line, col, says):
+    with pytest.raises(RapidSyntaxError) as caught:
+        parse_module(text, "bad.mod")
+    err = caught.value
+    assert (err.line, err.col) == (line, col), str(err)
+    assert says in err.reason and str(err).startswith(f"bad.mod:{line}:{col}: ")
