@@ -7,6 +7,9 @@ no-flip/flip, each flagged reachable and within limits.
 
 Numerical (`numerical_ik`): damped Gauss-Newton on any model, every branch seeded by the closed
 form of the model's nearest ideal geometry, so a calibrated model keeps the branch structure.
+An arm whose wrist axes do not meet (the UR arms) has no such closed form: it is seeded from the
+sampled configurations nearest each target, and its up to 8 slots hold the distinct solutions
+found (not labelled branches).
 
 In the arm plane a vector (x, z) is the complex number x + i z; Ry(t) turns it by -t.
 """
@@ -423,6 +426,69 @@ def local_ik(model: SerialModel, T_world_tool: ArrayLike, q_seed: ArrayLike, *,
     return _refine(model, T, seed, tol_mm, tol_rad, max_iter, damping)
 
 
+_WRIST_MEET_MM = 5.0  # a calibrated wrist's axes miss each other by far less
+_SAMPLES, _SEEDS, _CHUNK = 2048, 24, 128
+
+
+@once_per_object
+def _wrist_meets(model: SerialModel) -> bool:
+    """Whether axes 4, 5 and 6 pass through one point (within _WRIST_MEET_MM): a spherical
+    wrist. (The UR's meet pairwise, 4-5 and 5-6, but 4 and 6 are parallel.)"""
+    if model.n_joints != 6 or not model.is_revolute.all():
+        return False
+    w, p = model.axis_dirs, model.axis_points_mm
+    c = np.cross(w[3], w[4])
+    if np.linalg.norm(c) < 1e-6:
+        return False
+    # the feet of the common normal of axes 4 and 5: p3 + s w3 and p4 + t w4
+    s_, t_, _ = np.linalg.solve(np.column_stack([w[3], -w[4], c]), p[4] - p[3])
+    f4, f5 = p[3] + s_ * w[3], p[4] + t_ * w[4]
+    centre = (f4 + f5) / 2
+    off6 = np.linalg.norm(np.cross(centre - p[5], w[5]))
+    return bool(np.linalg.norm(f5 - f4) <= _WRIST_MEET_MM and off6 <= _WRIST_MEET_MM)
+
+
+@once_per_object
+def _sample_table(model: SerialModel) -> tuple[Array, Array]:
+    """Fixed sampled readings (M, 6) inside the limits and their flange poses (M, 4, 4)."""
+    rng = np.random.default_rng(0)
+    q = rng.uniform(model.limits[:, 0], model.limits[:, 1], (_SAMPLES, model.n_joints))
+    return q, forward_kinematics(model.with_frames(np.eye(4), np.eye(4)), q)
+
+
+def _sampled_ik(model: SerialModel, T_target: Array, T_flange: Array, tol_mm: float,
+                tol_rad: float, max_iter: int) -> IKSolutions:
+    """IK of an arm without a spherical wrist: Gauss-Newton from the _SEEDS sampled
+    configurations nearest each target (position, and orientation weighted by the arm's size);
+    the distinct solutions (angles equal modulo a turn count once) fill up to 8 slots."""
+    qs, Ts = _sample_table(model)
+    N, n = T_target.shape[0], model.n_joints
+    size = float(np.abs(model.axis_points_mm).max() + np.linalg.norm(model.home_flange[:3, 3]))
+    seeds = np.empty((N, _SEEDS), int)
+    for k0 in range(0, N, _CHUNK):
+        chunk = T_flange[k0:k0 + _CHUNK]
+        score = np.linalg.norm(chunk[:, None, :3, 3] - Ts[None, :, :3, 3], axis=-1) + size * \
+            np.linalg.norm((chunk[:, None, :3, :3] - Ts[None, :, :3, :3]).reshape(
+                len(chunk), len(Ts), 9), axis=-1)
+        seeds[k0:k0 + _CHUNK] = np.argpartition(score, _SEEDS, axis=1)[:, :_SEEDS]
+    q, converged = _refine(model, np.repeat(T_target, _SEEDS, axis=0),
+                           qs[seeds].reshape(-1, n), tol_mm, tol_rad, max_iter, 1e-6)
+    q, converged = q.reshape(N, _SEEDS, n), converged.reshape(N, _SEEDS)
+    out, reach = np.full((N, len(BRANCHES), n), np.nan), np.zeros((N, len(BRANCHES)), bool)
+    for k in range(N):
+        found: list[Array] = []
+        for theta in q[k, converged[k]] + model.joint_zero:
+            if not any(np.abs(np.angle(np.exp(1j * (theta - f)))).max() < 1e-6 for f in found):
+                found.append(theta)
+            if len(found) == len(BRANCHES):
+                break
+        for b, theta in enumerate(found):
+            out[k, b], reach[k, b] = theta, True
+    _raise_unreachable(reach)
+    q_wrapped, within = _wrapped(model, out)
+    return _solutions(model, q_wrapped, reach, within, T_target)
+
+
 @once_per_object
 def _signed_ideal(model: SerialModel) -> tuple[Array, SerialModel]:
     """Per joint +1 or -1: whether its axis turns with or against the ABB-type direction it is
@@ -440,6 +506,8 @@ def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float =
     """IK of any 6R model, every branch refined by damped Gauss-Newton from the closed form of
     the model's nearest ideal geometry. A branch counts as reachable when it converged."""
     T_target, T_flange = _flange_targets(model, T_world_tool)
+    if not _wrist_meets(model):
+        return _sampled_ik(model, T_target, T_flange, tol_mm, tol_rad, max(max_iter, 60))
     signs, ideal = _signed_ideal(model)
     geo = WristPartitionedGeometry.from_model(ideal, tol=None)
     # A calibrated arm may reach a little beyond its ideal twin: seed from the stretched pose.

@@ -171,16 +171,11 @@ def test_exported_urdf_loads_in_a_urdf_library_with_our_kinematics(tmp_path, rng
         assert np.abs(T[:3, 3] * 1000.0 - measured[k, :3, 3]).max() < 1e-6
 
 
-# The wrist-partitioned arms: the closed form seeds them once their reversed axes (KUKA's A1,
-# A4, A6; FANUC's J3-J6) are turned to ABB's directions. UR arms have no spherical wrist: the
-# ABB-type seeds do not reach every UR target (not covered here).
-WRIST_PARTITIONED = [n for n in NAMES if not n.startswith("ur")]
-
-
-@pytest.mark.parametrize("name", WRIST_PARTITIONED)
-def test_numerical_ik_of_every_wrist_partitioned_library_robot(rng, name):
+@pytest.mark.parametrize("name", NAMES)
+def test_numerical_ik_of_every_library_robot(rng, name):
     """KUKA targets were refused as outside the limits on every branch: the seeds turned the
-    reversed axes the wrong way."""
+    reversed axes the wrong way; UR targets as out of reach: the ABB-type closed form seeded an
+    arm without a spherical wrist (now seeded from sampled configurations)."""
     from screwcal.kinematics.ik import numerical_ik
 
     model = calibrated(LIBRARY[name].model(), rng).with_frames(np.eye(4), np.eye(4))
@@ -211,3 +206,27 @@ def test_every_library_robot_calibrates_to_the_noise_floor(rng, name, full_pose)
     q = random_set(nominal, 300, seed=2)
     d = forward_kinematics(truth, q)[:, :3, 3] - forward_kinematics(result.model, q)[:, :3, 3]
     assert np.sqrt(np.mean(np.sum(d**2, axis=1))) < 3 * np.sqrt(3) * 0.013
+
+
+READY_DEG = {"KUKA": [0, -90, 90, 0, 0, 0], "Universal Robots": [0, -90, 90, -90, -90, 0]}
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_compensation_puts_every_library_robot_on_its_targets(rng, name):
+    """tool0 targets in the base frame (what a program commands), compensated for the calibrated
+    twin: the twin at the compensated joints is within 0.02 mm of every target."""
+    from screwcal.calibration.correction import compensate_each
+    from screwcal.calibration.posesets import random_set
+
+    nominal = LIBRARY[name].model()
+    truth = calibrated(nominal, rng).with_frames(np.eye(4), np.eye(4))
+    # around a ready pose: at KUKA's and UR's zero the arm is stretched (elbow singular, where
+    # a calibrated arm cannot reach near the nominal solution and the target is refused)
+    ready = np.radians(READY_DEG.get(LIBRARY[name].maker, [0, 0, 0, 0, 0, 0]))
+    q = random_set(nominal, 30, seed=3) * 0.4 + ready
+    T = flange_kinematics(nominal, q)
+    comp = compensate_each(truth, nominal, T, frame="base")
+    assert comp.ok.sum() >= 28, comp.refused
+    reached = flange_kinematics(truth, comp.q_rad[comp.ok])
+    assert np.abs(reached[:, :3, 3] - T[comp.ok, :3, 3]).max() < 0.02
+    assert (truth.within_limits(comp.q_rad[comp.ok])).all()
