@@ -1,16 +1,17 @@
-"""`screwcal calibrate` and `screwcal compensate` (docs/formats.md).
+"""`screwcal calibrate` (this docstring is its --help), `compensate` and `align`
+(COMPENSATE_DOC, ALIGN_DOC); docs/formats.md.
 
     screwcal calibrate --robot irb1600 --data measurements.csv --out result.json
                        [--model full|thesis|joints] [--solver lm|de] [--weight-mm W]
                        [--base-frame unknown|known] [--residual pose|position|distance]
-    screwcal compensate --model result.json --targets targets.csv --out compensated.csv
 
-By default the measuring system's frame and the measured point's offset from the flange are
-identified with the robot's errors; `--base-frame known` says the data are already in the robot
-base frame and the measured point is the flange. `--weight-mm W` selects the thesis's Eq. 2.4
-objective with that W; otherwise residuals are weighted statistically by the noise levels, which
-are estimated from the data (variance components) unless `--noise-mm` / `--joint-noise-deg` fix
-them; the result reports the levels used with their uncertainty.
+--robot is a library robot (`screwcal robot list`) or a robot file (`screwcal robot import`,
+docs/robots.md). By default the measuring system's frame and the measured point's offset from
+the flange are identified with the robot's errors; `--base-frame known` says the data are
+already in the robot base frame and the measured point is the flange. `--weight-mm W` selects
+the thesis's Eq. 2.4 objective with that W; otherwise residuals are weighted statistically by
+the noise levels, which are estimated from the data (variance components) unless `--noise-mm`
+/ `--joint-noise-deg` fix them; the result reports the levels used with their uncertainty.
 """
 
 from __future__ import annotations
@@ -323,7 +324,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     a = sub.add_parser("align", help="base frame from joint 1 and joint 2 sweeps (thesis 4.6)",
                        description=ALIGN_DOC,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
-    a.add_argument("--robot", required=True, help="built-in robot or model file")
+    a.add_argument("--robot", required=True,
+                   help="library robot (screwcal robot list) or robot / model "
+                   "file")
     a.add_argument("--sweeps", required=True,
                    help="CSV: joint (1|2), q1 (deg), x, y, z (mm), in the order probed")
     a.add_argument("--out", required=True, help="JSON with the base pose")
@@ -331,7 +334,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("calibrate", help="identify the robot's geometric errors from a CSV",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--robot", required=True, help="built-in robot (irb1600, irb120) or model file")
+    p.add_argument("--robot", required=True,
+                   help="library robot (screwcal robot list) or robot / model "
+                   "file (screwcal robot import)")
     p.add_argument("--data", required=True, help="measurement CSV (q1..q6, x, y, z[, rx, ry, rz])")
     p.add_argument("--out", required=True, help="result JSON to write")
     p.add_argument("--joint-unit", choices=["deg", "rad"], default="deg",
@@ -342,10 +347,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "or inches are refused)")
     p.add_argument("--model", choices=["full", "thesis", "joints", "frames"], default="full",
                    help="error model (frames: the nominal robot, only the frames fitted)")
-    p.add_argument("--solver", choices=["lm", "de"], default="lm")
+    p.add_argument("--solver", choices=["lm", "de"], default="lm",
+                   help="Levenberg-Marquardt (default) or differential evolution then LM")
     p.add_argument("--weight-mm", type=positive_float, default=None,
                    help="W of Eq. 2.4 (selects that objective; default: statistical weighting)")
-    p.add_argument("--base-frame", choices=["unknown", "known"], default="unknown")
+    p.add_argument("--base-frame", choices=["unknown", "known"], default="unknown",
+                   help="unknown (default): the measuring frame and the measured point are "
+                   "identified; known: the data are in the robot base frame, of the flange")
     p.add_argument("--residual", choices=["pose", "position", "distance"], default=None,
                    help="default: pose for full-pose data, position otherwise")
     p.add_argument("--base-guess", metavar="SWEEPS_CSV",

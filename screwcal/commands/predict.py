@@ -2,7 +2,7 @@
 
     screwcal predict --model irb1600 --joints joints.csv --out predicted.csv
 
-A built-in name predicts the nominal flange (tool0) pose in the robot base frame; a model or
+A library robot's name predicts the nominal flange (tool0) pose in the robot base frame; a model or
 calibration-result file predicts the measured point in the measuring system's frame.
 """
 
@@ -44,7 +44,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("predict", help="predict measured-point poses from joint readings",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--model", required=True,
-                   help="built-in robot (irb1600, irb120), a model file or a calibration result")
+                   help="library robot (screwcal robot list), a robot / model file "
+                   "or a calibration result")
     p.add_argument("--joints", required=True, help="CSV with q1..q6 in degrees, optional id")
     p.add_argument("--out", required=True, help="CSV to write: id, x, y, z (mm), rx, ry, rz (deg)")
     from screwcal.commands.calibrate import add_payload_arguments

@@ -52,7 +52,9 @@ def run(args: argparse.Namespace) -> int:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("testcube", help="ISO 9283 test cube and the performance pose list",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--robot", required=True, help="built-in robot or model file")
+    p.add_argument("--robot", required=True,
+                   help="library robot (screwcal robot list) or robot / model "
+                   "file")
     p.add_argument("--out", required=True, help="pose list CSV to write")
     p.add_argument("--edge-mm", type=positive_float, default=None,
                    help="cube edge (default: the largest that fits)")

@@ -115,3 +115,19 @@ def test_the_templates_in_the_docs_import_to_the_library_robots(tmp_path, rng):
         q = random_q(model, rng, 300)
         np.testing.assert_allclose(forward_kinematics(back, q), forward_kinematics(model, q),
                                    atol=1e-9)
+
+
+def test_calibrate_help_is_calibrate_s_own_and_every_option_has_help():
+    """calibrate --help showed compensate's usage line; --solver and --base-frame had no help."""
+    import argparse
+
+    from screwcal.commands.main import build_parser
+
+    commands = {}
+    for name in ("calibrate", "predict", "robot"):  # calibrate's module also adds the others
+        sub = next(a for a in build_parser(name)._actions
+                   if isinstance(a, argparse._SubParsersAction))
+        commands |= sub.choices
+    for name in ("calibrate", "compensate", "align", "predict", "robot"):
+        assert all(a.help for a in commands[name]._actions if a.option_strings), name
+    assert "screwcal compensate" not in commands["calibrate"].format_help()
