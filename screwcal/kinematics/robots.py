@@ -6,8 +6,9 @@ of the dimension drawing, axis working ranges, the arm's mass) and names where t
 (the reach: the wrist centre's largest distance from axis 1), else to the home flange position.
 
 Conventions: robot base frame as the maker draws it (z up, x forward), joint directions as the
-controller counts positive; tool0 (the flange) at home with orientation Ry(+90 deg) for the
-wrist-partitioned arms (flange z along base +x), UR's DH frame 6 for the UR arms.
+controller counts positive (as ROS-Industrial's support packages give them); tool0 (the flange)
+at home with z along base +x, x down (ABB, KUKA: Ry(+90 deg)) or up (FANUC), UR's DH frame 6 for
+the UR arms.
 
 Lumped masses (joint compliance, `compliance`): the datasheets give the arm's total mass only;
 the upper arm, forearm and wrist take 16 %, 14 % and 2.4 % of it at their middles (the shares of
@@ -32,7 +33,10 @@ _X, _Y, _Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 _NX, _NY, _NZ = (-1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0)
 ABB_AXES = (_Z, _Y, _Y, _X, _Y, _X)
 KUKA_AXES = (_NZ, _Y, _Y, _NX, _Y, _NX)  # A1, A4, A6 turn clockwise seen from outside
-FANUC_AXES = (_Z, _Y, _NY, _NX, _NY, _NX)
+FANUC_AXES = (_Z, _Y, _NY, _NX, _NY, _NX)  # the M-20iA; the LR Mate 200iD's J6 turns about +x
+LRMATE_AXES = (_Z, _Y, _NY, _NX, _NY, _X)
+ABB_TOOL0 = (0.0, 90.0, 0.0)  # (rx, ry, rz) deg of tool0 at home: z out along +x, x down
+FANUC_TOOL0 = (180.0, -90.0, 0.0)  # z out along +x, x up
 _MASS_SHARES = (0.16, 0.14, 0.024)  # upper arm, forearm, wrist: of the arm's total mass
 
 
@@ -74,8 +78,8 @@ def _lumped(total_kg: float, shoulder: np.ndarray, elbow: np.ndarray, wrist: np.
 def wrist_arm(name: str, *, base_mm: float, shoulder_mm: float, upper_arm_mm: float,
               forearm_offset_mm: float, forearm_mm: float, flange_mm: float,
               limits_deg: list[list[float]], axes: tuple = ABB_AXES, upright: bool = True,
-              total_kg: float | None = None, masses: tuple[LumpedMass, ...] | None = None
-              ) -> SerialModel:
+              total_kg: float | None = None, masses: tuple[LumpedMass, ...] | None = None,
+              tool0_rxyz_deg: tuple[float, float, float] = ABB_TOOL0) -> SerialModel:
     """A wrist-partitioned 6R arm from its dimension drawing (mm): axis 2 at (shoulder, 0,
     base) and the upper arm vertical at home (`upright`, ABB and FANUC) or horizontal (KUKA);
     the forearm offset perpendicular to it, then the forearm to the wrist centre and the flange
@@ -90,7 +94,7 @@ def wrist_arm(name: str, *, base_mm: float, shoulder_mm: float, upper_arm_mm: fl
     return SerialModel(
         name=name, joint_types=("R",) * 6, axis_dirs=np.array(axes, dtype=float),
         axis_points_mm=points,
-        home_flange=transform_from_pose([wrist[0] + flange_mm, 0.0, z4, 0.0, 90.0, 0.0]),
+        home_flange=transform_from_pose([wrist[0] + flange_mm, 0.0, z4, *tool0_rxyz_deg]),
         limits=np.radians(limits_deg), masses=masses)
 
 
@@ -130,12 +134,12 @@ def _abb(name: str, kg: float, dims: tuple, limits: list) -> Callable[[], Serial
                              limits_deg=limits, total_kg=kg)
 
 
-def _other(name: str, kg: float, dims: tuple, limits: list, axes: tuple, upright: bool
-           ) -> Callable[[], SerialModel]:
+def _other(name: str, kg: float, dims: tuple, limits: list, axes: tuple, upright: bool,
+           tool0: tuple[float, float, float] = ABB_TOOL0) -> Callable[[], SerialModel]:
     h, s, u, fo, f, t = dims
     return lambda: wrist_arm(name, base_mm=h, shoulder_mm=s, upper_arm_mm=u,
                              forearm_offset_mm=fo, forearm_mm=f, flange_mm=t, limits_deg=limits,
-                             axes=axes, upright=upright, total_kg=kg)
+                             axes=axes, upright=upright, total_kg=kg, tool0_rxyz_deg=tool0)
 
 
 def _reach(mm: float, source: str, tol: float = 0.005) -> DatasheetCheck:
@@ -199,16 +203,16 @@ ENTRIES: tuple[RobotEntry, ...] = (
                "FANUC LR Mate 200iD datasheet (dimensions, motion ranges, mass 25 kg)",
                _reach(717.0, "LR Mate 200iD datasheet: reach 717 mm"),
                _other("lrmate200id", 25.0, (330, 50, 330, 35, 335, 80),
-                      [[-170, 170], [-100, 145], [-70, 205], [-190, 190], [-125, 125],
-                       [-360, 360]], FANUC_AXES, True),
+                      [[-170, 170], [-100, 145], [-140, 280], [-190, 190], [-125, 125],
+                       [-360, 360]], LRMATE_AXES, True, FANUC_TOOL0),
                note="FANUC's J3 reading is the forearm's angle to the horizontal (J2/J3 "
                     "coupling): the model's q3 is the serial angle, J3 + J2"),
     RobotEntry("m20ia", "FANUC M-20iA", "FANUC", 250.0,
                "FANUC M-20iA datasheet (dimensions, motion ranges, mass 250 kg)",
                _reach(1811.0, "M-20iA datasheet: reach 1811 mm"),
                _other("m20ia", 250.0, (525, 150, 790, 250, 835, 100),
-                      [[-170, 170], [-100, 160], [-185, 273], [-200, 200], [-180, 180],
-                       [-450, 450]], FANUC_AXES, True),
+                      [[-170, 170], [-100, 160], [-185, 273], [-200, 200], [-140, 140],
+                       [-270, 270]], FANUC_AXES, True, FANUC_TOOL0),
                note="FANUC's J3 reading is the forearm's angle to the horizontal (J2/J3 "
                     "coupling): the model's q3 is the serial angle, J3 + J2"),
     RobotEntry("ur5e", "Universal Robots UR5e", "Universal Robots", 20.6,
