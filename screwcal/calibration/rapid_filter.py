@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from screwcal.calibration.correction import compensate
-from screwcal.calibration.rapid_source import Aggregate, RapidModule, Token
+from screwcal.calibration.rapid_source import NUMBER, Aggregate, RapidModule, Token
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.confdata import confdata, solution_for_confdata
 from screwcal.kinematics.model import SerialModel
@@ -171,8 +171,17 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
             report.refused.append(Note(d.line, d.name, "declared without a value: assigned at "
                                        "run time"))
             continue
+        if isinstance(d.value, Token):
+            report.refused.append(Note(d.line, d.name, "its value is an expression, computed "
+                                       "when the program runs"))
+            continue
         combos = uses.get(d.name.lower(), {(tool.lower(), wobj.lower())})
         found = _targets(d.name, d.value, module.line_of)
+        computed = [t for t in found if not all(NUMBER.fullmatch(k.text) for k in t.tokens)]
+        if computed:
+            report.refused += [Note(t.line, t.name, "a number of its value is an expression, "
+                                    "computed when the program runs") for t in computed]
+            found = [t for t in found if t not in computed]
         if len(combos) > 1:
             pairs = "; ".join(f"{t} with {w}" for t, w in sorted(combos))
             report.refused += [Note(t.line, t.name, f"used with several tools or work objects "

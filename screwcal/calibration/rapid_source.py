@@ -1,8 +1,9 @@
-"""Reading a RAPID module's source as far as a static filter needs: the declarations of
-`robtarget`, `tooldata` and `wobjdata` data (CONST, PERS, VAR, with LOCAL or TASK, arrays,
-values over several lines, comments between them), every number of their values with its place
-in the text (so that a rewrite changes those characters and nothing else), and the motion
-instructions that use them (which tool and work object each target is reached with).
+"""Reading a RAPID module's source as far as a static filter needs, through the RAPID parser
+(`screwcal.rapid`): the declarations of `robtarget`, `tooldata` and `wobjdata` data (CONST,
+PERS, VAR, with LOCAL or TASK, arrays, values over several lines, comments between them, in the
+module or in a routine), every number of their values with its place in the text (so that a
+rewrite changes those characters and nothing else), and the motion instructions that use them
+(which tool and work object each target is reached with).
 
 No RAPID is executed: what only the running program knows (a target computed with `Offs`,
 `RelTool`, `CRobT`, a value assigned at run time) is reported as such, with its line.
@@ -14,33 +15,27 @@ import re
 from bisect import bisect_right
 from dataclasses import dataclass, field
 from functools import partial
+from operator import add, attrgetter
 from typing import NamedTuple
 
 from screwcal.errors import DataFileError
+from screwcal.rapid import RapidSyntaxError, parse_module
+from screwcal.rapid import ast as rapid
 
+# A number as RAPID writes it (with its sign): where the filter's numbers are in a text.
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
-DECLARATION = re.compile(
-    r"^[ \t]*(?:(?:LOCAL|TASK)[ \t]+)?(?:CONST|PERS|VAR)[ \t]+(robtarget|tooldata|wobjdata)"
-    r"[ \t]+([A-Za-z]\w*)[ \t]*(\{[^}]*\})?[ \t]*(:=)?", re.M | re.I)
 # Motion instructions whose first positional argument (two for the circular ones) is a
-# robtarget and whose last positional argument is the tool.
-MOTION = re.compile(
-    r"\b(Move(?:J|L|C)(?:DO|AO|GO|Sync)?|Trigg(?:J|L|C))\b([^;]*);", re.I)
-_END = re.compile(r"\s*;")
-_N = rf"\s*({NUMBER.pattern})\s*"
-# One plain robtarget value, whitespace (and blanked comments) anywhere: the common case,
-# matched in one go; anything else goes through the general parser.
-_ROBTARGET = re.compile(rf"\s*\[\s*\[{_N},{_N},{_N}\]\s*,\s*\[{_N},{_N},{_N},{_N}\]\s*,"
-                        rf"\s*\[{_N},{_N},{_N},{_N}\]\s*,\s*\[([^\[\]]*)\]\s*\]")
-# A module's first statement (comments and blank lines before it; a UTF-8 byte-order mark as
-# read in latin-1 too): `MODULE name` with optional attributes in parentheses
-MODULE_HEADER = re.compile(r"\A(?:\xef\xbb\xbf|\ufeff)?\s*MODULE[ \t]+[A-Za-z]\w*", re.I)
-RUNTIME_TARGETS = re.compile(r"\b(Offs|RelTool|CRobT|CalcRobT|MirPos)\s*\(", re.I)
+# robtarget; the tool follows the speed and zone (Move*) or is the last positional (Trigg*).
+MOTIONS = frozenset(f"{kind}{axis}{suffix}".lower() for kind, suffixes in (
+    ("Move", ("", "DO", "AO", "GO", "Sync")), ("Trigg", ("",))) for axis in "JLC"
+    for suffix in suffixes)
+RUNTIME_FUNCTIONS = frozenset(("offs", "reltool", "crobt", "calcrobt", "mirpos"))
+DECLARED_KINDS = ("robtarget", "tooldata", "wobjdata")
 
 
 class Token(NamedTuple):
-    """A number (or TRUE/FALSE, or a string) of a value, and where it is in the text (a tuple:
-    a module holds hundreds of thousands)."""
+    """A number (or TRUE/FALSE, or a string, or an expression's text) of a value, and where it
+    is in the text (a tuple: a module holds hundreds of thousands)."""
 
     text: str
     start: int
@@ -62,7 +57,7 @@ class Declaration:
     kind: str  # robtarget, tooldata, wobjdata (lower case)
     name: str
     line: int
-    value: Aggregate | None  # None: declared without a value
+    value: Aggregate | Token | None  # None: declared without a value; a Token: not a literal
 
 
 @dataclass
@@ -92,22 +87,6 @@ class RapidModule:
         return self._lines.of(pos)
 
 
-_COMMENT_OR_STRING = re.compile(r'"[^"\n]*"?|![^\n]*')
-
-
-def _blank_comments_and_strings(text: str) -> str:
-    """The text with comments (`!` to the end of the line) and string contents replaced by
-    spaces: positions and lines unchanged, nothing in them mistaken for code."""
-    def blank(m: re.Match[str]) -> str:
-        s = m.group(0)
-        if s.startswith('"'):  # keep the quotes, blank what is between them
-            return '"' + " " * (len(s) - 2) + '"' if len(s) > 1 and s.endswith('"') else \
-                '"' + " " * (len(s) - 1)
-        return " " * len(s)
-
-    return _COMMENT_OR_STRING.sub(blank, text)
-
-
 class _Lines:
     """Line numbers (1-based) of positions in a text."""
 
@@ -118,108 +97,73 @@ class _Lines:
         return bisect_right(self.starts, pos)
 
 
-_TOKEN = re.compile(rf'(\[)|(\])|("[^"]*"|{NUMBER.pattern}|[A-Za-z]\w*)|([^\s,])')
+def _value(node: rapid.Expr, text: str) -> Aggregate | Token:
+    """A data value as nested lists of tokens: literals as written (strings with their
+    quotes), anything else (an expression) as its text."""
+    if type(node) is rapid.NumberRow:  # the common case
+        return list(map(_token, zip(node.texts, node.starts,
+                                    map(add, node.starts, map(len, node.texts)), strict=True)))
+    if type(node) is rapid.Aggregate:
+        items = node.items
+        if len(items) == 4 and all(type(i) is rapid.NumberRow for i in items) and \
+                [len(i.texts) for i in items[:3]] == [3, 4, 4]:
+            # a robtarget: its external axes are never rewritten, not tokenised
+            return [_value(items[0], text), _value(items[1], text), _value(items[2], text), []]
+        return [_value(i, text) for i in items]
+    if isinstance(node, (rapid.Num, rapid.Str)):
+        return _token((node.text, node.start, node.end))
+    return _token((text[node.start:node.end], node.start, node.end))
 
 
-def _aggregate(code: str, text: str, pos: int, path: str, lines: _Lines) -> tuple[Aggregate, int]:
-    """Parse `[ ... ]` starting at `pos` (in the blanked code, where a value cannot hold a
-    `;`): nested lists of tokens; returns the value and the position after its closing
-    bracket."""
-    end = code.find(";", pos)
-    stack: list[Aggregate] = []
-    for m in _TOKEN.finditer(code, pos, len(code) if end < 0 else end):
-        opening, closing, atom, other = m.groups()
-        if opening:
-            stack.append([])
-        elif closing:
-            if not stack:
-                raise DataFileError(path, "unbalanced ']' in a data value",
-                                    line=lines.of(m.start()))
-            done = stack.pop()
-            if not stack:
-                return done, m.end()
-            stack[-1].append(done)
-        elif atom and stack:
-            start, stop = m.span()
-            stack[-1].append(Token(text[start:stop] if atom[0] == '"' else atom, start, stop))
-        else:
-            raise DataFileError(path, f"unexpected '{other or atom}' in a data value",
-                                line=lines.of(m.start()))
-    raise DataFileError(path, "a data value that never closes (missing ']')", line=lines.of(pos))
+_LEAVES = (rapid.Num, rapid.Str, rapid.Name, rapid.NumberRow)
 
 
-def _split_arguments(args: str) -> list[str]:
-    """Top-level comma-separated arguments (brackets and parentheses kept together)."""
-    if "(" not in args and "[" not in args:
-        return [a.strip() for a in args.split(",")]
-    out, depth, start = [], 0, 0
-    for i, c in enumerate(args):
-        if c in "([":
-            depth += 1
-        elif c in ")]":
-            depth -= 1
-        elif c == "," and depth == 0:
-            out.append(args[start:i])
-            start = i + 1
-    out.append(args[start:])
-    return [a.strip() for a in out]
+def _calls(nodes: tuple) -> list[rapid.ProcCall | rapid.Call]:
+    """The procedure and function calls below `nodes`, depth first."""
+    out: list[rapid.ProcCall | rapid.Call] = []
+    stack = list(nodes)
+    while stack:
+        node = stack.pop()
+        if type(node) is tuple:
+            stack.extend(node)
+        elif isinstance(node, rapid.Node) and not isinstance(node, _LEAVES):
+            if isinstance(node, (rapid.ProcCall, rapid.Call)):
+                out.append(node)
+            stack.extend([getattr(node, f) for f in node.__slots__])
+    return out
 
 
-# `MoveL p10, v100, z10, tool1 \WObj:=wobj1;` and the like: most instructions, in one match.
-_SIMPLE_MOTION = re.compile(
-    r"\s*([A-Za-z]\w*)\s*,\s*[A-Za-z]\w*\s*,\s*[A-Za-z]\w*\s*,\s*([A-Za-z]\w*)"
-    r"(?:\s*\\WObj\s*:=\s*([A-Za-z]\w*))?\s*$")
-
-
-def _motion(match: re.Match[str], lines: _Lines) -> Motion:
-    name = match.group(1)
-    simple = None if name.lower().startswith(("movec", "triggc")) else \
-        _SIMPLE_MOTION.match(match.group(2))
-    if simple:
-        return Motion(lines.of(match.start()), name, [simple.group(1)], simple.group(2),
-                      simple.group(3) or "wobj0")
-    positional, wobj = [], "wobj0"
-    for arg in _split_arguments(match.group(2)):
-        head, *options = re.split(r"\s*\\", arg)  # `v100 \V:=500`: positional, then options
-        for option in options:
-            key, _, value = option.partition(":=")
-            if key.strip().lower() == "wobj":
-                wobj = value.strip()
-        if head:
-            positional.append(head)
-    n_targets = 2 if name.lower().startswith(("movec", "triggc")) else 1
-    return Motion(lines.of(match.start()), name, positional[:n_targets],
-                  positional[-1] if len(positional) > n_targets else "tool0", wobj)
+def _motion(call: rapid.ProcCall, text: str, line: int) -> Motion:
+    positional = [text[a.value.start:a.value.end].strip() for a in call.args
+                  if not a.optional and a.value is not None]
+    wobj = next((text[a.value.start:a.value.end].strip() for a in call.args
+                 if a.optional and a.name and a.name.lower() == "wobj" and a.value is not None),
+                "wobj0")
+    key = call.key
+    n_targets = 2 if key.endswith(("c", "cdo", "cao", "cgo", "csync")) else 1
+    at = len(positional) - 1 if key.startswith("trigg") else n_targets + 2
+    tool = positional[at] if n_targets <= at < len(positional) else "tool0"
+    return Motion(line, call.name, positional[:n_targets], tool, wobj)
 
 
 def read_rapid_module(path: str, text: str) -> RapidModule:
     """The module's data declarations, motion instructions and run-time targets."""
-    code = _blank_comments_and_strings(text)
-    if not MODULE_HEADER.match(code):
-        first = next((line.strip() for line in text.splitlines() if line.strip()), "")
-        raise DataFileError(path, "not a RAPID module: it must begin with 'MODULE <name>' "
-                            f"(comments before it allowed), not '{first[:40]}'", line=1)
+    try:
+        parsed = parse_module(text, path)
+    except RapidSyntaxError as err:
+        raise DataFileError(path, f"{err.reason} (column {err.col})", line=err.line) from None
     module = RapidModule(path, text)
-    lines = module._lines
-    for m in DECLARATION.finditer(code):
-        value = None
-        if m.group(4):
-            plain = None if m.group(3) else _ROBTARGET.match(code, m.end())
-            if plain:  # [[x,y,z],[q1..q4],[cf1,cf4,cf6,cfx],[extax]] in one match
-                tokens = [_token((text, *span))  # the groups and their spans, in one go
-                          for text, span in zip(plain.groups()[:11], plain.regs[1:12],
-                                                strict=True)]
-                # the external axes are never rewritten: not tokenised
-                value, end = [tokens[:3], tokens[3:7], tokens[7:11], []], plain.end()
-            else:
-                value, end = _aggregate(code, text, m.end(), path, lines)
-            if not _END.match(code, end):
-                raise DataFileError(path, f"the declaration of {m.group(2)} does not end with "
-                                    "';'", line=lines.of(end))
-        module.declarations.append(Declaration(m.group(1).lower(), m.group(2),
-                                               lines.of(m.start()), value))
-    for m in MOTION.finditer(code):
-        module.motions.append(_motion(m, lines))
-    for m in RUNTIME_TARGETS.finditer(code):
-        module.runtime.append((lines.of(m.start()), m.group(1)))
+    line_of = module._lines.of
+    data = [*parsed.data, *(d for r in parsed.routines for d in r.data)]
+    for d in sorted(data, key=lambda d: d.start):
+        kind = d.type.lower()
+        if kind in DECLARED_KINDS:
+            value = None if d.value is None else _value(d.value, text)
+            module.declarations.append(Declaration(kind, d.name, d.line, value))
+    found = _calls(tuple(d.value for d in data if d.value is not None)) + _calls(parsed.routines)
+    for node in sorted(found, key=attrgetter("start")):
+        if type(node) is rapid.ProcCall and node.key in MOTIONS:
+            module.motions.append(_motion(node, text, line_of(node.start)))
+        elif type(node) is rapid.Call and node.key in RUNTIME_FUNCTIONS:
+            module.runtime.append((line_of(node.start), node.name))
     return module

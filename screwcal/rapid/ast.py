@@ -99,6 +99,22 @@ class Aggregate(Node):
 
 
 @dataclass(frozen=True, slots=True)
+class NumberRow(Node):
+    """`[n, n, ...]` of numeric literals on one line (most of every robtarget), kept compact:
+    a module may hold hundreds of thousands of numbers. `texts` as written (with their sign),
+    `starts` their offsets; `items` gives them as Num nodes, as an Aggregate has them."""
+
+    texts: tuple[str, ...]
+    starts: tuple[int, ...]
+
+    @property
+    def items(self) -> tuple[Num, ...]:
+        shift = self.col - self.start
+        return tuple(Num(self.line, a + shift, a, a + len(t), t)
+                     for t, a in zip(self.texts, self.starts, strict=True))
+
+
+@dataclass(frozen=True, slots=True)
 class Unary(Node):
     op: str  # "-", "+", "NOT"
     operand: Expr
@@ -136,7 +152,7 @@ class Call(Node):
         return self.name.lower()
 
 
-Expr = Num | Str | Name | Index | Component | Aggregate | Unary | Binary | Call
+Expr = Num | Str | Name | Index | Component | Aggregate | NumberRow | Unary | Binary | Call
 
 
 # ---------------------------------------------------------------- statements

@@ -32,6 +32,7 @@ from screwcal.rapid.ast import (
     Name,
     Node,
     Num,
+    NumberRow,
     ProcCall,
     Routine,
     Str,
@@ -79,7 +80,10 @@ def _children(node: object) -> Iterator[Node]:
         stack = [value]
         while stack:
             v = stack.pop(0)
-            if isinstance(v, Node):
+            if isinstance(v, NumberRow):
+                yield v
+                yield from v.items
+            elif isinstance(v, Node):
                 yield v
                 yield from _children(v)
             elif isinstance(v, tuple):

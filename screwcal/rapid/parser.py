@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 from bisect import bisect_right
+from itertools import accumulate
 
 from screwcal.rapid.ast import (
     Aggregate as AggregateNode,
@@ -39,6 +40,7 @@ from screwcal.rapid.ast import (
     Module,
     Name,
     Num,
+    NumberRow,
     Param,
     ProcCall,
     Raise,
@@ -71,16 +73,24 @@ TRYNEXT UNDO VAR WHILE WITH XOR""".split())
 _NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _SKIP = re.compile(r"(?:\s+|![^\n]*)*")
 _COMMENT = re.compile(r"![^\n]*")
-_TOKEN = re.compile(
+_TOKEN_PATTERN = (
     r"(?P<num>0[xX][0-9A-Fa-f]+|0[bB][01]+|0[oO][0-7]+|" + _NUMBER + r")(?![A-Za-z_])"
     r"|(?P<id>[A-Za-z]\w*)"
     r'|(?P<str>"(?:[^"\n]|"")*")'
     r"|(?P<op>:=|<=|>=|<>|[-+*/<>=(){}\[\],;:\\.%?|])")
+_SKIP_TOKEN = re.compile(r"(?:\s+|![^\n]*)*(?:" + _TOKEN_PATTERN + ")")
+# After a name or literal: the end of an argument, item or statement (the value is that atom).
+_ATOM_END = re.compile(r"[ \t]*[,;)\]]")
 # `[n, n, ...]` of plain numbers on one line: most of a robtarget, read in one match.
 _SIGNED = re.compile(r"[-+]?" + _NUMBER)
 _FLAT = re.compile(r"\[[ \t]*[-+]?" + _NUMBER + r"(?:[ \t]*,[ \t]*[-+]?" + _NUMBER
                    + r")*[ \t]*\]")
+# `[[n, ...], [n, ...], ...]` on one line: a whole robtarget.
+_NESTED = re.compile(r"\[[ \t]*" + _FLAT.pattern + r"(?:[ \t]*,[ \t]*" + _FLAT.pattern
+                     + r")*[ \t]*\]")
 
+_AFTER_NAME = re.compile(r"\s*(:=|:|\{|\.(?!\d)|!)")
+_ATOMS = frozenset(("id", "num", "str"))
 _ENDS = {"PROC": "ENDPROC", "FUNC": "ENDFUNC", "TRAP": "ENDTRAP"}
 _HANDLERS = ("BACKWARD", "ERROR", "UNDO")
 _RELATIONS = frozenset(("<", "<=", "=", ">=", ">", "<>"))
@@ -126,28 +136,33 @@ class _Parser:
 
     def advance(self) -> None:
         self.last_end = self.end
-        text = self.text
-        skip = _SKIP.match(text, self.pos)
-        if "!" in skip.group():
-            for m in _COMMENT.finditer(text, skip.start(), skip.end()):
-                line, col = self.where(m.start())
-                self.comments.append(Comment(line, col, m.start(), m.end(), m.group()))
-        p = skip.end()
-        if p >= len(text):
-            self.kind, self.value, self.start, self.end = "eof", "", p, p
-            self.pos = p
-            return
-        m = _TOKEN.match(text, p)
-        if m is None:
-            c = text[p]
+        text, pos = self.text, self.pos
+        m = _SKIP_TOKEN.match(text, pos)  # blanks and comments, then one token
+        if m is None:  # the end of the text, or a character no token begins with
+            skip = _SKIP.match(text, pos)
+            self.collect_comments(pos, skip.end())
+            p = skip.end()
             self.start = p
-            self.fail("a string that never closes (missing '\"' on its line)" if c == '"'
-                      else f"unexpected character {c!r}")
-        kind, value = m.lastgroup, m.group()
+            if p >= len(text):
+                self.kind, self.value, self.end = "eof", "", p
+                self.pos = p
+                return
+            self.fail("a string that never closes (missing '\"' on its line)"
+                      if text[p] == '"' else f"unexpected character {text[p]!r}")
+        kind = m.lastgroup
+        p = m.start(kind)
+        if p > pos and text.find("!", pos, p) >= 0:
+            self.collect_comments(pos, p)
+        value = m.group(kind)
         if kind == "id" and value.upper() in KEYWORDS:
             kind, value = "kw", value.upper()
         self.kind, self.value, self.start, self.end = kind, value, p, m.end()
         self.pos = m.end()
+
+    def collect_comments(self, start: int, end: int) -> None:
+        for c in _COMMENT.finditer(self.text, start, end):
+            line, col = self.where(c.start())
+            self.comments.append(Comment(line, col, c.start(), c.end(), c.group()))
 
     def fail(self, reason: str, offset: int | None = None) -> None:
         line, col = self.where(self.start if offset is None else offset)
@@ -179,6 +194,16 @@ class _Parser:
     def loc(self, start: int) -> tuple[int, int, int, int]:
         line, col = self.where(start)
         return line, col, start, self.last_end
+
+    def after_ident(self) -> tuple[str, str]:
+        """The token after the current name, when it is one of `:= : { .` (the common
+        case, read without scanning on), else as peek_after_ident finds it."""
+        m = _AFTER_NAME.match(self.text, self.end)
+        if m is None:
+            return "", ""
+        if m.group(1) == "!":
+            return self.peek_after_ident()
+        return "op", m.group(1)
 
     def peek_after_ident(self) -> tuple[str, str]:
         """The token after the current one (kind, value), the state left as it was."""
@@ -410,7 +435,7 @@ class _Parser:
             return ProcCall(*self.loc(start), "", args, late)
         if kind != "id":
             self.fail(f"expected a statement, found {self.shown()}")
-        nxt_kind, nxt = self.peek_after_ident()
+        nxt_kind, nxt = self.after_ident()
         if nxt_kind == "op" and nxt == ":":
             self.advance()
             self.advance()
@@ -486,29 +511,24 @@ class _Parser:
                 self.fail(f"expected ',' or '{close}' between arguments, found {self.shown()}")
             first = False
             start = self.start
+            name, value, optional, conditional = None, None, False, False
             if self.accept("\\"):
+                optional = True
                 name = self.ident("an optional argument's name after '\\'")
                 if self.accept(":="):
-                    args.append(Argument(*self.loc_after(start), self.expr(), name, True))
+                    value = self.expr()
                 elif self.accept("?"):
-                    args.append(Argument(*self.loc_after(start), self.postfix(
-                        self.name_expr()), name, True, True))
-                else:
-                    args.append(Argument(*self.loc_after(start), None, name, True))
+                    conditional = True
+                    value = self.postfix(self.name_expr())
+            elif self.kind == "id" and self.after_ident() == ("op", ":="):
+                name = self.value  # a required argument given by name
+                self.advance()
+                self.advance()
+                value = self.expr()
             else:
-                if self.kind == "id" and self.peek_after_ident() == ("op", ":="):
-                    name = self.value
-                    self.advance()
-                    self.advance()
-                    args.append(Argument(*self.loc_after(start), self.expr(), name))
-                else:
-                    args.append(Argument(*self.loc_after(start), self.expr()))
-        return self.fix(tuple(args))
-
-    def loc_after(self, start: int) -> tuple[int, int, int, int]:
-        """Like loc, but the end is filled after the value: placeholders fixed up below."""
-        line, col = self.where(start)
-        return line, col, start, start
+                value = self.expr()
+            args.append(Argument(*self.loc(start), value, name, optional, conditional))
+        return tuple(args)
 
     # ------------------------------------------------------------ expressions
     def expr_list(self, close: str) -> tuple[Expr, ...]:
@@ -519,6 +539,8 @@ class _Parser:
         return tuple(items)
 
     def expr(self) -> Expr:
+        if self.kind in _ATOMS and _ATOM_END.match(self.text, self.end):
+            return self.primary()  # a lone name or literal: most arguments and items
         start = self.start
         left = self.and_()
         while self.kind == "kw" and self.value in ("OR", "XOR"):
@@ -615,15 +637,6 @@ class _Parser:
             return Call(*self.loc(start), name, args)
         return Name(*self.loc(start), name)
 
-    def fix(self, args: tuple[Argument, ...]) -> tuple[Argument, ...]:
-        """Arguments with their end: the end of their value (or of their name)."""
-        out = []
-        for a in args:
-            end = a.value.end if a.value is not None else a.start + 1 + len(a.name or "")
-            out.append(Argument(a.line, a.col, a.start, end, a.value, a.name, a.optional,
-                                a.conditional))
-        return tuple(out)
-
     def postfix(self, base: Expr) -> Expr:
         while self.kind == "op" and self.value in ("{", "."):
             if self.accept("{"):
@@ -635,24 +648,59 @@ class _Parser:
                 base = Component(base.line, base.col, base.start, self.last_end, base, field)
         return base
 
+    def numbers(self, start: int, end: int, line: int, base: int) -> NumberRow:
+        """The NumberRow of `[n, n, ...]` between start and end (one line, checked by _FLAT)."""
+        body = self.text[start + 1:end - 1]
+        pieces = body.split(",")
+        if " " in body or "\t" in body:
+            texts, starts, at = [], [], start + 1
+            for piece in pieces:
+                t = piece.strip()
+                texts.append(t)
+                starts.append(at + piece.index(t))
+                at += len(piece) + 1
+        else:
+            texts = pieces
+            starts = list(accumulate([len(p) + 1 for p in pieces[:-1]], initial=start + 1))
+        return NumberRow(line, start - base, start, end, tuple(texts), tuple(starts))
+
+    def item(self) -> Expr:
+        """An item of an aggregate: most often an aggregate itself, read without going down
+        the operator levels (and again as an expression when an operator follows it)."""
+        if self.kind == "op" and self.value == "[":
+            saved = (self.pos, self.kind, self.value, self.start, self.end, self.last_end,
+                     len(self.comments))
+            value = self.aggregate()
+            if self.kind == "op" and self.value in (",", "]"):
+                return value
+            (self.pos, self.kind, self.value, self.start, self.end, self.last_end, n) = saved
+            del self.comments[n:]
+        return self.expr()
+
     def aggregate(self) -> Expr:
-        start = self.start
-        flat = _FLAT.match(self.text, start)
-        if flat:  # plain numbers on one line: one match
-            line, col0 = self.where(start)
+        start, text = self.start, self.text
+        flat = _FLAT.match(text, start)
+        nested = None if flat else _NESTED.match(text, start)
+        if flat or nested:  # plain numbers on one line: read in one match
+            end = (flat or nested).end()
+            line = bisect_right(self.starts, start)
             base = self.starts[line - 1] - 1
-            items = tuple(Num(line, m.start() - base, m.start(), m.end(), m.group())
-                          for m in _SIGNED.finditer(self.text, start, flat.end()))
-            self.pos = flat.end()
-            self.end = flat.end()
+            value: Expr
+            if flat:
+                value = self.numbers(start, end, line, base)
+            else:
+                value = AggregateNode(line, start - base, start, end, tuple([
+                    self.numbers(m.start(), m.end(), line, base)
+                    for m in _FLAT.finditer(text, start + 1, end)]))
+            self.pos = self.end = end
             self.advance()
-            return AggregateNode(line, col0, start, flat.end(), items)
+            return value
         self.advance()
         items_: list[Expr] = []
         if not self.at("]"):
-            items_.append(self.expr())
+            items_.append(self.item())
             while self.accept(","):
-                items_.append(self.expr())
+                items_.append(self.item())
         if not self.accept("]"):
             self.fail(f"expected ',' or ']' in the value begun at line {self.where(start)[0]}"
                       f", found {self.shown()}")

@@ -152,6 +152,14 @@ def test_operator_precedence(text, value):
     assert shape(parse_expression(text)) == value
 
 
+def test_a_number_after_an_instruction_is_an_argument_not_a_component():
+    m = parse_module("MODULE m\n  PROC p()\n    WaitTime .01;\n    a.b := 1;\n  ENDPROC\n"
+                     "ENDMODULE\n")
+    wait, assign = m.routines[0].body
+    assert isinstance(wait, ProcCall) and wait.args[0].value.text == ".01"
+    assert isinstance(assign, Assign)
+
+
 def test_string_escapes():
     s = parse_expression('"say ""hi"" \\\\ \\41"')
     assert isinstance(s, Str) and s.value == 'say "hi" \\ A'
