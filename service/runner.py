@@ -37,6 +37,7 @@ import numpy as np
 import serial
 
 from protocol.arm import ArmReader
+from protocol.arm_url import check_arm_url
 from protocol.client import ControllerClient, Timeouts
 from protocol.errors import (
     ArmLineError,
@@ -66,7 +67,7 @@ from screwcal.performance.straightness import straightness
 from service.errors import ConflictError, SafetyError, StoreFullError, StoreLostError
 from service.events import JobEvents
 from service.plans import PlannedPose, plan_for
-from service.readings import MotionTolerance, PoseReading, refusal
+from service.readings import EarlierReadings, MotionTolerance, PoseReading, refusal
 from service.settings import ServiceSettings
 from service.store import Store
 
@@ -275,7 +276,8 @@ class JobRunner:
             # a few quick tries: the controller may not yet have seen the last client leave
             await self.client.reconnect(attempts=3, first_delay_s=0.05)
         if self.arm is None:
-            self.arm = await asyncio.to_thread(ArmReader, self.robot["arm_url"])
+            url = check_arm_url(self.robot["arm_url"])  # a record older than the check too
+            self.arm = await asyncio.to_thread(ArmReader, url)
 
     async def _disconnect(self) -> None:
         if self.client is not None:
@@ -307,6 +309,10 @@ class JobRunner:
         last = self.store.last_measurement(self.job_id)
         previous = None if last is None else self._reading(
             last["holes_mm"], last["flange_pose"], last["joints_deg"])
+        earlier = EarlierReadings.empty()
+        for row in self.store.measurements(self.job_id):
+            earlier = earlier.plus(self._reading(row["holes_mm"], row["flange_pose"],
+                                                 row["joints_deg"]), f"{row['phase']}/{row['idx']}")
         while True:
             measured = self.store.measured_indices(self.job_id, phase)  # once per chunk
             todo = [p for p in plan if p.idx not in measured]
@@ -321,11 +327,13 @@ class JobRunner:
 
             async for got in self.client.run(list_name, "STEP", on_wait=gate, count=len(chunk)):
                 planned = chunk[got.idx]
-                reading = await self._read_pose(phase, planned.idx, got.joints_deg, previous)
+                reading = await self._read_pose(phase, planned.idx, got.joints_deg, previous,
+                                                earlier)
                 self.store.add_measurement(self.job_id, phase, planned.idx, list(got.joints_deg),
                                            list(got.tool0), reading.holes_mm.tolist(),
                                            pose_from_transform(reading.flange).tolist())
                 previous = reading
+                earlier = earlier.plus(reading, f"{phase}/{planned.idx}")
                 done += 1
                 await self.events.publish("measured", phase=phase, index=planned.idx,
                                           done=done, total=len(plan))
@@ -337,7 +345,8 @@ class JobRunner:
         return PoseReading(np.asarray(holes_mm, dtype=float), flange, nominal)
 
     async def _read_pose(self, phase: str, idx: int, joints_deg: Any,
-                         previous: PoseReading | None) -> PoseReading:
+                         previous: PoseReading | None, earlier: EarlierReadings
+                         ) -> PoseReading:
         """The arm reading of the pose the robot reported arriving at (service/readings.py): a
         duplicated, stale or early triple is discarded and logged and the next one read; when
         none is accepted in time, the arm is asked to probe again (`remeasure_attempts`), then
@@ -363,7 +372,7 @@ class JobRunner:
             flange = self.flange.flange_poses(points)[0]
             nominal = flange_kinematics(self.model, np.radians([joints_deg]))[0]
             reading = PoseReading(points, flange, nominal)
-            refused = refusal(previous, reading, tol)
+            refused = refusal(previous, reading, tol, earlier)
             if refused is None:
                 return reading
             kind, why = refused
@@ -379,11 +388,13 @@ class JobRunner:
             return
         job_result = dict(self.store.job(self.job_id)["result"] or {})
         job_result["arm_readings_discarded"] = {
-            "duplicate": self.discarded["duplicate"], "motion": self.discarded["motion"],
+            "duplicate": self.discarded["duplicate"], "stale": self.discarded["stale"],
+            "motion": self.discarded["motion"],
             "bad_lines": len(self.arm.problems),
             "meaning": "arm triples not used as a pose's reading: repeats of the previous "
-                       "pose's, readings whose measured motion disagreed with the commanded "
-                       "one (stale, early), and lines that broke a triple"}
+                       "pose's, re-probes of a pose the robot had left (stale), readings whose "
+                       "measured motion disagreed with the commanded one (early, foreign), and "
+                       "lines that broke a triple"}
         self.job = self.store.set_job(self.job_id, result=job_result)
 
     async def _gate(self, phase: str, planned: PlannedPose, note: str = "") -> None:

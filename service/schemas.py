@@ -7,6 +7,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
+from protocol.arm_url import ArmUrlError, check_arm_url
 from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM, FlangeError, MeasuringFlange
 
 SQLITE_MAX_ID = 2**63 - 1  # SQLite's INTEGER: a larger id can name nothing (and must not 500)
@@ -21,8 +22,10 @@ class RobotCreate(BaseModel):
                                  description="host name or IP address of the controller")
     controller_port: int = Field(4012, ge=1, le=65535)
     arm_url: str = Field(min_length=1, max_length=200,
-                         description="pyserial URL of the measuring arm: a port, socket://...")
-    model: str | dict[str, Any] = Field("irb1600", description="built-in name or a model file")
+                         description="the measuring arm: a serial device (/dev/ttyUSB0, COM3), "
+                         "socket://HOST:PORT, rfc2217://HOST:PORT or loop://")
+    model: str | dict[str, Any] = Field(
+        "irb1600", description="a built-in robot name or a model document (never a server path)")
     holes_mm: list[list[float]] = Field(
         default_factory=lambda: [list(h) for h in DEFAULT_HOLES_IN_FLANGE_MM],
         description="the measuring flange's holes P1, P2, P3 in the tool0 frame, mm")
@@ -48,10 +51,10 @@ class RobotCreate(BaseModel):
     @field_validator("arm_url")
     @classmethod
     def _url(cls, v: str) -> str:
-        if any(c.isspace() or not c.isprintable() for c in v):
-            raise ValueError("a pyserial URL or port name, without spaces (e.g. "
-                             "socket://host:port, /dev/ttyUSB0, COM3)")
-        return v
+        try:  # no scheme or path a cell does not use (spy:// writes files, paths open files)
+            return check_arm_url(v)
+        except ArmUrlError as err:
+            raise ValueError(str(err)) from None
 
 
 class RobotPublic(BaseModel):

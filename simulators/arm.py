@@ -4,6 +4,10 @@ line such as `MEASURE`), and streams them as `$PT` lines over TCP (open it as
 `socket://host:port`) and over a pty (a real serial device path). Holes beyond the reach are not
 measured: the stream says so with a `$NM` line.
 
+A real arm line is not that kind: `ArmFaults` makes the emulator send some triples twice (the copy
+0.12 s later), some late, and some stale (a fresh probe of a pose the robot has left, sent at a
+random moment later, e.g. between the next go-ahead and the arrival), each at random from a seed.
+
 The robot's state comes from a `HoleSource`: the shared `World` in one process, or the world
 file that `screwcal emulator irc5 --world FILE` keeps up to date, from another.
 """
@@ -15,6 +19,7 @@ import contextlib
 import json
 import os
 import uuid
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
@@ -26,6 +31,38 @@ from simulators.world import World
 
 REACH_MM = 1200.0
 NOISE_MM = 0.013
+
+
+@dataclass(frozen=True)
+class ArmFaults:
+    """What a careless arm line does, each with its probability per arrival (0: never)."""
+
+    duplicate: float = 0.0  # the triple sent again, same numbers, new SEQs, `duplicate_s` later
+    late: float = 0.0  # the triple sent `late_s` after the arrival instead of at once
+    stale: float = 0.0  # a fresh probe of this pose sent 0.05-`stale_s` s later (robot gone)
+    duplicate_s: float = 0.12
+    late_s: float = 0.4
+    stale_s: float = 0.6
+
+    def __post_init__(self) -> None:
+        for name in ("duplicate", "late", "stale"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"arm fault {name}: a probability in [0, 1], "
+                                 f"not {getattr(self, name)}")
+
+    @classmethod
+    def parse(cls, text: str) -> ArmFaults:
+        """`duplicate=0.2,late=0.1,stale=0.1` (the CLI's form)."""
+        values: dict[str, float] = {}
+        for item in filter(None, (t.strip() for t in text.split(","))):
+            name, _, value = item.partition("=")
+            if name not in ("duplicate", "late", "stale"):
+                raise ValueError(f"arm fault {name!r}: one of duplicate, late, stale")
+            try:
+                values[name] = float(value)
+            except ValueError:
+                raise ValueError(f"arm fault {name}: {value!r} is not a number") from None
+        return cls(**values)
 
 
 class HoleSource(Protocol):
@@ -88,8 +125,12 @@ class WorldFileSource:
 
 class ArmEmulator:
     def __init__(self, source: HoleSource, *, noise_mm: float = NOISE_MM,
-                 reach_mm: float = REACH_MM, seed: int | None = None):
+                 reach_mm: float = REACH_MM, seed: int | None = None,
+                 faults: ArmFaults | None = None):
         self.source = source
+        self.faults = faults or ArmFaults()
+        self.fault_rng = np.random.default_rng(None if seed is None else seed + 1)
+        self.sent_faults: dict[str, int] = {"duplicate": 0, "late": 0, "stale": 0}
         self.noise_mm, self.reach_mm = noise_mm, reach_mm
         self.rng = np.random.default_rng(seed)
         self._clients: dict[asyncio.StreamWriter, int] = {}  # writer -> last SEQ sent
@@ -143,16 +184,34 @@ class ArmEmulator:
         if self._pty_master is not None:
             asyncio.get_running_loop().remove_reader(self._pty_master)
             os.close(self._pty_master)
+            self._pty_master = None  # a fault's copy due later must not write to a reused fd
 
     async def _follow(self) -> None:
         """Probe and stream every time the robot arrives somewhere."""
         seen = 0
+        loop = asyncio.get_running_loop()
+        f = self.faults
         while True:
             seen = await self.source.wait_arrival(seen)
             probe = self.probe()
-            for writer in list(self._clients):
+            draw = self.fault_rng.random(4)
+            delay = f.late_s if draw[0] < f.late else 0.0
+            self.sent_faults["late"] += bool(delay)
+            loop.call_later(delay, self._broadcast, probe)
+            if draw[1] < f.duplicate:  # the very same numbers again
+                self.sent_faults["duplicate"] += 1
+                loop.call_later(delay + f.duplicate_s, self._broadcast, probe)
+            if draw[2] < f.stale:  # this pose probed again once the robot may have left
+                self.sent_faults["stale"] += 1
+                stale = self.probe()
+                loop.call_later(delay + 0.05 + draw[3] * (f.stale_s - 0.05),
+                                self._broadcast, stale)
+
+    def _broadcast(self, probe: list[tuple[str, Array | None]]) -> None:
+        for writer in list(self._clients):
+            if not writer.is_closing():
                 self._send(writer, probe)
-            self._send_pty(probe)
+        self._send_pty(probe)
 
     def _send(self, writer: asyncio.StreamWriter, probe: list[tuple[str, Array | None]]) -> None:
         first = self._clients[writer] + 1

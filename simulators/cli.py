@@ -3,6 +3,7 @@
     screwcal emulator irc5 --host 127.0.0.1 --port 4012 [--errors FILE | --seed N]
                            [--time-scale X] [--world FILE] [--arm-port P]
     screwcal emulator arm --port PORT [--world FILE] [--pty]
+    (both: [--arm-faults duplicate=P,late=P,stale=P])
 
 Each prints its bound address on one line (`--port 0` picks a free port). The true robot is the
 nominal IRB 1600 with the thesis's Table 11 errors, or the virtual-joint errors of a JSON file
@@ -49,7 +50,7 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
     arm = None
     if args.arm_port is not None:
         noise_seed = args.seed if args.noise_seed is None else args.noise_seed
-        arm = ArmEmulator(world, seed=noise_seed)
+        arm = ArmEmulator(world, seed=noise_seed, faults=args.arm_faults)
         arm_host, arm_port = await arm.start(args.host, args.arm_port)
         line += f"; measuring arm on socket://{arm_host}:{arm_port}"
     stopped = stop_on_signals()
@@ -72,7 +73,7 @@ async def _serve_arm(args: argparse.Namespace) -> None:
               "world file the irc5 emulator printed", file=sys.stderr)
     world = Path(args.world) if args.world else \
         Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "none.json"
-    arm = ArmEmulator(WorldFileSource(world), seed=args.seed)
+    arm = ArmEmulator(WorldFileSource(world), seed=args.seed, faults=args.arm_faults)
     host, port = await arm.start(args.host, args.port, pty=args.pty)
     line = f"measuring arm on socket://{host}:{port}"
     if arm.pty_path:
@@ -140,6 +141,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                       "(default: a new private folder per run, printed on start)")
     irc5.add_argument("--arm-port", type=int, default=None,
                       help="also serve the measuring arm on this TCP port")
+    _add_arm_faults(irc5)
     irc5.set_defaults(func=run)
     arm = which.add_parser("arm", help="the measuring arm ($PT lines)", description=__doc__,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -148,4 +150,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     arm.add_argument("--world", help="the world file a running irc5 emulator printed")
     arm.add_argument("--pty", action="store_true", help="also serve a pty (a serial device)")
     arm.add_argument("--seed", type=int, default=None, help="noise seed")
+    _add_arm_faults(arm)
     arm.set_defaults(func=run)
+
+
+def _arm_faults(text: str) -> object:
+    from simulators.arm import ArmFaults
+
+    try:
+        return ArmFaults.parse(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def _add_arm_faults(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--arm-faults", type=_arm_faults, default=None, metavar="NAME=P,...",
+                   help="a careless arm line: probabilities per arrival of a triple sent twice "
+                        "(duplicate), late, or a stale re-probe sent later (stale), e.g. "
+                        "duplicate=0.3,late=0.2,stale=0.2 (seeded with the noise seed)")
