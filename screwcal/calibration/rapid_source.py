@@ -160,7 +160,10 @@ def read_rapid_module(path: str, text: str) -> RapidModule:
         if kind in DECLARED_KINDS:
             value = None if d.value is None else _value(d.value, text)
             module.declarations.append(Declaration(kind, d.name, d.line, value))
-    found = _calls(tuple(d.value for d in data if d.value is not None)) + _calls(parsed.routines)
+    # calls in data values (`:= Offs(...)`): only where the value's text holds a parenthesis
+    values = tuple(d.value for d in data if d.value is not None
+                   and text.find("(", d.value.start, d.value.end) >= 0)
+    found = _calls(values) + _calls(parsed.routines)
     for node in sorted(found, key=attrgetter("start")):
         if type(node) is rapid.ProcCall and node.key in MOTIONS:
             module.motions.append(_motion(node, text, line_of(node.start)))

@@ -89,6 +89,9 @@ _FLAT = re.compile(r"\[[ \t]*[-+]?" + _NUMBER + r"(?:[ \t]*,[ \t]*[-+]?" + _NUMB
 _NESTED = re.compile(r"\[[ \t]*" + _FLAT.pattern + r"(?:[ \t]*,[ \t]*" + _FLAT.pattern
                      + r")*[ \t]*\]")
 
+# A procedure call whose arguments are all names, on one line (the rest of most statements).
+_PLAIN_CALL = re.compile(r"[ \t]+([A-Za-z]\w*(?:[ \t]*,[ \t]*[A-Za-z]\w*)*)[ \t]*;")
+_NAME = re.compile(r"[A-Za-z]\w*")
 _AFTER_NAME = re.compile(r"\s*(:=|:|\{|\.(?!\d)|!)")
 _ATOMS = frozenset(("id", "num", "str"))
 _ENDS = {"PROC": "ENDPROC", "FUNC": "ENDFUNC", "TRAP": "ENDTRAP"}
@@ -446,9 +449,28 @@ class _Parser:
             val = self.expr()
             self.expect(";", " after the assignment")
             return Assign(*self.loc(start), target, val)
+        plain = _PLAIN_CALL.match(self.text, self.end)
+        if plain:  # `MoveJ p10, v1000, z50, tool0;`: names only, on one line
+            return self.plain_call(start, value, plain)
         self.advance()
         args = self.arguments(";")
         return ProcCall(*self.loc(start), value, args)
+
+    def plain_call(self, start: int, name: str, plain: re.Match[str]) -> ProcCall:
+        line = bisect_right(self.starts, start)
+        base = self.starts[line - 1] - 1
+        args = []
+        for m in _NAME.finditer(self.text, plain.start(1), plain.end(1)):
+            a, b = m.span()
+            word = m.group()
+            if word.upper() in KEYWORDS:  # not a plain call after all: the general way
+                self.advance()
+                return ProcCall(*self.loc(start), name, self.arguments(";"))
+            arg = Name(line, a - base, a, b, word)
+            args.append(Argument(line, a - base, a, b, arg))
+        self.pos = self.end = plain.end()
+        self.advance()
+        return ProcCall(line, start - base, start, plain.end(), name, tuple(args))
 
     def if_(self, start: int) -> If:
         self.advance()

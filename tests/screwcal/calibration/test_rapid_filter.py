@@ -90,6 +90,41 @@ def test_a_broken_declaration_names_the_file_and_line():
         read_rapid_module("bad.mod", "MODULE m\n  CONST robtarget p:=[[1,2,3],[1,0,0,0];\n")
 
 
+def test_the_module_is_read_by_the_parser_whole():
+    """Text after ENDMODULE (two modules pasted into one file) was ignored by the old reader;
+    the parser refuses it with its line and column."""
+    text = EVERY_FORM.read_text() + "MODULE Second\nENDMODULE\n"
+    with pytest.raises(DataFileError, match=r"m\.mod, line 42: text after ENDMODULE.*column 1"):
+        read_rapid_module("m.mod", text)
+
+
+def test_a_target_computed_by_an_expression_is_refused_with_its_line():
+    """A robtarget whose value (or one of its numbers) is an expression: listed, not a crash."""
+    text = ("MODULE m\n  CONST num X0 := 800;\n"
+            "  CONST robtarget pBase:=[[900,0,900],[0,0,1,0],[0,0,0,0],"
+            "[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  CONST robtarget pOff := Offs(pBase, 0, 0, 10);\n"
+            "  CONST robtarget pExpr:=[[X0 + 10,0,900],[0,0,1,0],[0,0,0,0],"
+            "[9E9,9E9,9E9,9E9,9E9,9E9]];\nENDMODULE\n")
+    out, report = filter_rapid(read_rapid_module("m.mod", text), _table11(), irb1600())
+    refused = {(n.line, n.name): n.reason for n in report.refused}
+    assert set(refused) == {(4, "pOff"), (5, "pExpr")}
+    assert all("expression" in why for why in refused.values())
+    assert report.compensated == 1 and (4, "Offs") in {(n.line, n.name) for n in
+                                                         report.not_static}
+    assert out.splitlines()[3:] == text.splitlines()[3:]  # left as written
+
+
+def test_the_tool_of_a_motion_with_a_signal_is_after_the_zone():
+    """MoveLDO ToPoint, Speed, Zone, Tool, Signal, Value: the tool is not the last argument."""
+    module = read_rapid_module("m.mod", "MODULE m\n  PROC p()\n"
+                               "    MoveLDO p1, v100, z10, tGun \\WObj:=wT, doOut, 1;\n"
+                               "    TriggL p2, v100, trigg1 \\T2:=trigg2, z10, tGun;\n"
+                               "    MoveC p3, p4, v100, z10, tGun;\n  ENDPROC\nENDMODULE\n")
+    assert [(m.targets, m.tool, m.wobj) for m in module.motions] == [
+        (["p1"], "tGun", "wT"), (["p2"], "tGun", "wobj0"), (["p3", "p4"], "tGun", "wobj0")]
+
+
 def _module_of(poses_T: np.ndarray, conf: np.ndarray) -> str:
     lines = ["MODULE Many"]
     for k, (T, c) in enumerate(zip(poses_T, conf, strict=True)):

@@ -160,6 +160,21 @@ def test_a_number_after_an_instruction_is_an_argument_not_a_component():
     assert isinstance(assign, Assign)
 
 
+def test_a_call_of_plain_names_reads_as_any_call():
+    """The one-line fast path for `MoveJ p, v, z, tool;` gives the nodes the general path
+    gives (here forced by a comment inside the statement)."""
+    fast = parse_module("MODULE m\n  PROC p()\n    MoveJ p1, v1000,z50 , tool0 ;\n"
+                        "  ENDPROC\nENDMODULE\n").routines[0].body[0]
+    slow = parse_module("MODULE m\n  PROC p()\n    MoveJ p1, v1000,z50 , ! c\ntool0 ;\n"
+                        "  ENDPROC\nENDMODULE\n").routines[0].body[0]
+    assert (fast.line, fast.col, fast.start, fast.end) == (3, 5, 24, 53)
+    assert fast.args[:3] == slow.args[:3]
+    assert [a.value.name for a in fast.args] == [a.value.name for a in slow.args]
+    assert (fast.args[3].value.line, fast.args[3].value.col) == (3, 27)
+    keyword = parse_module("MODULE m\n  PROC p()\n    Foo a, NOT b;\n  ENDPROC\nENDMODULE\n")
+    assert isinstance(keyword.routines[0].body[0].args[1].value, Unary)
+
+
 def test_string_escapes():
     s = parse_expression('"say ""hi"" \\\\ \\41"')
     assert isinstance(s, Str) and s.value == 'say "hi" \\ A'
