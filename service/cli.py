@@ -161,7 +161,8 @@ class Operator:
                     if not ask_for(waiting, event["joints_deg"], event.get("note", "")):
                         out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
                         return "waiting"
-                elif kind in ("phase", "paused", "resumed", "corrected", "failed", "warning"):
+                elif kind in ("phase", "paused", "resumed", "corrected", "failed", "warning",
+                              "discarded", "stale"):
                     out(f"{kind}: " + ", ".join(f"{k}={v}" for k, v in event.items()
                                                if k not in ("kind", "seq", "time")))
                 elif kind == "end":
