@@ -48,6 +48,15 @@ def _host_port(url: str, scheme: str) -> None:
 
 def check_arm_url(url: str) -> str:
     """`url` itself when a cell may use it, else `ArmUrlError` naming the allowed forms."""
+    try:
+        return _checked(url)
+    except ArmUrlError as err:
+        if "allowed: " + ALLOWED in str(err):
+            raise
+        raise ArmUrlError(f"{err}; allowed: {ALLOWED}") from None
+
+
+def _checked(url: str) -> str:
     if any(c.isspace() or not c.isprintable() for c in url):
         raise ArmUrlError(f"{url!r}: spaces or control characters; allowed: {ALLOWED}")
     if _DEVICE.match(url) and ".." not in url:

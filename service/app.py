@@ -25,7 +25,7 @@ from swagger_ui_bundle import swagger_ui_path
 
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.modelfile import model_document, parse_model
-from screwcal.kinematics.robots import builtin_model
+from screwcal.kinematics.robots import BUILTIN_MODELS, builtin_model
 from service.errors import ConflictError, NotFoundError, SafetyError, StoreError, StoreLostError
 from service.manager import JobManager
 from service.plans import LISTS_OF_KIND, plan_for
@@ -157,7 +157,13 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
 
     @robots.post("", status_code=201, response_model=RobotPublic)
     def create_robot(body: RobotCreate, _: Auth, store: StoreDep) -> dict:
-        try:  # a built-in name or a document: never a path on the server
+        if isinstance(body.model, str) and body.model not in BUILTIN_MODELS:
+            # never a path on the server: not opened, and one message whatever the path
+            raise HTTPException(422, f"model: {body.model[:80]!r} is not a built-in robot "
+                                f"({', '.join(sorted(BUILTIN_MODELS))}); send the model "
+                                "itself as a JSON document (`screwcal job robot-add --model "
+                                "FILE` reads FILE on your side and sends it)")
+        try:
             model = builtin_model(body.model) if isinstance(body.model, str) else \
                 parse_model(body.model, "model")
         except ScrewcalError as err:

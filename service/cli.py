@@ -97,6 +97,24 @@ class Operator:
     def start(self, **body: Any) -> dict:
         return self._check(self.http.post("/jobs", json=body))
 
+    def robots(self) -> list[dict]:
+        return self._check(self.http.get("/robots"))
+
+    def jobs(self) -> list[dict]:
+        return self._check(self.http.get("/jobs"))
+
+    def robot_id(self, name_or_id: str) -> int:
+        """A robot named by its id or its (unique) name."""
+        robots = self.robots()
+        for r in robots:
+            if r["name"] == name_or_id:
+                return int(r["id"])
+        if name_or_id.isdigit() and any(r["id"] == int(name_or_id) for r in robots):
+            return int(name_or_id)
+        known = ", ".join(f"{r['id']} ({r['name']})" for r in robots) or "none yet"
+        raise ServiceError(f"no robot {name_or_id!r} on the service; robots: {known} "
+                           "(screwcal job robot-add)")
+
     def job(self, job_id: int) -> dict:
         return self._check(self.http.get(f"/jobs/{job_id}"))
 
@@ -131,8 +149,22 @@ class Operator:
                 return True
             asked.add(key)
             where = f" (joints {joints})" if joints is not None else ""
-            answer = ask(f"{note + '. ' if note else ''}robot will move to {key[0]} pose "
-                         f"{key[1]}{where}: go? [y/N] ")
+            prompt = (f"{note + '. ' if note else ''}robot will move to {key[0]} pose "
+                      f"{key[1]}{where}: go? [y/N] ")
+            try:
+                answer = ask(prompt)
+            except EOFError:  # no one to answer: the robot does not move
+                return False
+            except KeyboardInterrupt:
+                out("")
+                try:
+                    stop = ask(f"abort job {job_id}? [y/N] ")
+                except (EOFError, KeyboardInterrupt):
+                    stop = "n"
+                if stop.strip().lower() == "y":
+                    self.abort(job_id)
+                    out(f"job {job_id}: abort requested")
+                return False
             if answer.strip().lower() != "y":
                 return False
             self.go(job_id, key[1])
@@ -253,6 +285,27 @@ def _route_lines(corr: dict, suffix: str) -> list[str]:
     return lines
 
 
+def _model_argument(model: str) -> str | dict:
+    """A built-in robot's name as it is; anything else is a file read on this side and sent as
+    a document (the service never opens a path a client names)."""
+    from screwcal.kinematics.robots import BUILTIN_MODELS
+
+    if model in BUILTIN_MODELS:
+        return model
+    path = Path(model).expanduser()
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise ServiceError(f"--model {model}: not a built-in robot "
+                           f"({', '.join(sorted(BUILTIN_MODELS))}) and cannot read it as a "
+                           f"file: {err.strerror}") from None
+    except ValueError as err:
+        raise ServiceError(f"--model {model}: not JSON ({err})") from None
+    if not isinstance(doc, dict):
+        raise ServiceError(f"--model {model}: a model file is a JSON object")
+    return doc
+
+
 def _write(path: str, text: str) -> None:
     try:
         Path(path).write_text(text, encoding="utf-8")
@@ -286,9 +339,22 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                 raise ServiceError(f"--controller is HOST:PORT (e.g. 127.0.0.1:4012), not "
                                    f"{args.controller!r}")
             robot = op.add_robot(name=args.name, controller_host=host,
-                                 controller_port=int(port), arm_url=args.arm, model=args.model)
+                                 controller_port=int(port), arm_url=args.arm,
+                                 model=_model_argument(args.model))
             print(f"robot {robot['id']}: {robot['name']}")
+        elif args.action == "robot-list":
+            for r in op.robots():
+                print(f"{r['id']:>4}  {r['name']:<24} controller {r['controller_host']}:"
+                      f"{r['controller_port']}  arm {r['arm_url']}")
+        elif args.action == "list":
+            for j in op.jobs():
+                print(f"{j['id']:>4}  robot {j['robot_id']:<4} {j['kind']:<12} {j['mode']:<5} "
+                      f"{j['state']:<8} {j.get('reason') or ''}".rstrip())
         elif args.action == "start":
+            if args.mode == "STEP" and not args.no_watch and not sys.stdin.isatty():
+                raise ServiceError("a STEP job asks before every move, and there is no terminal "
+                                   "to answer: run it from a terminal, or start it with "
+                                   "--no-watch and answer with `screwcal job watch ID` there")
             options: dict[str, Any] = {"cycles": args.cycles,
                                        "calibration_poses": args.poses, "model": args.model,
                                        "correction": args.correction}
@@ -296,13 +362,17 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                 options["arm_position_mm"] = args.arm_position
             if args.frame_from_job:
                 options["frame_from_job"] = args.frame_from_job
-            job = op.start(robot_id=args.robot, kind=args.kind, mode=args.mode, options=options)
+            job = op.start(robot_id=op.robot_id(args.robot), kind=args.kind, mode=args.mode,
+                           options=options)
             print(f"job {job['id']} started ({job['kind']}, {job['mode']})")
             if not args.no_watch:
                 state = op.watch(job["id"])
                 print(result_table(op.result(job["id"])))
                 return 0 if state in ("done", "waiting") else 1
         elif args.action == "watch":
+            if op.job(args.id)["state"] in ("done", "failed", "aborted"):
+                print(result_table(op.result(args.id)))  # finished: its summary, no replay
+                return 0 if op.job(args.id)["state"] == "done" else 1
             state = op.watch(args.id)
             return 0 if state in ("done", "waiting") else 1
         elif args.action == "abort":
@@ -337,13 +407,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     j.add_argument("--service", default=None, help="service URL (or SCREWCAL_SERVICE)")
     j.add_argument("--token", default=None, help="bearer token (or SCREWCAL_TOKEN)")
     actions = j.add_subparsers(dest="action", metavar="ACTION", required=True)
-    r = actions.add_parser("robot-add", help="register a robot cell")
+    common = argparse.ArgumentParser(add_help=False)  # also after the action
+    common.add_argument("--service", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    common.add_argument("--token", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    actions.add_parser("robot-list", parents=[common], help="the robots the service knows")
+    actions.add_parser("list", parents=[common], help="the jobs, newest last")
+    r = actions.add_parser("robot-add", parents=[common], help="register a robot cell")
     r.add_argument("--name", required=True)
     r.add_argument("--controller", required=True, help="HOST:PORT of the controller")
     r.add_argument("--arm", required=True, help="pyserial URL of the measuring arm")
-    r.add_argument("--model", default="irb1600", help="built-in robot or model file")
-    st = actions.add_parser("start", help="start a job and watch it")
-    st.add_argument("--robot", type=int, required=True)
+    r.add_argument("--model", default="irb1600", help="built-in robot, or a model file read "
+                   "here (relative to this directory) and sent to the service")
+    st = actions.add_parser("start", parents=[common], help="start a job and watch it")
+    st.add_argument("--robot", required=True, help="the robot's name or id")
     st.add_argument("--kind", choices=["procedure", "calibration", "performance"],
                     default="procedure")
     st.add_argument("--mode", choices=["AUTO", "STEP"], default="AUTO")
@@ -360,14 +436,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     st.add_argument("--no-watch", action="store_true")
     for name, text in (("watch", "follow a job (STEP: answer the prompts)"),
                        ("abort", "abort a job"), ("result", "print a job's result table")):
-        a = actions.add_parser(name, help=text)
+        a = actions.add_parser(name, parents=[common], help=text)
         a.add_argument("id", type=int)
-    mod = actions.add_parser("model", help="save a job's calibrated model (result document)")
+    mod = actions.add_parser("model", parents=[common],
+                             help="save a job's calibrated model (result document)")
     mod.add_argument("id", type=int)
     mod.add_argument("--out", required=True, help="JSON file to write")
     mod.add_argument("--round", type=int, choices=[1, 2], default=1,
                      help="the second calibration round's model (procedure with rounds 2)")
-    rep = actions.add_parser("report", help="save a job's report page")
+    rep = actions.add_parser("report", parents=[common], help="save a job's report page")
     rep.add_argument("id", type=int)
     rep.add_argument("--out", required=True)
     for a in actions.choices.values():

@@ -616,12 +616,21 @@ def _warnings(job_result: dict) -> list[str]:
                        f"(> {POOR_FIT_CHI2:g}): the model misses something (compliance, a loose "
                        "flange, drift) or the noise is larger than stated")
     perf = job_result.get("performance") or {}
-    before = perf.get("perf_before", {}).get("overall", {}).get("ap_mm_mean")
+    overall = perf.get("perf_before", {}).get("overall", {})
     for phase in ("perf_after", "perf_after_2"):
-        after = perf.get(phase, {}).get("overall", {}).get("ap_mm_mean")
-        if before is not None and after is not None and after > before:
-            out.append(f"accuracy got worse in {phase}: AP mean {before:.3f} -> {after:.3f} mm; "
-                       "do not use this correction")
+        after = perf.get(phase, {}).get("overall", {})
+        before_ap, after_ap = overall.get("ap_mm_mean"), after.get("ap_mm_mean")
+        if before_ap is not None and after_ap is not None and after_ap > before_ap:
+            out.append(f"accuracy got worse in {phase}: AP mean {before_ap:.3f} -> "
+                       f"{after_ap:.3f} mm; do not use this correction")
+        before_rp, after_rp = overall.get("rp_mm_mean"), after.get("rp_mm_mean")
+        # repeatability is the robot's own: a correction should not change it; a rise beyond
+        # 20 % (and 0.01 mm) says the corrected targets sit where the robot repeats worse
+        if before_rp is not None and after_rp is not None and \
+                after_rp > 1.2 * before_rp + 0.01:
+            out.append(f"repeatability got worse in {phase}: RP mean {before_rp:.3f} -> "
+                       f"{after_rp:.3f} mm (a correction should leave it unchanged): check "
+                       "the cell (warm-up, payload, fixture) before trusting the after-figures")
     return out
 
 
