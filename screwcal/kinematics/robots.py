@@ -127,19 +127,16 @@ def irb120() -> SerialModel:
                                  [-400, 400]], masses=ROBOT_MASSES["irb120"])
 
 
-def _abb(name: str, kg: float, dims: tuple, limits: list) -> Callable[[], SerialModel]:
-    h, s, u, fo, f, t = dims
-    return lambda: wrist_arm(name, base_mm=h, shoulder_mm=s, upper_arm_mm=u,
-                             forearm_offset_mm=fo, forearm_mm=f, flange_mm=t,
-                             limits_deg=limits, total_kg=kg)
-
-
 def _other(name: str, kg: float, dims: tuple, limits: list, axes: tuple, upright: bool,
            tool0: tuple[float, float, float] = ABB_TOOL0) -> Callable[[], SerialModel]:
     h, s, u, fo, f, t = dims
     return lambda: wrist_arm(name, base_mm=h, shoulder_mm=s, upper_arm_mm=u,
                              forearm_offset_mm=fo, forearm_mm=f, flange_mm=t, limits_deg=limits,
                              axes=axes, upright=upright, total_kg=kg, tool0_rxyz_deg=tool0)
+
+
+def _abb(name: str, kg: float, dims: tuple, limits: list) -> Callable[[], SerialModel]:
+    return _other(name, kg, dims, limits, ABB_AXES, True)
 
 
 def _reach(mm: float, source: str, tol: float = 0.005) -> DatasheetCheck:
