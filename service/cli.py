@@ -87,6 +87,8 @@ class Operator:
                 detail = r.json().get("detail")
             except ValueError:
                 detail = r.text
+            if isinstance(detail, list):  # a validation error: the field, the value, the rule
+                detail = "; ".join(_invalid(e) for e in detail if isinstance(e, dict))
             raise ServiceError(f"{r.request.method} {r.request.url.path}: {r.status_code} "
                                f"{detail}")
         return r.json() if r.content else None
@@ -285,6 +287,26 @@ def _route_lines(corr: dict, suffix: str) -> list[str]:
     return lines
 
 
+def _invalid(error: dict) -> str:
+    """One pydantic error as a person reads it: `options.cycles = 1: must be >= 2`."""
+    loc = ".".join(str(p) for p in error.get("loc", ()) if p != "body")
+    value = f" = {error['input']!r}" if "input" in error and not isinstance(
+        error["input"], dict) else ""
+    rule = str(error.get("msg", "invalid")).removeprefix("Value error, ")
+    return f"{loc}{value}: {rule}"
+
+
+def finite_float(text: str) -> float:
+    """An argparse type: a finite number (nan and inf are refused by name)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError(f"{text!r}: a finite number is needed")
+    return value
+
+
 def _model_argument(model: str) -> str | dict:
     """A built-in robot's name as it is; anything else is a file read on this side and sent as
     a document (the service never opens a path a client names)."""
@@ -430,7 +452,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     st.add_argument("--correction", choices=["compensate", "zero", "zero+compensate"],
                     default="compensate", help="procedure's correction route (default "
                     "compensate: the later lists' joint targets; zero: ZERO, thesis 4.5)")
-    st.add_argument("--arm-position", type=float, nargs=3, metavar=("X", "Y", "Z"))
+    st.add_argument("--arm-position", type=finite_float, nargs=3, metavar=("X", "Y", "Z"))
     st.add_argument("--frame-from-job", type=int, metavar="JOB",
                     help="performance: measure in the base frame an earlier job identified")
     st.add_argument("--no-watch", action="store_true")

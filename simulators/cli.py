@@ -106,11 +106,19 @@ def stop_on_signals() -> asyncio.Event:
 
 def run(args: argparse.Namespace) -> int:
     import asyncio  # here, not at the top: `screwcal --help` builds this parser too
+    import errno
 
     try:
         asyncio.run(_serve_irc5(args) if args.which == "irc5" else _serve_arm(args))
     except KeyboardInterrupt:
         pass
+    except OSError as err:
+        if err.errno != errno.EADDRINUSE:
+            raise
+        print(f"screwcal emulator {args.which}: a port asked for is in use (another emulator or "
+              "program): choose others with --port/--arm-port, or 0 for free ones",
+              file=sys.stderr)
+        return 2
     return 0
 
 
