@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import re
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Union
 
@@ -163,9 +165,18 @@ class ArmReader:
 
     def __init__(self, url: str, read_timeout_s: float = 0.1):
         self.url = url
-        self.port = serial.serial_for_url(url, timeout=read_timeout_s)
+        with self._port_errors():
+            self.port = serial.serial_for_url(url, timeout=read_timeout_s)
         self.decoder = ArmLineDecoder()
         self.problems: list[ArmProblem] = []
+
+    @contextmanager
+    def _port_errors(self) -> Iterator[None]:
+        """pyserial's and the OS's errors as this package's (callers catch LinkError)."""
+        try:
+            yield
+        except (serial.SerialException, OSError) as err:
+            raise ArmLineError(f"the measuring arm's port {self.url} failed: {err}") from err
 
     def close(self) -> None:
         self.port.close()
@@ -182,14 +193,16 @@ class ArmReader:
         old = self.port.timeout
         self.port.timeout = 0
         try:
-            return self.port.read(65536)
+            with self._port_errors():
+                return self.port.read(65536)
         finally:
             self.port.timeout = old
 
     def read_items(self, timeout_s: float) -> list[ArmItem]:
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
-            data = self.port.read(1)  # waits up to the port's read time-out for something
+            with self._port_errors():
+                data = self.port.read(1)  # waits up to the port's read time-out for something
             if data:
                 items = self.decoder.feed(data + self._available())
                 if items:
@@ -203,7 +216,8 @@ class ArmReader:
 
     def request(self) -> None:
         """Ask an automated arm (the emulator) to probe now."""
-        self.port.write(b"MEASURE\r\n")
+        with self._port_errors():
+            self.port.write(b"MEASURE\r\n")
 
     def read_holes(self, timeout_s: float = 5.0) -> HoleSet:
         """The next complete triple P1, P2, P3, in that order. A problem line, a label out of

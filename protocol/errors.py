@@ -6,9 +6,15 @@
     ├── ControllerError     the controller answered ERR CODE TEXT
     │   └── ControllerBusyError  ERR 16: another client owns the controller (also a LinkLostError)
     ├── SequenceError       data packets missing, repeated or out of order
-    ├── LinkLostError       the connection dropped; every pending wait fails with it
-    ├── LinkTimeoutError    a reply did not come in time
-    └── ArmLineError        a measuring-arm line is malformed, has a bad checksum or a SEQ gap
+    └── LinkError           a device link failed: reconnect and go on (a job pauses; caught as one)
+        ├── LinkLostError       the connection dropped; every pending wait fails with it
+        │   └── ControllerBusyError (above)
+        ├── LinkTimeoutError    a reply did not come in time
+        └── ArmLineError        a measuring-arm line is malformed, a hole not measured, or the
+                                arm's port failed (pyserial's and the OS's errors, translated)
+
+Errors of the libraries underneath (pyserial's SerialException, OSError) are translated at the
+boundary (`ControllerClient`, `ArmReader`): callers catch `LinkError`, never those.
 """
 
 
@@ -40,7 +46,11 @@ class ControllerError(ProtocolError):
         self.seq = seq
 
 
-class LinkLostError(ProtocolError):
+class LinkError(ProtocolError):
+    """A link to a device (controller or measuring arm) failed in a way a reconnect can cure."""
+
+
+class LinkLostError(LinkError):
     """The connection to the controller dropped."""
 
 
@@ -49,17 +59,20 @@ class ControllerBusyError(ControllerError, LinkLostError):
     Try again when that client has left (`ControllerClient.reconnect` does, with back-off)."""
 
     def __init__(self, text: str = "busy"):
-        ProtocolError.__init__(self, f"the controller is busy ({text}): another client owns it")
-        self.code, self.text, self.seq = 16, text, 0
+        super().__init__(16, text, 0)
+        self.args = (f"the controller is busy ({text}): another client owns it",)
+
+    def __str__(self) -> str:
+        return str(self.args[0])
 
 
 class SequenceError(ProtocolError):
     """Data packets of a list arrived missing, repeated or out of order."""
 
 
-class LinkTimeoutError(ProtocolError):
+class LinkTimeoutError(LinkError):
     """A reply did not arrive within its time limit."""
 
 
-class ArmLineError(ProtocolError):
+class ArmLineError(LinkError):
     """A measuring-arm line that must not be used as a measurement."""

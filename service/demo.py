@@ -23,12 +23,13 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from screwcal.instrument import STAND_MM
 from service.errors import ServiceError
 
 if TYPE_CHECKING:
     from service.settings import ServiceSettings
 
-ARM_POSITION_MM = (500.0, 0.0, 600.0)  # the emulator's default arm stand (robot frame)
+ARM_POSITION_MM = STAND_MM  # the emulator's default arm stand (robot frame)
 NOISE_SEED = 2018  # the arm's noise when no --seed is given (Table 11's errors)
 
 

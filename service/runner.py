@@ -34,18 +34,12 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-import serial
 
 from protocol.arm import ArmReader
 from protocol.arm_url import check_arm_url
 from protocol.client import ControllerClient, Timeouts
-from protocol.errors import (
-    ArmLineError,
-    ControllerError,
-    LinkLostError,
-    LinkTimeoutError,
-    ProtocolError,
-)
+from protocol.codec import MAX_LIST
+from protocol.errors import ControllerError, LinkError, LinkTimeoutError, ProtocolError
 from screwcal.calibration.correction import (
     CorrectionRefusedError,
     after_zero,
@@ -71,7 +65,6 @@ from service.readings import EarlierReadings, MotionTolerance, PoseReading, refu
 from service.settings import ServiceSettings
 from service.store import Store
 
-MAX_LIST = 200
 STEPS = {
     "performance": ("perf_before", "evaluation"),
     "calibration": ("cal", "estimation"),
@@ -90,7 +83,7 @@ POOR_FIT_CHI2 = 10.0  # chi2/dof above this with the stated noise: the model mis
 ESTIMATION_FOR = {"perf_after": "", "perf_after_2": "_2"}
 ZERO_NOTE = ("ZERO: the robot stands at the correction; enter the offsets on the FlexPendant "
              "(calibration data), then give the go-ahead")
-LINK_ERRORS = (LinkLostError, LinkTimeoutError, ArmLineError, serial.SerialException, OSError)
+LINK_ERRORS = (LinkError,)  # protocol/errors.py: lost, timed out, busy, the arm's line or port
 
 
 class JobAborted(Exception):  # noqa: N818 (control flow, not an error)

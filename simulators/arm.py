@@ -26,11 +26,13 @@ from typing import Protocol
 import numpy as np
 
 from protocol.arm import HOLE_LABELS, encode_not_measured, encode_point
+from screwcal.instrument import POSITION_NOISE_MM
+from screwcal.instrument import REACH_MM as INSTRUMENT_REACH_MM
 from screwcal.kinematics.se3 import Array
 from simulators.world import World
 
-REACH_MM = 1200.0
-NOISE_MM = 0.013
+REACH_MM = INSTRUMENT_REACH_MM
+NOISE_MM = POSITION_NOISE_MM
 
 
 @dataclass(frozen=True)

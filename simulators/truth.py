@@ -12,6 +12,7 @@ import numpy as np
 
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.errors import ModelError
+from screwcal.instrument import STAND_MM
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.modelfile import parse_model
 from screwcal.kinematics.robots import irb1600
@@ -19,7 +20,7 @@ from screwcal.kinematics.se3 import exp_twist
 from simulators.world import World
 
 # Where the measuring arm stands by default: (500, 0, 600) mm in the robot frame.
-DEFAULT_ARM_POSITION_MM = (500.0, 0.0, 600.0)
+DEFAULT_ARM_POSITION_MM = STAND_MM
 
 
 def arm_base(arm_position_mm: tuple[float, float, float]) -> np.ndarray:

@@ -23,7 +23,7 @@ ALLOWED = {
 # The root modules (errors, tables, _lazy) are the ground floor; commands/ is the top and the
 # only module of screwcal that may import service or simulators. rapid/ (the RAPID parser) is a
 # floor of its own: it imports nothing of ours, so that the simulators' interpreter can use it.
-_BASE = {"screwcal", "screwcal.errors", "screwcal.tables", "screwcal._lazy"}
+_BASE = {"screwcal", "screwcal.errors", "screwcal.tables", "screwcal._lazy", "screwcal.instrument"}
 LAYERS = {
     "rapid": {"screwcal.rapid"},
     "kinematics": {*_BASE - {"screwcal.tables"}, "screwcal.kinematics"},
@@ -65,7 +65,7 @@ def test_screwcal_layers_import_only_below(layer):
 
 
 def test_screwcal_ground_floor_imports_only_kinematics_basics():
-    for name in ("errors.py", "tables.py", "_lazy.py", "__init__.py"):
+    for name in ("errors.py", "tables.py", "_lazy.py", "__init__.py", "instrument.py"):
         ours = {n for n in _imports(ROOT / "screwcal" / name, 3) if n.startswith("screwcal")}
         assert ours <= {"screwcal.errors", "screwcal.kinematics.se3", "screwcal._lazy"}, name
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from screwcal.calibration.errors_model import ErrorModel, candidate_params
+from screwcal.instrument import ORIENTATION_NOISE_RAD, POSITION_NOISE_MM
 from screwcal.kinematics.forward import point_jacobian
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
@@ -23,8 +24,8 @@ class Design:
     exchanges: int
 
 
-def whitened_blocks(model: SerialModel, q_rad: Array, sigma_mm: float = 0.013,
-                    sigma_rad: float = 0.013 * np.sqrt(2) / 50.0, kind: str = "thesis"
+def whitened_blocks(model: SerialModel, q_rad: Array, sigma_mm: float = POSITION_NOISE_MM,
+                    sigma_rad: float = ORIENTATION_NOISE_RAD, kind: str = "thesis"
                     ) -> Array:
     """Per configuration, the (6, p) Jacobian of the error model, each row over its sigma."""
     errors = ErrorModel(model, tuple(candidate_params(model, kind, base=False,  # type: ignore[arg-type]

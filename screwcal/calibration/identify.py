@@ -80,6 +80,7 @@ from screwcal.calibration.plausible import (
     prior_sigma,
 )
 from screwcal.errors import ScrewcalError
+from screwcal.instrument import JOINT_ERROR_DEG, ORIENTATION_NOISE_DEG, POSITION_NOISE_MM
 from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, rotvec_from_rotation
@@ -94,7 +95,7 @@ COMPLIANCE_T = 5.0  # |value| / std error above which "auto" keeps a joint compl
 FREE_MIN_POSES = 200  # enough poses to let auto try a compliance per joint and arm mass
 FREE_P = 0.001  # ...and keep it when the residual's drop is this unlikely by chance
 DEFAULT_RANGES = PlausibleRanges()
-PRIOR_NOISE = (0.013, 0.013 / 50.0 * np.sqrt(2) * 180 / np.pi, 0.05)  # FARO arm, holes 50 mm
+PRIOR_NOISE = (POSITION_NOISE_MM, ORIENTATION_NOISE_DEG, JOINT_ERROR_DEG)  # screwcal/instrument.py
 
 
 @dataclass(frozen=True)

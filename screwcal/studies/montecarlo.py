@@ -21,7 +21,12 @@ from screwcal.calibration.identify import NoiseModel, identify
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.robots import irb1600
-from screwcal.studies.simulate import orientation_noise_rad, simulate_measurements
+from screwcal.studies.simulate import (
+    JOINT_NOISE_DEG,
+    NOISE_MM,
+    orientation_noise_rad,
+    simulate_measurements,
+)
 
 # Thesis Table 11, "Residuo LM": |estimated - imposed| of its one LM calibration.
 THESIS_RESIDUAL_LM = {"J1rz": 0.028, "J1pz": 0.161, "J1px": 0.184, "J2ry": 0.006,
@@ -47,7 +52,7 @@ def efficiency_study(samples: int = 200, seed: int = 0, poses: int = 40) -> list
     rng = np.random.default_rng(seed)
     truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
     q = random_configurations(poses, rng)
-    noise = NoiseModel(position_mm=0.013, joint_deg=0.05,
+    noise = NoiseModel(position_mm=NOISE_MM, joint_deg=JOINT_NOISE_DEG,
                        orientation_deg=float(np.degrees(orientation_noise_rad())))
     # The bound: the same identification on noise-free data gives the covariance at the truth.
     exact = simulate_measurements(truth, q, rng, noise_mm=0.0, joint_noise_deg=0.0)

@@ -11,13 +11,13 @@ from __future__ import annotations
 import numpy as np
 
 from screwcal.calibration.measurements import MeasurementSet
+from screwcal.instrument import HOLE_SPACING_MM, JOINT_ERROR_DEG, POSITION_NOISE_MM
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, rotation_from_rotvec
 
-NOISE_MM = 0.013
-JOINT_NOISE_DEG = 0.05
-HOLE_SPACING_MM = 50.0
+NOISE_MM = POSITION_NOISE_MM  # the instrument's figures (screwcal/instrument.py)
+JOINT_NOISE_DEG = JOINT_ERROR_DEG
 
 
 def orientation_noise_rad(noise_mm: float = NOISE_MM, hole_spacing_mm: float = HOLE_SPACING_MM

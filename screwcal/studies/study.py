@@ -42,11 +42,16 @@ from screwcal.studies.distance_only import (
     distance_conclusion,
     sample_distance_only,
 )
-from screwcal.studies.simulate import orientation_noise_rad, simulate_measurements
+from screwcal.studies.simulate import (
+    JOINT_NOISE_DEG,
+    NOISE_MM,
+    orientation_noise_rad,
+    simulate_measurements,
+)
 from screwcal.studies.thesis_metrics import pose_errors, scored
 
 Row = dict[str, float | str]
-NOISE = NoiseModel(0.013, float(np.degrees(orientation_noise_rad())), 0.05)
+NOISE = NoiseModel(NOISE_MM, float(np.degrees(orientation_noise_rad())), JOINT_NOISE_DEG)
 
 
 # -- the 6R case ----------------------------------------------------------------------------------
@@ -272,7 +277,7 @@ def sample_planar(seed: int) -> list[Row]:
     rng = np.random.default_rng(seed)
     nominal = planar_model()
     truth = apply_virtual_joints(nominal, PLANAR_ERRORS)
-    noise = NoiseModel(0.013, 1e-4, 0.05)
+    noise = NoiseModel(NOISE_MM, 1e-4, JOINT_NOISE_DEG)
     every = np.radians(np.vstack([PLANAR_SETS_DEG[n] for n in PLANAR_SETS_DEG]))
     rows = []
     for name, configs in PLANAR_SETS_DEG.items():
