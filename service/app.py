@@ -23,6 +23,7 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from fastapi.staticfiles import StaticFiles
 from swagger_ui_bundle import swagger_ui_path
 
+from screwcal.calibration.blas_threads import hold_one_blas_thread
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.modelfile import model_document, parse_model
 from screwcal.kinematics.robots import BUILTIN_MODELS, builtin_model
@@ -108,8 +109,12 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
         app.state.planning = set()  # robots whose job is being planned by a request now
         app.state.plans = asyncio.Semaphore(settings.max_concurrent_plans)
         manager.resume_unfinished()
-        yield
-        await manager.stop()
+        # one BLAS thread for the service's whole life: jobs call BLAS in many worker threads
+        # at once, a limit set and restored around each identification left the others the
+        # spinning default pools (screwcal/calibration/blas_threads.py)
+        with hold_one_blas_thread():
+            yield
+            await manager.stop()
         own.close()
 
     app = FastAPI(title="screwcal job service", version="1", lifespan=lifespan,

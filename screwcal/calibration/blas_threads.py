@@ -8,10 +8,22 @@ cores the two spinning pools and the caller compete for the cores: measured on 2
 (40, 6, 6) inverse right after a scipy decomposition took 40-110 ms instead of 0.1 ms, and one
 identification of 40 poses 85 ms instead of 24 ms (`benchmarks/calibration.py`).
 
-`one_blas_thread()` sets every loaded BLAS to one thread through the libraries' own setters
-(threadpoolctl) and puts back what was there when the last concurrent user leaves (the job
-service identifies in worker threads). The user's own settings (OPENBLAS_NUM_THREADS, ...)
-outside it are left alone.
+The limit is process-wide (OpenBLAS keeps one thread count per library, not per thread), so
+it is held by whoever owns the process's threads:
+
+- `hold_one_blas_thread()`: for a process that runs screwcal in several threads (the job
+  service, for its whole lifespan). Every BLAS is at one thread from its start to its end.
+  Setting and restoring the limit around each identification instead gave the other worker
+  threads (FK, evaluation, scipy in other jobs) the default pools back whenever no
+  identification happened to run: twenty jobs at once beside two CPU-bound processes took
+  7-26 s instead of 4 s (issue 29).
+- `pin_one_blas_thread()`: the same for the rest of a worker process's life (study workers).
+- `one_blas_thread()`: around one identification in a single-threaded program (the CLI);
+  within a hold it changes nothing.
+
+The limits are set through the libraries' own setters (threadpoolctl, which sees only the
+libraries loaded when it is first used: the holds load numpy's and scipy's first). The user's
+own settings (OPENBLAS_NUM_THREADS, ...) outside them are left alone.
 """
 
 from __future__ import annotations
@@ -21,15 +33,13 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["one_blas_thread"]
+__all__ = ["hold_one_blas_thread", "one_blas_thread", "pin_one_blas_thread"]
 
 _lock = threading.Lock()
 _state: dict[str, Any] = {"controller": None, "users": 0, "limiter": None}
 
 
-@contextmanager
-def one_blas_thread() -> Iterator[None]:
-    """Within: every BLAS library loaded in the process runs one thread."""
+def _enter() -> None:
     with _lock:
         if _state["users"] == 0:
             if _state["controller"] is None:
@@ -38,11 +48,45 @@ def one_blas_thread() -> Iterator[None]:
                 _state["controller"] = ThreadpoolController()
             _state["limiter"] = _state["controller"].limit(limits=1, user_api="blas")
         _state["users"] += 1
+
+
+def _leave() -> None:
+    with _lock:
+        _state["users"] -= 1
+        if _state["users"] == 0:
+            _state["limiter"].restore_original_limits()
+            _state["limiter"] = None
+
+
+def _load_blas() -> None:
+    """numpy's and scipy's OpenBLAS in the process, so that the limit covers both."""
+    import numpy.linalg  # noqa: F401
+    import scipy.linalg  # noqa: F401
+
+    with _lock:
+        if _state["users"] == 0:
+            _state["controller"] = None  # scan again: a library may have loaded since
+
+
+@contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Within: every BLAS library loaded in the process runs one thread."""
+    _enter()
     try:
         yield
     finally:
-        with _lock:
-            _state["users"] -= 1
-            if _state["users"] == 0:
-                _state["limiter"].restore_original_limits()
-                _state["limiter"] = None
+        _leave()
+
+
+@contextmanager
+def hold_one_blas_thread() -> Iterator[None]:
+    """Within: numpy's and scipy's BLAS run one thread, whatever other threads enter and leave."""
+    _load_blas()
+    with one_blas_thread():
+        yield
+
+
+def pin_one_blas_thread() -> None:
+    """numpy's and scipy's BLAS at one thread for the rest of this process's life."""
+    _load_blas()
+    _enter()

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from screwcal.calibration.blas_threads import pin_one_blas_thread
 from screwcal.calibration.design import d_optimal, log_det
 from screwcal.calibration.identify import NoiseModel, identify
 from screwcal.calibration.measurements import MeasurementSet
@@ -497,7 +498,7 @@ def run_samples(name: str, seed: int, samples: int, workers: int,
     elif workers <= 1:
         chunks = [fn(s) for s in seeds]
     else:
-        with ProcessPoolExecutor(workers) as pool:
+        with ProcessPoolExecutor(workers, initializer=pin_one_blas_thread) as pool:
             chunks = list(pool.map(fn, seeds))
     return [{"sample": k, **row} for k, rows in enumerate(chunks) for row in rows]
 

@@ -5,7 +5,11 @@ import pytest
 from threadpoolctl import ThreadpoolController
 
 import screwcal.calibration.identify as identify_module
-from screwcal.calibration.blas_threads import one_blas_thread
+from screwcal.calibration.blas_threads import (
+    hold_one_blas_thread,
+    one_blas_thread,
+    pin_one_blas_thread,
+)
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.robots import irb1600
@@ -66,3 +70,25 @@ def test_identify_solves_with_one_thread(two_threads, monkeypatch, rng):
     assert seen and all(s == [1] for s in seen)
     assert blas_threads() == [2]
     assert np.isfinite(result.residuals_after).all()
+
+
+def test_a_hold_is_not_given_back_by_identifications_inside(two_threads):
+    """The job service holds one thread for its life; identifications in its worker threads
+    enter and leave one_blas_thread without restoring the default pools for the others."""
+    with hold_one_blas_thread():
+        with one_blas_thread():
+            pass
+        assert blas_threads() == [1]
+    assert blas_threads() == [2]
+
+
+def _worker_blas_threads():
+    return blas_threads()
+
+
+def test_study_workers_run_one_thread(two_threads):
+    """A study's worker processes (studies/study.py) pin one BLAS thread for their life."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(1, initializer=pin_one_blas_thread) as pool:
+        assert pool.submit(_worker_blas_threads).result() == [1]
