@@ -172,7 +172,6 @@ Message = Union[Request, Reply, Data]  # noqa: UP007
 REQUEST_VERBS = ("HELO", "STAT", "LOAD", "RUN", "GO", "MOVJ", "HOME", "ZERO", "ABRT", "BYE")
 REPLY_VERBS = ("ACK", "ERR", "STAT", "WAIT", "DONE")
 DATA_VERBS = ("j", "p")
-VERBS = tuple(dict.fromkeys(REQUEST_VERBS + REPLY_VERBS + DATA_VERBS))
 
 
 # -- encoding ------------------------------------------------------------------------------------

@@ -18,7 +18,6 @@ from screwcal.performance.iso9283 import PoseMetrics
 from service.summary import before_after
 
 # Thesis Table 13: minutes per activity of a whole calibration.
-THESIS_TABLE13_MIN = {"setup": 60, "measuring": 90, "estimation": 1}
 CSS = """body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}
 table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:4px 8px;
 text-align:right}th{background:#eee}td:first-child{text-align:left}img{max-width:100%}

@@ -83,14 +83,6 @@ class Param:
         return self.kind.split("_")[0] if self.kind.startswith(("base", "tool")) else "robot"
 
 
-def _normals(w: Array) -> tuple[Array, Array]:
-    """Two unit normals of an axis direction, fixed by the direction alone."""
-    helper = np.array([1.0, 0, 0]) if abs(w[0]) < 0.9 else np.array([0, 1.0, 0])
-    u = np.cross(w, helper)
-    u /= np.linalg.norm(u)
-    return u, np.cross(w, u)
-
-
 def _frame_params(frame: str, rotation: bool, position: bool) -> list[Param]:
     out = []
     if rotation:
@@ -176,11 +168,6 @@ def _rot_jacobian_left(phi: Array) -> Array:
         return np.eye(3) + 0.5 * K
     return (np.eye(3) + (1 - np.cos(theta)) / theta**2 * K
             + (theta - np.sin(theta)) / theta**3 * K @ K)
-
-
-def _rot_jacobian_right(phi: Array) -> Array:
-    """Right Jacobian of SO(3): exp(phi + d) = exp(phi) exp(J_r(phi) d)."""
-    return _rot_jacobian_left(-phi)
 
 
 @dataclass(frozen=True)

@@ -94,7 +94,6 @@ _EXPORTS = {
     "transform_from_rotation_translation": "se3",
     "transform_points": "se3",
     "twist_from_transform_difference": "se3",
-    "twist_hat": "se3",
 }
 __all__ = sorted(_EXPORTS)
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -69,15 +69,6 @@ def rotvec_from_rotation(R: ArrayLike) -> Array:
     return out
 
 
-def twist_hat(xi: ArrayLike) -> Array:
-    """4x4 matrix form of twists (omega, v), shape (..., 6) -> (..., 4, 4)."""
-    xi = np.asarray(xi, dtype=float)
-    out = np.zeros((*xi.shape[:-1], 4, 4))
-    out[..., :3, :3] = skew(xi[..., :3])
-    out[..., :3, 3] = xi[..., 3:]
-    return out
-
-
 def transform_from_rotation_translation(R: ArrayLike, t: ArrayLike) -> Array:
     """Homogeneous transforms from rotations (..., 3, 3) and translations (..., 3)."""
     R = np.asarray(R, dtype=float)

@@ -12,11 +12,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
 from screwcal.kinematics.forward import joint_positions
@@ -28,10 +26,10 @@ from screwcal.performance.testcube import ArmSphere, TestCube
 _COLOURS = {"before": "#d95f02", "after": "#1b9e77"}
 
 
-def _save(fig: plt.Figure, path: str | Path) -> Path:
+def _save(fig: Figure, path: str | Path) -> Path:
+    """PNG through the figure's own Agg canvas: no pyplot, no process-wide backend set."""
     path = Path(path)
     fig.savefig(path, dpi=110, bbox_inches="tight")
-    plt.close(fig)
     return path
 
 
@@ -41,7 +39,8 @@ def accuracy_per_point(results: Mapping[str, Mapping[str, PoseMetrics]], path: s
     labels = list(next(iter(results.values())))
     has_orientation = all(m.ap_abc_deg is not None for r in results.values() for m in r.values())
     ncols = 2 if has_orientation else 1
-    fig, axes = plt.subplots(1, ncols, figsize=(6 * ncols, 4), squeeze=False)
+    fig = Figure(figsize=(6 * ncols, 4))
+    axes = fig.subplots(1, ncols, squeeze=False)
     width = 0.8 / len(results)
     x = np.arange(len(labels))
     for k, (name, metrics) in enumerate(results.items()):
@@ -63,7 +62,7 @@ def accuracy_per_point(results: Mapping[str, Mapping[str, PoseMetrics]], path: s
     return _save(fig, path)
 
 
-def _readable_scale(ax: plt.Axes, ratio: float = 20.0) -> None:
+def _readable_scale(ax: Axes, ratio: float = 20.0) -> None:
     """A log scale when the tallest bar is `ratio` times the shortest: an "after" 100x smaller
     than "before" stays visible."""
     heights = np.array([b.get_height() for b in ax.patches], float)
@@ -77,7 +76,8 @@ def calibration_residuals(before_mm: ArrayLike, after_mm: ArrayLike, path: str |
     """Per-pose position residual of the calibration data, nominal model ("before") and
     calibrated model ("after"), on a log scale."""
     before, after = np.asarray(before_mm, float), np.asarray(after_mm, float)
-    fig, ax = plt.subplots(figsize=(8, 4))
+    fig = Figure(figsize=(8, 4))
+    ax = fig.subplots()
     k = np.arange(1, len(before) + 1)
     ax.semilogy(k, before, "o-", ms=3, color=_COLOURS.get("before"),
                 label=f"before (nominal): mean {before.mean():.3f} mm")
@@ -92,7 +92,8 @@ def calibration_residuals(before_mm: ArrayLike, after_mm: ArrayLike, path: str |
 
 def straightness_along_path(results: Mapping[str, Straightness], path: str | Path) -> Path:
     """Signed deviation (u) from the least-squares line against the position along it."""
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig = Figure(figsize=(7, 4))
+    ax = fig.subplots()
     for name, s in results.items():
         order = np.argsort(s.along_mm)
         ax.plot(s.along_mm[order], s.deviation_u_mm[order], "o-", color=_COLOURS.get(name),
@@ -110,7 +111,7 @@ def attained_vs_commanded(commanded_mm: ArrayLike, attained_mm: ArrayLike, path:
     """Per axis, attained against commanded position, and the error vectors in 3-D."""
     c = np.asarray(commanded_mm, dtype=float)
     a = np.asarray(attained_mm, dtype=float)
-    fig = plt.figure(figsize=(13, 4))
+    fig = Figure(figsize=(13, 4))
     for i, axis in enumerate("xyz"):
         ax = fig.add_subplot(1, 4, i + 1)
         ax.scatter(c[:, i], a[:, i] - c[:, i], s=8)
@@ -137,12 +138,12 @@ def test_cube(model: SerialModel, cube: TestCube, q_p1_rad: ArrayLike, path: str
     pts = cube.points_mm
     skeleton = np.vstack([[0.0, 0.0, 0.0],
                           joint_positions(model, np.atleast_2d(q_p1_rad))[0]])
-    fig = plt.figure(figsize=(15, 5))
+    fig = Figure(figsize=(15, 5))
     ax3 = fig.add_subplot(1, 3, 1, projection="3d")
     views = [(ax3, (0, 1, 2)), (fig.add_subplot(1, 3, 2), (0, 2)),
              (fig.add_subplot(1, 3, 3), (0, 1))]
     for ax, dims in views:
-        def draw(xyz: np.ndarray, *args: object, ax: plt.Axes = ax, dims: tuple = dims,
+        def draw(xyz: np.ndarray, *args: object, ax: Axes = ax, dims: tuple = dims,
                  **kw: object) -> None:
             ax.plot(*[xyz[:, d] for d in dims], *args, **kw)
 

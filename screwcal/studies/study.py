@@ -575,16 +575,15 @@ def summarise(name: str, rows: list[Row]) -> str:
 
 
 def plot(name: str, rows: list[Row], path: Path) -> None:
-    import matplotlib.pyplot as plt
-
-    from screwcal.performance import plots  # noqa: F401  (matplotlib's Agg backend, set there)
+    from matplotlib.figure import Figure  # its own Agg canvas: no pyplot, no global backend
 
     study = STUDIES[name]
     rows = _selected(study, rows)
     cases = list(dict.fromkeys(r[study.group] for r in rows))
     numeric = all(isinstance(c, int | float) for c in cases)
     panels = study.panels or (("T_PO", ("tpo_mm",), "mm"),)
-    fig, ax = plt.subplots(1, len(panels), figsize=(5 * len(panels), 3.6), squeeze=False)
+    fig = Figure(figsize=(5 * len(panels), 3.6))
+    ax = fig.subplots(1, len(panels), squeeze=False)
     for k, (title, keys, unit) in enumerate(panels):
         a = ax[0, k]
         for j, key in enumerate(keys):
@@ -605,7 +604,6 @@ def plot(name: str, rows: list[Row], path: Path) -> None:
         a.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def run_study(name: str, seed: int, samples: int, workers: int, out: Path,

@@ -103,7 +103,8 @@ def test_it_handles_exactly_the_codecs_request_verbs():
     assert handled == set(codec.REQUEST_VERBS)
     sent = set(re.findall(r'" (ACK|ERR|STAT|WAIT|DONE) ', TEXT)) | set(
         re.findall(r'"(j|p) "', TEXT))
-    assert sent <= set(codec.VERBS) and {"ACK", "ERR", "STAT", "WAIT", "DONE", "j", "p"} <= sent
+    verbs = {*codec.REQUEST_VERBS, *codec.REPLY_VERBS, *codec.DATA_VERBS}
+    assert sent <= verbs and {"ACK", "ERR", "STAT", "WAIT", "DONE", "j", "p"} <= sent
 
 
 def test_it_reads_exact_frames_and_recovers_from_socket_errors():
