@@ -1,4 +1,4 @@
-"""Shared by the benchmark scripts: best-of-N timing.
+"""Shared by the benchmark scripts: median-of-N timing with its spread (and best-of-N).
 
 BLAS threads are left as a user gets them (the benchmarks once pinned them to one core, which
 hid that numpy's and scipy's two thread pools made identification 3.5x slower on 2 cores:
@@ -7,8 +7,36 @@ hid that numpy's and scipy's two thread pools made identification 3.5x slower on
 
 from __future__ import annotations
 
+import statistics
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Spread:
+    """Seconds: the median of the runs, the fastest, the slowest, and how many."""
+
+    median: float
+    low: float
+    high: float
+    runs: int
+
+    def ms(self) -> str:
+        return f"{self.median * 1e3:9.1f} ms ({self.low * 1e3:.1f}-{self.high * 1e3:.1f})"
+
+
+def median_of(repeat: int, fn: Callable[[], object]) -> Spread:
+    """The median, min and max of `repeat` runs after one warm-up (imports, caches)."""
+    if repeat < 3:
+        raise ValueError(f"repeat = {repeat}: a median with a spread needs at least 3 runs")
+    fn()
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return Spread(statistics.median(times), min(times), max(times), repeat)
 
 
 def best_of(repeat: int, fn: Callable[[], object]) -> float:

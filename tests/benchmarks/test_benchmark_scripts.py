@@ -1,0 +1,93 @@
+"""The benchmark scripts report what a sceptic accepts (issue 29): medians with their spread,
+the command's defaults, the peer at its own default; run here at tiny sizes."""
+
+import importlib.util
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
+
+
+def run(script: str, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(BENCH / script), *args], capture_output=True,
+                          text=True, timeout=timeout, cwd=BENCH)
+
+
+def timing():
+    spec = importlib.util.spec_from_file_location("bench_timing", BENCH / "timing.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["bench_timing"] = module  # its dataclass looks itself up there
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_median_not_the_best_run():
+    pauses = iter([0.0, 0.0, 0.04, 0.0, 0.04, 0.04])  # warm-up, then 0, .04, 0, .04, .04
+    spread = timing().median_of(5, lambda: time.sleep(next(pauses)))
+    assert spread.median >= 0.04 and spread.low < 0.02 and spread.high >= 0.04
+    assert spread.runs == 5
+    with pytest.raises(ValueError, match="at least 3"):
+        timing().median_of(1, lambda: None)
+
+
+def test_jobs_repeats_and_reports_the_spread():
+    proc = run("jobs.py", "--robots", "2", "--rounds", "3")
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert len(lines) == 2 and all("3 runs)" in line for line in lines), proc.stdout
+    assert run("jobs.py", "--rounds", "0").returncode != 0
+
+
+def test_calibration_reports_medians_and_the_commands_defaults():
+    proc = run("calibration.py", "--repeat", "3", "--poses", "60", "--no-de")
+    assert proc.returncode == 0, proc.stderr
+    assert "median (min-max), 3 runs" in proc.stdout
+    assert "LM full, 40 poses, as the command" in proc.stdout
+    assert "best" not in proc.stdout
+    refused = run("calibration.py", "--repeat", "1")
+    assert refused.returncode != 0 and "at least 3" in refused.stderr
+
+
+def test_the_peer_fits_at_scipys_default_and_one_run_says_so(tmp_path):
+    pytest.importorskip("pybotics")
+    proc = run("process.py", "--runs", "1", "--peer-runs", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert "one run" in proc.stdout and "(trf)" in proc.stdout, proc.stdout
+    assert "median" not in proc.stdout.split("peer check")[1].split("\n", 1)[1].split(
+        "import scipy")[0]
+
+
+def test_the_peer_script_defaults_to_trf(tmp_path):
+    pytest.importorskip("pybotics")
+    sys.path.insert(0, str(BENCH))
+    try:
+        from calibration import write_csv  # the benchmarks' own helper
+    finally:
+        sys.path.remove(str(BENCH))
+    import numpy as np
+
+    from screwcal.calibration.posesets import random_configurations
+    from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+    from screwcal.kinematics.dh import dh_from_model
+    from screwcal.kinematics.robots import irb1600
+    from screwcal.studies.simulate import simulate_measurements
+
+    rng = np.random.default_rng(1)
+    data = simulate_measurements(apply_virtual_joints(irb1600(), THESIS_TABLE11),
+                                 random_configurations(40, rng), rng)
+    write_csv(tmp_path / "m.csv", data)
+    mdh = dh_from_model(irb1600(), "mdh")
+    (tmp_path / "robot.json").write_text(json.dumps({
+        "mdh": [[r.alpha, r.a_mm, r.theta, r.d_mm] for r in mdh.rows],
+        "flange": mdh.dh_flange.tolist()}))
+    proc = run("peer_calibrate.py", str(tmp_path / "robot.json"), str(tmp_path / "m.csv"),
+               str(tmp_path / "out.json"))
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads((tmp_path / "out.json").read_text())
+    assert out["method"] == "trf"
+    assert out["mean_error_after_mm"] < out["mean_error_before_mm"]
