@@ -175,6 +175,29 @@ def test_a_call_of_plain_names_reads_as_any_call():
     assert isinstance(keyword.routines[0].body[0].args[1].value, Unary)
 
 
+def test_backward_handler_late_bound_function_conditional_and_named_arguments():
+    m = parse_module(
+        "MODULE m(NOSTEPIN)\n"
+        "  PROC Walk(\\num Speed)\n"
+        "    Move2 \\Speed?Speed, ToPoint:=p10;\n"
+        "    x := %\"Get\" + kind%(1, \\Opt);\n"
+        "  BACKWARD\n"
+        "    MoveL p5, v100, fine, tool0;\n"
+        "  ERROR (ERR_DIVZERO)\n"
+        "    RAISE ERR_DIVZERO;\n"
+        "  ENDPROC\n"
+        "ENDMODULE\n")
+    walk = m.routines[0]
+    call, assign = walk.body
+    assert call.args[0].conditional and call.args[0].name == "Speed"
+    assert call.args[1].name == "ToPoint" and not call.args[1].optional
+    late = assign.value
+    assert isinstance(late, Call) and late.name == "" and isinstance(late.late, Binary)
+    assert late.args[1].name == "Opt" and late.args[1].value is None
+    assert isinstance(walk.backward[0], ProcCall) and isinstance(walk.error[0], Raise)
+    assert walk.error_numbers[0].name == "ERR_DIVZERO"
+
+
 def test_string_escapes():
     s = parse_expression('"say ""hi"" \\\\ \\41"')
     assert isinstance(s, Str) and s.value == 'say "hi" \\ A'
@@ -197,6 +220,8 @@ def test_string_escapes():
     ("MODULE m\n  PROC p()\n    IF x WHILE y DO ENDWHILE\n  ENDPROC\nENDMODULE\n", 3, 10,
      "compact IF takes one simple statement"),
     ("MODULE m\nENDMODULE\nMODULE n\nENDMODULE\n", 3, 1, "text after ENDMODULE"),
+    ("MODULE m\n  PROC Step()\n  ENDPROC\nENDMODULE\n", 2, 8,
+     "expected the PROC's name, found 'STEP'"),  # a reserved word
     ("MODULE m\n  PROC p()\n", 3, 1, "the file ends inside PROC p (line 2)"),
 ])
 def test_syntax_errors_name_line_and_column(text, line, col, says):
