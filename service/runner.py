@@ -39,7 +39,13 @@ from protocol.arm import ArmReader
 from protocol.arm_url import check_arm_url
 from protocol.client import ControllerClient, Timeouts
 from protocol.codec import MAX_LIST
-from protocol.errors import ControllerError, LinkError, LinkTimeoutError, ProtocolError
+from protocol.errors import (
+    ArmLineError,
+    ControllerError,
+    LinkError,
+    LinkTimeoutError,
+    ProtocolError,
+)
 from screwcal.calibration.correction import (
     CorrectionRefusedError,
     after_zero,
@@ -270,7 +276,12 @@ class JobRunner:
             await self.client.reconnect(attempts=3, first_delay_s=0.05)
         if self.arm is None:
             url = check_arm_url(self.robot["arm_url"])  # a record older than the check too
-            self.arm = await asyncio.to_thread(ArmReader, url)
+            opening = asyncio.ensure_future(asyncio.to_thread(ArmReader, url))
+            try:
+                self.arm = await asyncio.shield(opening)
+            except asyncio.CancelledError:  # aborted while the port opened: close it when open
+                opening.add_done_callback(_close_opened)
+                raise
 
     async def _disconnect(self) -> None:
         if self.client is not None:
@@ -349,12 +360,18 @@ class JobRunner:
                               self.settings.motion_tolerance_rel,
                               self.settings.motion_tolerance_deg)
         attempts = 0
+        last_refusal = ""
         deadline = time.monotonic() + self.settings.arm_timeout_s
         while True:
             try:
                 holes = await asyncio.to_thread(self.arm.read_holes,
                                                 max(0.05, deadline - time.monotonic()))
             except LinkTimeoutError:
+                if last_refusal and attempts >= self.settings.remeasure_attempts:
+                    raise ArmLineError(  # say why, not only "no reading": it may be the check
+                        f"{phase} pose {idx}: every reading of this pose was refused, the last "
+                        f"one: {last_refusal}. If the robot is this far from its nominal "
+                        "model, raise motion_tolerance_deg / motion_tolerance_rel") from None
                 if attempts >= self.settings.remeasure_attempts or not self.discarded:
                     raise
                 attempts += 1
@@ -369,6 +386,7 @@ class JobRunner:
             if refused is None:
                 return reading
             kind, why = refused
+            last_refusal = why
             self.discarded[kind] += 1
             await self.events.publish("discarded", phase=phase, index=idx, reason=why,
                                       seqs=list(holes.seqs))
@@ -596,6 +614,11 @@ class JobRunner:
             "date (UTC)": time.strftime("%Y-%m-%d %H:%M", time.gmtime(self.job["created"]))
             if self.job.get("created") else "",
         }
+
+
+def _close_opened(opening: asyncio.Future[ArmReader]) -> None:
+    if not opening.cancelled() and opening.exception() is None:
+        opening.result().close()
 
 
 def _warnings(job_result: dict) -> list[str]:

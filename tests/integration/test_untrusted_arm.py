@@ -69,6 +69,7 @@ async def test_duplicated_late_and_stale_triples_never_land_on_the_wrong_pose(se
                                   - _true_holes_mm(dirty, m["joints_deg"]))) > 0.1]
         assert wrong == []  # 0 poses with another pose's holes
         discarded = job["arm_readings_discarded"]
+        print("arm faults sent", sent, "discarded", discarded)
         assert discarded["duplicate"] + discarded["stale"] + discarded["motion"] >= 5
         reference, _ = await _calibrate(service, clean, "clean arm")
     finally:
@@ -109,3 +110,29 @@ async def test_the_emulator_really_sends_a_copy_of_the_triple():
     finally:
         await arm.stop()
     assert first.points_mm == copy.points_mm and first.seqs != copy.seqs
+
+
+async def test_a_pose_whose_every_reading_is_refused_pauses_saying_why(tmp_path, rig):
+    """A check set tighter than the robot's own errors must not look like a dead arm."""
+    import httpx
+
+    from service.app import create_app
+    from service.settings import ServiceSettings
+    from tests.integration.conftest import TOKEN, add_robot
+
+    app = create_app(ServiceSettings(db_path=tmp_path / "jobs.db", token=TOKEN,
+                                     arm_timeout_s=0.5, remeasure_attempts=1,
+                                     motion_tolerance_mm=0.01, motion_tolerance_rel=0.0,
+                                     motion_tolerance_deg=0.001))
+    async with app.router.lifespan_context(app):
+        async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
+                                     base_url="http://service", headers=AUTH) as http:
+            robot = await add_robot(http, rig)
+            job_id = (await http.post("/jobs", headers=AUTH, json={
+                "robot_id": robot, "kind": "calibration", "options": FAST})).json()["id"]
+            async with asyncio.timeout(30):
+                while "every reading" not in ((job := (await http.get(
+                        f"/jobs/{job_id}")).json())["reason"] or ""):
+                    await asyncio.sleep(0.02)
+            assert job["state"] == "paused" and "motion_tolerance" in job["reason"]
+            await http.post(f"/jobs/{job_id}/abort", headers=AUTH)
