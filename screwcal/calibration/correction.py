@@ -192,6 +192,13 @@ def _wrist_singular(model: SerialModel, q: Array) -> Array:
     return np.abs(_wrist_axes_cos(model, q)) > np.cos(np.radians(WRIST_SINGULAR_DEG))
 
 
+def _meets(T: Array, robot: SerialModel, q: Array) -> bool:
+    """The joints q put the flange on T within the singular tolerances."""
+    err = _pose_error(T[None], forward_kinematics(robot, q[None]))[0]
+    return bool(np.linalg.norm(err[:3]) <= SINGULAR_TOL_MM
+                and np.linalg.norm(err[3:]) <= np.radians(SINGULAR_TOL_DEG))
+
+
 def _wrist_solutions(robot: SerialModel, T: Array, ref: Array) -> tuple[Array, Array, Array]:
     """Near the wrist singularity: the joints (M, 6) nearest the reference that reach T
     (M, 4, 4), counting for joints 4 and 6 only their combined turn (what moves the tool
@@ -215,10 +222,10 @@ def _wrist_solutions(robot: SerialModel, T: Array, ref: Array) -> tuple[Array, A
                 ftol=1e-15, gtol=1e-15)
             if best is None or sol.cost < best.cost:
                 best = sol
+            if _meets(T[k], robot, best.x):  # the reference's own start did: no tilted seeds
+                break
         assert best is not None
-        err = _pose_error(T[k:k + 1], forward_kinematics(robot, best.x[None]))[0]
-        if np.linalg.norm(err[:3]) > SINGULAR_TOL_MM or \
-                np.linalg.norm(err[3:]) > np.radians(SINGULAR_TOL_DEG):
+        if not _meets(T[k], robot, best.x):
             continue
         q = _turned_toward(best.x, ref[k])
         d = np.degrees(q - ref[k])
