@@ -30,21 +30,21 @@ def median_of(repeat: int, fn: Callable[[], object]) -> Spread:
     """The median, min and max of `repeat` runs after one warm-up (imports, caches)."""
     if repeat < 3:
         raise ValueError(f"repeat = {repeat}: a median with a spread needs at least 3 runs")
-    fn()
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
+    times = _timed_runs(repeat, fn)
     return Spread(statistics.median(times), min(times), max(times), repeat)
 
 
 def best_of(repeat: int, fn: Callable[[], object]) -> float:
     """The fastest of `repeat` runs after one warm-up (imports, caches), in seconds."""
+    return min(_timed_runs(repeat, fn))
+
+
+def _timed_runs(repeat: int, fn: Callable[[], object]) -> list[float]:
+    """Seconds of each of `repeat` runs of `fn`, after one warm-up run (imports, caches)."""
     fn()
     times = []
     for _ in range(repeat):
         start = time.perf_counter()
         fn()
         times.append(time.perf_counter() - start)
-    return min(times)
+    return times
