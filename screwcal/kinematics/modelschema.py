@@ -20,7 +20,6 @@ from screwcal.errors import ModelError
 from screwcal.kinematics.compliance import LumpedMass, Payload
 from screwcal.kinematics.dh import DHRow, DHTable, model_from_dh
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.modelfile import FORMAT
 from screwcal.kinematics.pose import transform_from_pose
 
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
@@ -119,7 +118,9 @@ class GravityIn(BaseModel):
 
 class _FileCommon(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    format: Literal["screwcal-model"] = FORMAT
+    # modelfile.FORMAT (spelled here: a Literal needs the text, and importing modelfile
+    # would close a cycle; tests/screwcal/kinematics hold the two equal)
+    format: Literal["screwcal-model"] = "screwcal-model"
     version: Literal[1] = 1
     name: str = Field(min_length=1)
     base: PoseIn = PoseIn()

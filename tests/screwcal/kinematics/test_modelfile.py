@@ -97,3 +97,15 @@ def _leaves(x):
             yield from _leaves(v)
     else:
         yield x
+
+
+def test_the_schema_names_the_format_modelfile_writes():
+    """The schema spells the format out (a Literal needs the text; importing modelfile there
+    was an import cycle): the two stay one fact."""
+    from typing import get_args
+
+    from screwcal.kinematics.modelfile import FORMAT
+    from screwcal.kinematics.modelschema import _FileCommon
+
+    field = _FileCommon.model_fields["format"]
+    assert get_args(field.annotation) == (FORMAT,) and field.default == FORMAT
