@@ -17,7 +17,7 @@ Everything else is refused with this list.
 from __future__ import annotations
 
 import re
-from urllib.parse import parse_qsl, urlsplit
+from urllib.parse import SplitResult, parse_qsl, urlsplit
 
 ALLOWED = ("a serial device (/dev/ttyS*, /dev/ttyUSB*, /dev/ttyACM*, /dev/ttyAMA*, /dev/ttymxc*, "
            "/dev/serial/by-id/*, /dev/serial/by-path/*, COM1..COM256), socket://HOST:PORT, "
@@ -25,7 +25,8 @@ ALLOWED = ("a serial device (/dev/ttyS*, /dev/ttyUSB*, /dev/ttyACM*, /dev/ttyAMA
 _DEVICE = re.compile(r"/dev/(tty(S|USB|ACM|AMA|mxc)[0-9]{1,3}"
                      r"|serial/by-(id|path)/[A-Za-z0-9._:+-]{1,120})\Z")
 _COM = re.compile(r"COM([1-9][0-9]{0,2})\Z", re.IGNORECASE)
-_HOST = re.compile(r"^(?=.{1,253}$)[A-Za-z0-9]([A-Za-z0-9.-]*[A-Za-z0-9])?$|^\[[0-9A-Fa-f:.]+\]$")
+# A host name or an IP address (an IPv6 one in a URL in brackets); the controller's host too.
+HOSTNAME = re.compile(r"^(?=.{1,253}$)[A-Za-z0-9]([A-Za-z0-9.:-]*[A-Za-z0-9])?$")
 _RFC2217_OPTIONS = {"ign_set_control", "poll_modem", "timeout"}
 
 
@@ -33,17 +34,20 @@ class ArmUrlError(ValueError):
     """An arm address outside what a cell uses (the message lists what is allowed)."""
 
 
-def _host_port(url: str, scheme: str) -> None:
-    parts = urlsplit(url)
+def _host_port(url: str, scheme: str) -> SplitResult:
+    """The URL's parts when it is SCHEME://HOST:PORT (an IPv6 host in brackets)."""
+    needs = ArmUrlError(f"{url!r}: {scheme}:// needs HOST:PORT with a port 1-65535")
+    try:
+        parts = urlsplit(url)
+        host, port = parts.hostname or "", parts.port
+    except ValueError:  # a port out of range, a bracketed host that is no IPv6 address
+        raise needs from None
     if parts.path not in ("", "/") or parts.fragment or parts.username or parts.password:
         raise ArmUrlError(f"{url!r}: {scheme}:// takes HOST:PORT only")
-    try:
-        port = parts.port
-    except ValueError:
-        port = None
-    host = parts.netloc.rsplit(":", 1)[0] if parts.netloc else ""
-    if not port or not _HOST.match(host):
-        raise ArmUrlError(f"{url!r}: {scheme}:// needs HOST:PORT with a port 1-65535")
+    bracketed = parts.netloc.startswith("[")  # urlsplit checked it is an IP address
+    if not port or not (bracketed or HOSTNAME.match(host)) or (":" in host and not bracketed):
+        raise needs
+    return parts
 
 
 def check_arm_url(url: str) -> str:
@@ -70,17 +74,15 @@ def _checked(url: str) -> str:
             raise ArmUrlError(f"{url!r}: loop:// takes no options")
         return url
     if scheme == "socket":
-        if urlsplit(url).query:
+        if _host_port(url, scheme).query:
             raise ArmUrlError(f"{url!r}: socket:// takes no options")
-        _host_port(url, scheme)
         return url
     if scheme == "rfc2217":
-        for key, value in parse_qsl(urlsplit(url).query, keep_blank_values=True):
+        for key, value in parse_qsl(_host_port(url, scheme).query, keep_blank_values=True):
             bad_timeout = key == "timeout" and not value.replace(".", "", 1).isdigit()
             if key not in _RFC2217_OPTIONS or bad_timeout:
                 raise ArmUrlError(f"{url!r}: rfc2217:// option {key!r} is not allowed "
                                   f"(allowed: {', '.join(sorted(_RFC2217_OPTIONS))})")
-        _host_port(url, scheme)
         return url
     what = f"the scheme {scheme}://" if scheme else "this path"
     raise ArmUrlError(f"{url!r}: {what} is not an arm address a cell uses; allowed: {ALLOWED}")

@@ -22,6 +22,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from screwcal.commands.options import finite_float
 from service.errors import ServiceError
 from service.summary import before_after
 
@@ -296,36 +297,13 @@ def _invalid(error: dict) -> str:
     return f"{loc}{value}: {rule}"
 
 
-def finite_float(text: str) -> float:
-    """An argparse type: a finite number (nan and inf are refused by name)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if value != value or value in (float("inf"), float("-inf")):
-        raise argparse.ArgumentTypeError(f"{text!r}: a finite number is needed")
-    return value
-
-
 def _model_argument(model: str) -> str | dict:
     """A built-in robot's name as it is; anything else is a file read on this side and sent as
     a document (the service never opens a path a client names)."""
+    from screwcal.kinematics.modelfile import model_document, resolve_model
     from screwcal.kinematics.robots import BUILTIN_MODELS
 
-    if model in BUILTIN_MODELS:
-        return model
-    path = Path(model).expanduser()
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise ServiceError(f"--model {model}: not a built-in robot "
-                           f"({', '.join(sorted(BUILTIN_MODELS))}) and cannot read it as a "
-                           f"file: {err.strerror}") from None
-    except ValueError as err:
-        raise ServiceError(f"--model {model}: not JSON ({err})") from None
-    if not isinstance(doc, dict):
-        raise ServiceError(f"--model {model}: a model file is a JSON object")
-    return doc
+    return model if model in BUILTIN_MODELS else model_document(resolve_model(model))
 
 
 def _write(path: str, text: str) -> None:

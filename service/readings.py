@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from screwcal.kinematics.pose import rotation_angle_deg
+
 DUPLICATE_MM = 5e-4  # below the arm's last printed digit (0.1 um): the same line sent twice
 STALE_MM = 0.1  # two probes of one place: 0.018 mm sigma per coordinate apart (0.013 * sqrt 2)
 REVISIT_MM = 1.0  # nominal flanges this close: the robot was sent to the same place again
@@ -47,11 +49,6 @@ class MotionTolerance:
     mm: float = 5.0
     rel: float = 0.3
     deg: float = 6.0  # the Table 11 robot: 2.3 deg between two ISO 9283 cube poses
-
-
-def _angle_deg(Ra: np.ndarray, Rb: np.ndarray) -> float:
-    cos = (np.trace(Ra.T @ Rb) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
 
 
 @dataclass(frozen=True)
@@ -101,8 +98,8 @@ def refusal(previous: PoseReading | None, new: PoseReading, tol: MotionTolerance
         return "motion", (f"measured motion {measured:.2f} mm from the previous pose, commanded "
                           f"{commanded:.2f} mm (tolerance {allowed:.2f} mm): a stale, early or "
                           "foreign reading")
-    turned = _angle_deg(new.flange[:3, :3], previous.flange[:3, :3])
-    told = _angle_deg(new.nominal[:3, :3], previous.nominal[:3, :3])
+    turned = float(rotation_angle_deg(previous.flange[:3, :3], new.flange[:3, :3]))
+    told = float(rotation_angle_deg(previous.nominal[:3, :3], new.nominal[:3, :3]))
     allowed_deg = tol.deg + tol.rel * told
     if abs(turned - told) > allowed_deg:
         return "motion", (f"measured rotation {turned:.2f} deg from the previous pose, "

@@ -118,7 +118,7 @@ async def test_a_stale_runner_never_repeats_zero(app_http, rig):
 @pytest.mark.parametrize("url", ["spy://127.0.0.1:4013?file=/tmp/screwcal-victim",
                                  "/etc/passwd", "alt://x?class=Serial", "hwgrep://.*",
                                  "rfc2217://h:1?logging=debug", "socket://h:1/../x",
-                                 "/dev/sda", "file:///etc/passwd"])
+                                 "/dev/sda", "file:///etc/passwd", "socket://[zz]:5"])
 async def test_arm_urls_other_than_a_cells_are_refused_with_the_list(app_http, url):
     _, http = app_http
     r = await http.post("/robots", headers=AUTH, json={**GOOD_ROBOT, "arm_url": url})
