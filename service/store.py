@@ -39,6 +39,8 @@ from service.errors import (
 
 SCHEMA_VERSION = 2
 UNFINISHED = ("queued", "running", "paused")
+_UNFINISHED_SQL = "(" + ", ".join(f"'{s}'" for s in UNFINISHED) + ")"  # in queries, not in
+# the migrations (a migration is history: it keeps the states it was written with)
 _MIGRATIONS = {
     1: """
     CREATE TABLE robots (
@@ -221,7 +223,7 @@ class Store:
 
     def unfinished_job(self, robot_id: int) -> int | None:
         row = self._db.execute(
-            "SELECT id FROM jobs WHERE robot_id = ? AND state IN ('queued', 'running', 'paused')",
+            f"SELECT id FROM jobs WHERE robot_id = ? AND state IN {_UNFINISHED_SQL}",
             (robot_id,)).fetchone()
         return None if row is None else int(row[0])
 
@@ -266,8 +268,8 @@ class Store:
         runner (or service) has ended it, so a stale runner never revives a finished job."""
         with self._tx() as db:
             cur = db.execute(
-                "UPDATE jobs SET state = ?, reason = ?, updated = ? WHERE id = ? AND state IN "
-                "('queued', 'running', 'paused')", (state, reason, time.time(), job_id))
+                f"UPDATE jobs SET state = ?, reason = ?, updated = ? WHERE id = ? AND state IN "
+                f"{_UNFINISHED_SQL}", (state, reason, time.time(), job_id))
             if cur.rowcount == 0:
                 raise ConflictError(f"job {job_id} is no longer unfinished: this runner is "
                                     "stale and changes nothing")
