@@ -313,10 +313,11 @@ class JobRunner:
         last = self.store.last_measurement(self.job_id)
         previous = None if last is None else self._reading(
             last["holes_mm"], last["flange_pose"], last["joints_deg"])
-        earlier = EarlierReadings.empty()
-        for row in self.store.measurements(self.job_id):
-            earlier = earlier.plus(self._reading(row["holes_mm"], row["flange_pose"],
-                                                 row["joints_deg"]), f"{row['phase']}/{row['idx']}")
+        rows = self.store.measurements(self.job_id)
+        earlier = EarlierReadings.empty() if not rows else EarlierReadings(
+            np.array([r["holes_mm"] for r in rows], dtype=float),
+            flange_kinematics(self.model, np.radians([r["joints_deg"] for r in rows]))[:, :3, 3],
+            tuple(f"{r['phase']}/{r['idx']}" for r in rows))
         while True:
             measured = self.store.measured_indices(self.job_id, phase)  # once per chunk
             todo = [p for p in plan if p.idx not in measured]
