@@ -30,7 +30,7 @@ from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_jo
 from screwcal.kinematics.pose import euler_zyx_deg_from_rotation
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 
 
 def write_csv(path: Path, data: MeasurementSet) -> None:

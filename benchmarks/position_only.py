@@ -24,7 +24,7 @@ import numpy as np
 
 from screwcal.calibration.posesets import random_configurations
 from screwcal.studies.position_only import random_truth
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 
 
 def main() -> None:

@@ -41,7 +41,7 @@ from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_jo
 from screwcal.kinematics.dh import dh_from_model
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))

@@ -37,7 +37,7 @@ from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
 if TYPE_CHECKING:  # a type only: compensating a program needs none of the error models
-    from screwcal.calibration.errors_model import Param
+    from screwcal.calibration.error_parameters import Param
 
 PLAUSIBLE_OFFSET_DEG = 5.0
 # A compensated joint moves by its offset plus what the other joints' errors ask of it (J4 and

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from screwcal.calibration.errors_model import ErrorModel, candidate_params
+from screwcal.calibration.error_parameters import ErrorModel, candidate_params
 from screwcal.instrument import ORIENTATION_NOISE_RAD, POSITION_NOISE_MM
 from screwcal.kinematics.forward import point_jacobian
 from screwcal.kinematics.model import SerialModel

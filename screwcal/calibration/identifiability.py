@@ -10,7 +10,7 @@ from typing import Literal
 import numpy as np
 import scipy.linalg
 
-from screwcal.calibration.errors_model import ErrorModel
+from screwcal.calibration.error_parameters import ErrorModel
 from screwcal.kinematics.forward import point_jacobian
 from screwcal.kinematics.se3 import Array
 

@@ -42,7 +42,6 @@ import scipy.linalg
 from scipy.optimize import differential_evolution, least_squares
 from scipy.special import fdtrc
 
-from screwcal.calibration.alignment import align_frames
 from screwcal.calibration.blas_threads import one_blas_thread
 from screwcal.calibration.degenerate import (
     NEAR_AXIS_MM,
@@ -56,7 +55,7 @@ from screwcal.calibration.diagnostics import (
     loo_position_error,
     pose_tests,
 )
-from screwcal.calibration.errors_model import (
+from screwcal.calibration.error_parameters import (
     ErrorModel,
     ModelKind,
     Param,
@@ -71,6 +70,7 @@ from screwcal.calibration.identifiability import (
     structural_rank,
     svd,
 )
+from screwcal.calibration.initial_frames import align_frames
 from screwcal.calibration.lag import correct_lag, lag_increment
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.plausible import (
@@ -443,7 +443,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     `solver="de"`, `de_polish=False` returns differential evolution's own best (the thesis's
     DE, for comparison); by default a bounded least-squares polish refines it. `compliance`
     ("none", "j23", "wrist") identifies the joints' compliance under gravity with the geometry
-    (`errors_model.compliance_params`); "auto" fits the joint-2/3 compliance and keeps it when
+    (`error_parameters.compliance_params`); "auto" fits the joint-2/3 compliance and keeps it when
     the data support it (a coefficient beyond `COMPLIANCE_T` standard errors), else fits
     without; with at least `FREE_MIN_POSES` poses it then tries a coefficient per joint and
     arm mass ("j23-free": the data correct the mass table's proportions) and keeps it when an

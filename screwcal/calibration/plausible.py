@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from screwcal.calibration.errors_model import Param
+from screwcal.calibration.error_parameters import Param
 from screwcal.kinematics.compliance import COMPLIANCE_UNIT
 from screwcal.kinematics.se3 import Array
 

@@ -33,7 +33,7 @@ from screwcal.kinematics.se3 import (
     rotation_from_rotvec,
     transform_points,
 )
-from screwcal.studies.simulate import NOISE_MM, simulate_measurements
+from screwcal.studies.simulated_measurements import NOISE_MM, simulate_measurements
 from screwcal.studies.thesis_metrics import Row, joint_error, set_errors
 
 CHAPTER5_NOTE = ("Chapter 5 replayed (25.7 -> 7.1 mm in the thesis, T_PO as measured through "

@@ -13,15 +13,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from screwcal.calibration.alignment import rigid_motion
 from screwcal.calibration.identify import identify
+from screwcal.calibration.initial_frames import rigid_motion
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.posesets import cube_set
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import Array, rotation_from_rotvec
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 from screwcal.studies.thesis_metrics import Row, joint_error, scored, set_errors
 
 DISTANCE_NOTE = ("Appendix D (Table 15): the Klimchik-style 40 poses measured by an arm placed "

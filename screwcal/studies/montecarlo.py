@@ -21,7 +21,7 @@ from screwcal.calibration.identify import NoiseModel, identify
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.robots import irb1600
-from screwcal.studies.simulate import (
+from screwcal.studies.simulated_measurements import (
     JOINT_NOISE_DEG,
     NOISE_MM,
     orientation_noise_rad,

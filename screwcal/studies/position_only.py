@@ -27,7 +27,7 @@ from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist, rotvec_from_rotation
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 
 
 def random_truth(rng: np.random.Generator, on_axis: bool) -> SerialModel:

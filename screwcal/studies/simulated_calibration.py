@@ -15,7 +15,7 @@ from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import rotation_angle_deg
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import Array, exp_twist
-from screwcal.studies.simulate import JOINT_NOISE_DEG, NOISE_MM, simulate_measurements
+from screwcal.studies.simulated_measurements import JOINT_NOISE_DEG, NOISE_MM, simulate_measurements
 
 
 @dataclass(frozen=True)

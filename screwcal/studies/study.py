@@ -43,7 +43,7 @@ from screwcal.studies.distance_only import (
     distance_conclusion,
     sample_distance_only,
 )
-from screwcal.studies.simulate import (
+from screwcal.studies.simulated_measurements import (
     JOINT_NOISE_DEG,
     NOISE_MM,
     orientation_noise_rad,
@@ -543,7 +543,7 @@ def _selected(study: Study, rows: list[Row]) -> list[Row]:
     return [r for r in rows if r[column] == value]
 
 
-def summarise(name: str, rows: list[Row]) -> str:
+def study_table(name: str, rows: list[Row]) -> str:
     study = STUDIES[name]
     rows = _selected(study, rows)
     cases = list(dict.fromkeys(r[study.group] for r in rows))
@@ -615,7 +615,7 @@ def run_study(name: str, seed: int, samples: int, workers: int, out: Path,
         writer = csv.DictWriter(f, fieldnames=fields)
         writer.writeheader()
         writer.writerows(rows)
-    text = summarise(name, rows)
+    text = study_table(name, rows)
     (out / f"{name}.md").write_text(text, encoding="utf-8")
     plot(name, rows, out / f"{name}.png")
     return text

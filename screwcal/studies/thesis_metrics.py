@@ -21,7 +21,7 @@ from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, rotation_angle_deg
 from screwcal.kinematics.se3 import Array
-from screwcal.studies.simulate import JOINT_NOISE_DEG
+from screwcal.studies.simulated_measurements import JOINT_NOISE_DEG
 
 
 def joint_error(model: SerialModel, q: Array, rng: np.random.Generator,

@@ -39,8 +39,8 @@ from typing import Literal
 
 import numpy as np
 
-from screwcal.calibration.alignment import rigid_motion
 from screwcal.calibration.flange import frame_from_holes, hole_distances
+from screwcal.calibration.initial_frames import rigid_motion
 from screwcal.calibration.measurements import MeasurementSet, previous_rows
 from screwcal.errors import DataFileError
 from screwcal.kinematics.se3 import Array

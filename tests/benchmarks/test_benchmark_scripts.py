@@ -75,7 +75,7 @@ def test_the_peer_script_defaults_to_trf(tmp_path):
     from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
     from screwcal.kinematics.dh import dh_from_model
     from screwcal.kinematics.robots import irb1600
-    from screwcal.studies.simulate import simulate_measurements
+    from screwcal.studies.simulated_measurements import simulate_measurements
 
     rng = np.random.default_rng(1)
     data = simulate_measurements(apply_virtual_joints(irb1600(), THESIS_TABLE11),

@@ -11,7 +11,7 @@ from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.pose import transform_from_pose
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist, invert_transform
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 
 BASE = exp_twist([0.1, -0.2, 2.0, 1500, -400, -250])
 TOOL = exp_twist([0.0, 0.0, 0.0, 20, 30, 60])

@@ -13,7 +13,7 @@ from screwcal.calibration.blas_threads import (
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.robots import irb1600
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 
 
 def blas_threads():

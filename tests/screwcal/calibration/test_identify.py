@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 
 from screwcal.calibration.correction import CorrectionRefusedError, joint_correction
-from screwcal.calibration.errors_model import Param
+from screwcal.calibration.error_parameters import Param
 from screwcal.calibration.identify import IdentificationError, NoiseModel, identify
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 
 BASE = exp_twist([0.2, -0.1, 2.5, 1400, -600, -300])  # the measuring system's frame
 TOOL = exp_twist([0.0, 0.0, 0.0, 25, -40, 90])  # the measured point on the flange

@@ -7,7 +7,7 @@ from screwcal.calibration.lag import correct_lag, previous_move
 from screwcal.calibration.measurements import MeasurementSet, previous_rows
 from screwcal.calibration.posesets import random_configurations
 from screwcal.kinematics.robots import irb120
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 
 LAG = np.array([3e-4, 2e-4, 1e-4, 0.0, 0.0, 0.0])  # the tracker IRB 120's order
 

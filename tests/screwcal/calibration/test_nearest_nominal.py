@@ -15,7 +15,7 @@ from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import rotvec_from_rotation
 from screwcal.studies.position_only import random_truth, run
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 from tests.screwcal.calibration.test_identify import BASE, TOOL, full_truth
 from tests.screwcal.commands.test_calibrate_cli import _write_measurements
 

@@ -20,7 +20,7 @@ from screwcal.kinematics.forward import flange_kinematics, perturb_model
 from screwcal.kinematics.modelfile import save_model
 from screwcal.kinematics.pose import quaternion_wxyz_from_rotation, rotation_angle_deg
 from screwcal.kinematics.robots import irb1600
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 
 DATA = Path(__file__).parent / "data"
 EVERY_FORM = DATA / "every_form.mod"

@@ -13,7 +13,7 @@ from screwcal.commands.main import main
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, pose_from_transform
 from screwcal.kinematics.robots import irb1600
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 from tests.screwcal.calibration.test_identify import BASE, TOOL, full_truth
 
 

@@ -20,7 +20,7 @@ from screwcal.kinematics.modelfile import save_model
 from screwcal.kinematics.pose import pose_from_transform
 from screwcal.kinematics.robots import irb120, irb1600
 from screwcal.kinematics.se3 import exp_twist
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 from tests.screwcal.calibration.test_identify import BASE, TOOL
 from tests.screwcal.commands.test_calibrate_cli import _write_measurements
 

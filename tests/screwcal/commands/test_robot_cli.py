@@ -64,7 +64,7 @@ def test_a_result_carries_its_robot_to_compensate(tmp_path, rng, capsys):
     from screwcal.calibration.posesets import random_configurations
     from screwcal.kinematics.modelfile import save_model
     from screwcal.kinematics.pose import pose_from_transform
-    from screwcal.studies.simulate import simulate_measurements
+    from screwcal.studies.simulated_measurements import simulate_measurements
     from tests.screwcal.calibration.test_identify import BASE, TOOL, full_truth
     from tests.screwcal.commands.test_calibrate_cli import _write_measurements
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from screwcal.calibration.correction import compensate
-from screwcal.calibration.errors_model import ErrorModel, candidate_params
+from screwcal.calibration.error_parameters import ErrorModel, candidate_params
 from screwcal.calibration.identify import identify
 from screwcal.calibration.posesets import random_configurations
 from screwcal.errors import ModelError
@@ -16,7 +16,7 @@ from screwcal.kinematics.forward import flange_kinematics, forward_kinematics, j
 from screwcal.kinematics.modelfile import model_document, parse_model
 from screwcal.kinematics.robots import irb120, irb1600
 from screwcal.kinematics.se3 import rotvec_from_rotation
-from screwcal.studies.simulate import simulate_measurements
+from screwcal.studies.simulated_measurements import simulate_measurements
 
 C_DEG_PER_KNM = np.array([0.0, 3.0, 15.0, 0.0, 0.0, 0.0])  # the tracker IRB 120's order
 

@@ -206,7 +206,7 @@ def test_every_library_robot_calibrates_to_the_noise_floor(rng, name, full_pose)
     full error model predicts unseen poses to the measuring noise (0.013 mm per coordinate)."""
     from screwcal.calibration.identify import NoiseModel, identify
     from screwcal.calibration.posesets import random_set
-    from screwcal.studies.simulate import simulate_measurements
+    from screwcal.studies.simulated_measurements import simulate_measurements
 
     nominal = LIBRARY[name].model()
     truth = calibrated(nominal, rng)

@@ -8,7 +8,7 @@ from screwcal.calibration.virtual_joints import THESIS_TABLE11
 from screwcal.kinematics.pose import transform_from_pose
 from screwcal.studies.chapter5 import sample_chapter5
 from screwcal.studies.distance_only import sample_distance_only
-from screwcal.studies.study import STUDIES, sample_sets, sample_solvers, summarise
+from screwcal.studies.study import STUDIES, sample_sets, sample_solvers, study_table
 from screwcal.studies.thesis_metrics import euler_difference_deg, set_errors
 
 
@@ -46,7 +46,7 @@ def test_table8_before_with_the_thesis_metric_is_within_2_percent_of_54_05():
 def test_every_table_has_its_rows_and_both_columns():
     rows = [{"sample": 0, **r} for r in sample_sets(5)]
     for name in ("table8", "table9"):
-        text = summarise(name, rows)
+        text = study_table(name, rows)
         for case in ("Klimchik", "C1", "C2"):
             assert f"| {case} | T_PO, mm | " in text
         assert "ours, no joint error" in text and "why they differ" in text
@@ -60,7 +60,7 @@ def test_solvers_give_tables_10_and_11_rows_and_de_alone_differs_from_de_then_lm
     de, polished = rows[1], rows[2]
     assert any(de[f"est_{n}"] != polished[f"est_{n}"] for n in THESIS_TABLE11)
     assert all(f"est_{n}" in de for n in THESIS_TABLE11)  # link offsets compared too
-    text = summarise("solvers", [{"sample": 0, **r} for r in rows])
+    text = study_table("solvers", [{"sample": 0, **r} for r in rows])
     assert "| LM / C2 | T_PO, mm | 0.771 |" in text and "estimate of J1pz" in text
 
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from screwcal.calibration.errors_model import ErrorModel, candidate_params
+from screwcal.calibration.error_parameters import ErrorModel, candidate_params
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist, twist_from_transform_difference
