@@ -41,7 +41,6 @@ from protocol.codec import (
     MovJ,
     Pose,
     Run,
-    Six,
     Stat,
     StatReply,
     Wait,
@@ -57,16 +56,7 @@ from protocol.errors import (
     ProtocolError,
     SequenceError,
 )
-
-
-@dataclass(frozen=True)
-class MeasuredPose:
-    """What the controller reported after reaching pose `idx` of a list."""
-
-    idx: int
-    flag: int
-    joints_deg: Six
-    tool0: Six  # x, y, z (mm), rx, ry, rz (deg), nominal, base frame
+from protocol.replies import MeasuredPose, MotionReplies, MotionVerb, RunReplies
 
 
 @dataclass(frozen=True)
@@ -379,85 +369,40 @@ class ControllerClient:
         try:
             await self._send(Run(seq, list_name, mode))
             self._expect_ack(await self._get(seq, self.timeouts.reply_s, "ACK RUN"), "RUN")
-            expected, pending, released = 0, None, -1
+            replies = RunReplies(loaded, operator=on_wait is not None, step=mode == "STEP")
             while True:
-                msg = await self._get(seq, self.timeouts.pose_s, f"pose {expected}")
-                if isinstance(msg, Wait):
-                    if on_wait is None:
-                        raise SequenceError(f"WAIT {msg.idx} during an AUTO run")
-                    if msg.idx != expected or pending is not None:
-                        raise SequenceError(f"WAIT {msg.idx} while pose {expected} is next")
-                    if released == expected:
-                        raise SequenceError(f"WAIT {msg.idx} repeated: GO {msg.idx} was sent")
-                    await self._operator_go(on_wait, msg.idx)
-                    released = expected
-                elif isinstance(msg, Joints):
-                    if pending is not None:
-                        raise SequenceError(f"j packet {msg.idx} repeated before its p packet")
-                    _check_packet(msg, expected, loaded)
-                    if mode == "STEP" and released != expected:
-                        raise SequenceError(f"pose {msg.idx} reported before its GO: the "
-                                            "controller moved without the go-ahead")
-                    pending = msg
-                elif isinstance(msg, Pose):
-                    if pending is None or pending.idx != msg.idx or pending.flag != msg.flag:
-                        raise SequenceError(f"p packet {msg.idx} without its j packet")
-                    yield MeasuredPose(msg.idx, msg.flag, pending.values, msg.values)
-                    expected, pending = expected + 1, None
-                elif isinstance(msg, Done) and msg.verb == "RUN":
-                    if pending is not None or expected != loaded:
-                        raise SequenceError(f"run ended after {expected} of {loaded} poses")
+                event = replies.feed(await self._get(seq, self.timeouts.pose_s,
+                                                     f"pose {replies.expected}"))
+                if isinstance(event, Wait):
+                    assert on_wait is not None  # RunReplies refuses a WAIT without one
+                    await self._operator_go(on_wait, event.idx)
+                elif isinstance(event, MeasuredPose):
+                    yield event
+                elif isinstance(event, Done):
                     return
-                elif isinstance(msg, Err):
-                    raise ControllerError(msg.code, msg.text, msg.seq)
-                else:
-                    raise SequenceError(f"unexpected {msg} during the run")
         finally:
             self._routes.pop(seq, None)
 
     async def go(self, idx: int) -> None:
         await self._send(Go(self._next_seq(), idx))
 
-    async def _motion(self, msg: MovJ | Home | Zero, verb: str,
+    async def _motion(self, msg: MovJ | Home | Zero, verb: MotionVerb,
                       on_wait: Callable[[int], Awaitable[None]] | None = None
                       ) -> MeasuredPose | None:
-        """MOVJ/HOME: ACK, one `j 2 0` and one `p 2 0`, DONE. ZERO: ACK, at most one WAIT 0
-        (answered only through `on_wait`), DONE. Anything else is a SequenceError."""
+        """Send a motion request and follow its replies (`MotionReplies`)."""
         seq = msg.seq
-        reports = verb != "ZERO"
         self._open_route(seq)
         try:
             await self._send(msg)
             self._expect_ack(await self._get(seq, self.timeouts.reply_s, f"ACK {verb}"), verb)
-            joints, result, released = None, None, False
+            replies = MotionReplies(verb, operator=on_wait is not None)
             while True:
-                reply = await self._get(seq, self.timeouts.motion_s, f"DONE {verb}")
-                if isinstance(reply, Joints | Pose):
-                    if not reports or (reply.flag, reply.idx) != (2, 0):
-                        raise SequenceError(f"{verb} reply: unexpected {reply}")
-                    if isinstance(reply, Joints):
-                        if joints is not None:
-                            raise SequenceError(f"{verb} reply: j packet repeated")
-                        joints = reply
-                    elif joints is None or result is not None:
-                        raise SequenceError(f"{verb} reply: p packet without its j packet")
-                    else:
-                        result = MeasuredPose(0, 2, joints.values, reply.values)
-                elif isinstance(reply, Wait):
-                    if verb != "ZERO" or reply.idx != 0 or released:
-                        raise SequenceError(f"{verb} reply: unexpected WAIT {reply.idx}")
-                    if on_wait is None:
-                        raise SequenceError(f"{verb} waits for the operator; give on_wait")
-                    await self._operator_go(on_wait, 0)
-                    released = True
-                elif isinstance(reply, Done) and reply.verb == verb:
-                    if reports and result is None:
-                        raise SequenceError(f"{verb} finished without reporting the pose")
-                    return result
-                elif isinstance(reply, Err):
-                    raise ControllerError(reply.code, reply.text, reply.seq)
-                else:
-                    raise SequenceError(f"unexpected {reply} during {verb}")
+                event = replies.feed(await self._get(seq, self.timeouts.motion_s, f"DONE {verb}"))
+                if isinstance(event, Wait):
+                    assert on_wait is not None  # MotionReplies refuses a WAIT without one
+                    await self._operator_go(on_wait, event.idx)
+                elif isinstance(event, Done):
+                    return replies.result
         finally:
             self._routes.pop(seq, None)
 
@@ -485,14 +430,3 @@ class ControllerClient:
         seq = self._next_seq()
         self._expect_ack(await self._request(Bye(seq), seq, self.timeouts.reply_s), "BYE")
 
-
-def _check_packet(msg: Joints, expected: int, count: int) -> None:
-    if msg.idx < expected:
-        raise SequenceError(f"pose {msg.idx} repeated (expected {expected})")
-    if msg.idx >= count:
-        raise SequenceError(f"pose {msg.idx} after the last of {count}")
-    if msg.idx > expected:
-        raise SequenceError(f"pose {expected} missing (got {msg.idx})")
-    if msg.flag != codec.flag_of(msg.idx, count):
-        raise SequenceError(f"pose {msg.idx} has FLAG {msg.flag}, expected "
-                            f"{codec.flag_of(msg.idx, count)} in a list of {count}")
