@@ -1,6 +1,7 @@
 """Kinematics: screws and rigid motions (`se3`), poses in mm/deg (`pose`), the serial model
 (`model`), forward kinematics and Jacobians (`forward`), DH conversions (`dh`), inverse kinematics
-(`ik`), the built-in robots (`robots`), model files (`modelfile`) and their schema (`modelschema`).
+(`ik`, its solutions in `ik_solutions`, the closed form in `wrist_partitioned`), the built-in
+robots (`robots`), model files (`modelfile`) and their schema (`modelschema`).
 
 May import: numpy, scipy, pydantic, and of ours only `screwcal.errors` and this package. It
 knows nothing of calibration, performance testing, studies or the command line.
@@ -10,7 +11,7 @@ from screwcal._lazy import lazy_exports
 
 _EXPORTS = {
     "Array": "se3",
-    "BRANCHES": "ik",
+    "BRANCHES": "ik_solutions",
     "BUILTIN_MODELS": "robots",
     "COMPLIANCE_JOINTS": "compliance",
     "COMPLIANCE_UNIT": "compliance",
@@ -24,7 +25,7 @@ _EXPORTS = {
     "FiniteFloat": "modelschema",
     "GRAVITY_M_S2": "compliance",
     "GravityIn": "modelschema",
-    "IKSolutions": "ik",
+    "IKSolutions": "ik_solutions",
     "JointCommon": "modelschema",
     "LumpedMass": "compliance",
     "MassIn": "modelschema",
@@ -41,7 +42,7 @@ _EXPORTS = {
     "ScrewsFile": "modelschema",
     "SerialModel": "model",
     "Vec3": "modelschema",
-    "WristPartitionedGeometry": "ik",
+    "WristPartitionedGeometry": "wrist_partitioned",
     "adjoint": "se3",
     "builtin_model": "robots",
     "closed_form_ik": "ik",

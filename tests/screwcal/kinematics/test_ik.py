@@ -6,7 +6,8 @@ import pytest
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.errors import ModelError, UnreachableError
 from screwcal.kinematics.forward import forward_kinematics
-from screwcal.kinematics.ik import BRANCHES, _wrapped, closed_form_ik, numerical_ik
+from screwcal.kinematics.ik import BRANCHES, closed_form_ik, numerical_ik
+from screwcal.kinematics.ik_solutions import _wrapped
 from screwcal.kinematics.robots import irb120, irb1600
 from screwcal.kinematics.se3 import exp_twist
 from tests.conftest import random_q
