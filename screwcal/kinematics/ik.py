@@ -25,17 +25,17 @@ from screwcal.kinematics.forward import (
 from screwcal.kinematics.ik_solutions import (
     BRANCHES,
     IKSolutions,
-    _raise_unreachable,
-    _solutions,
-    _wrapped,
+    controller_readings,
+    require_reachable,
+    solutions_of,
 )
 from screwcal.kinematics.model import SerialModel, once_per_object
 from screwcal.kinematics.se3 import Array, rotvec_from_rotation
 from screwcal.kinematics.wrist_partitioned import (
     IDEAL_AXES,
     WristPartitionedGeometry,
-    _closed_form_one,
-    _closed_form_theta,
+    closed_form_one,
+    closed_form_theta,
 )
 
 __all__ = ["BRANCHES", "IKSolutions", "WristPartitionedGeometry", "closed_form_ik", "local_ik",
@@ -61,12 +61,12 @@ def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike, require_all: boo
     """
     geo = WristPartitionedGeometry.from_model(model)
     T_world, T_flange = _flange_targets(model, T_world_tool)
-    theta, reach = _closed_form_one(geo, T_flange[0]) if len(T_flange) == 1 else \
-        _closed_form_theta(geo, T_flange)
-    q, within = _wrapped(model, theta)
+    theta, reach = closed_form_one(geo, T_flange[0]) if len(T_flange) == 1 else \
+        closed_form_theta(geo, T_flange)
+    q, within = controller_readings(model, theta)
     if require_all:
-        _raise_unreachable(reach)
-    return _solutions(model, q, reach, within, T_world, check)
+        require_reachable(reach)
+    return solutions_of(model, q, reach, within, T_world, check)
 
 def _pose_error(T_target: Array, T: Array) -> Array:
     """(dp, dphi) taking T to T_target: position difference and world-frame rotation vector."""
@@ -177,9 +177,9 @@ def _sampled_ik(model: SerialModel, T_target: Array, T_flange: Array, tol_mm: fl
                 break
         for b, theta in enumerate(found):
             out[k, b], reach[k, b] = theta, True
-    _raise_unreachable(reach)
-    q_wrapped, within = _wrapped(model, out)
-    return _solutions(model, q_wrapped, reach, within, T_target)
+    require_reachable(reach)
+    q_wrapped, within = controller_readings(model, out)
+    return solutions_of(model, q_wrapped, reach, within, T_target)
 
 
 @once_per_object
@@ -204,9 +204,9 @@ def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float =
     signs, ideal = _signed_ideal(model)
     geo = WristPartitionedGeometry.from_model(ideal, tol=None)
     # A calibrated arm may reach a little beyond its ideal twin: seed from the stretched pose.
-    theta0, reach0 = _closed_form_theta(geo, T_flange, slack=0.05, elbow_floor=0.02)
+    theta0, reach0 = closed_form_theta(geo, T_flange, slack=0.05, elbow_floor=0.02)
     theta0 = theta0 * signs
-    _raise_unreachable(reach0)
+    require_reachable(reach0)
     N = T_target.shape[0]
     q0 = np.nan_to_num(theta0 - model.joint_zero).reshape(-1, 6)
     active = reach0.reshape(-1)
@@ -214,7 +214,7 @@ def numerical_ik(model: SerialModel, T_world_tool: ArrayLike, *, tol_mm: float =
     q[active], converged[active] = _refine(model, np.repeat(T_target, 8, axis=0)[active],
                                            q0[active], tol_mm, tol_rad, max_iter, damping)
     reach = converged.reshape(N, 8)
-    _raise_unreachable(reach)
+    require_reachable(reach)
     q[~converged] = np.nan
-    q_wrapped, within = _wrapped(model, q.reshape(N, 8, 6) + model.joint_zero)
-    return _solutions(model, q_wrapped, reach, within, T_target)
+    q_wrapped, within = controller_readings(model, q.reshape(N, 8, 6) + model.joint_zero)
+    return solutions_of(model, q_wrapped, reach, within, T_target)

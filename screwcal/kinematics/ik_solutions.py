@@ -3,7 +3,7 @@
 `IKSolutions` holds the eight branches' joint readings with their masks (reachable, within the
 joint limits) and picks, per target, the valid branch nearest a reference. The readings are the
 joint angles with the joint zero removed, wrapped into the one-turn window each joint's limits
-give (`_wrapped`).
+give (`controller_readings`).
 """
 
 from __future__ import annotations
@@ -78,7 +78,7 @@ def _turns_toward(q: Array, q_ref: Array, limits: Array) -> Array:
         best = np.where(better, moved, best)
     return best
 
-def _wrapped(model: SerialModel, theta: Array) -> tuple[Array, Array]:
+def controller_readings(model: SerialModel, theta: Array) -> tuple[Array, Array]:
     """Joint angles (N, 8, 6), NaN where out of reach -> controller readings: the joint zero
     removed, wrapped to [-pi, pi), then moved by a turn where that brings a reading outside the
     limits inside them; and whether each branch is within the limits (N, 8).
@@ -103,12 +103,13 @@ def _reading_tables(model: SerialModel) -> tuple[Array | None, Array, Array, Arr
     """Per joint the window of one turn its readings fall in, as (sign, shift, start) with
     reading = start + sign ((sign theta + shift) mod 2 pi), and the lower and upper limits.
 
-    The rule of `_wrapped`: wrapped to [-pi, pi), a reading below `below` (under the lower
-    limit, and a turn up no further than the upper one) is turned up, one above `above` turned
-    down. So the window is [-pi, pi) for most joints; [below, below + 2 pi) where a turn up can
-    happen; (above - 2 pi, above] where a turn down can (sign -1: closed at its top, as the
-    rule keeps a reading equal to `above`). No joint can have both (below > -pi needs
-    hi > pi, above < pi needs hi < pi). `sign` is None when every joint's is +1."""
+    The rule of `controller_readings`: wrapped to [-pi, pi), a reading below `below` (under
+    the lower limit, and a turn up no further than the upper one) is turned up, one above
+    `above` turned down. So the window is [-pi, pi) for most joints; [below, below + 2 pi)
+    where a turn up can happen; (above - 2 pi, above] where a turn down can (sign -1: closed
+    at its top, as the rule keeps a reading equal to `above`). No joint can have both
+    (below > -pi needs hi > pi, above < pi needs hi < pi).
+    `sign` is None when every joint's is +1."""
     lo, hi = model.limits[:, 0].copy(), model.limits[:, 1].copy()
     # q < lo and q + 2 pi <= hi; q > hi and q - 2 pi >= lo (nextafter: <= as <)
     below = np.minimum(lo, np.nextafter(hi - _TAU, np.inf))
@@ -124,7 +125,7 @@ def _reading_tables(model: SerialModel) -> tuple[Array | None, Array, Array, Arr
     return (sign if down.any() else None), shift, start, lo, hi
 
 
-def _solutions(model: SerialModel, q: Array, reach: Array, within: Array, T_world: Array,
+def solutions_of(model: SerialModel, q: Array, reach: Array, within: Array, T_world: Array,
                check: bool = True) -> IKSolutions:
     if check:  # the FK of every branch against the target (NaN where out of reach)
         N = q.shape[0]
@@ -136,7 +137,7 @@ def _solutions(model: SerialModel, q: Array, reach: Array, within: Array, T_worl
                        limits=model.limits)
 
 
-def _raise_unreachable(reach: Array) -> None:
+def require_reachable(reach: Array) -> None:
     if len(reach) == 1 and reach.any():  # one target: a single reduction decides
         return
     some = reach.any(axis=1)

@@ -93,8 +93,8 @@ def _euler_xyx(W: Array) -> Array:
     return np.stack([a, b, c], axis=-1)
 
 
-def _closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Array]:
-    """`_closed_form_theta` for one flange target (4, 4) in scalar arithmetic: the same
+def closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Array]:
+    """`closed_form_theta` for one flange target (4, 4) in scalar arithmetic: the same
     formulas, a fraction of the array calls' overhead (a test holds the two equal). Returns
     theta (1, 8, 6) and reach (1, 8)."""
     o, R_M, (au, af, pu, pf) = _one_target_tables(geo)
@@ -163,7 +163,7 @@ def _one_target_tables(geo: WristPartitionedGeometry
     return o.tolist(), R_M.tolist(), (abs(u), abs(f), cmath.phase(u), cmath.phase(f))
 
 
-def _closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = _SLACK,
+def closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = _SLACK,
                        elbow_floor: float = 0.0) -> tuple[Array, Array]:
     """Joint angles (N, 8, 6) of the ideal geometry and the reachable mask (N, 8).
 

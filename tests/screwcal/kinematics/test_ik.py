@@ -7,7 +7,7 @@ from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_jo
 from screwcal.errors import ModelError, UnreachableError
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.ik import BRANCHES, closed_form_ik, numerical_ik
-from screwcal.kinematics.ik_solutions import _wrapped
+from screwcal.kinematics.ik_solutions import controller_readings
 from screwcal.kinematics.robots import irb120, irb1600
 from screwcal.kinematics.se3 import exp_twist
 from tests.conftest import random_q
@@ -152,7 +152,7 @@ def test_readings_wrap_into_the_limits_by_whole_turns(rng):
         limits = np.stack([lo, lo + rng.uniform(0.2, 3 * np.pi, 6)], axis=1)
         m = replace(model, limits=limits, joint_zero=rng.normal(0, 0.1, 6))
         theta = rng.uniform(-10, 10, (50, 8, 6))
-        got, within = _wrapped(m, theta)
+        got, within = controller_readings(m, theta)
         x = (theta - m.joint_zero + np.pi) % (2 * np.pi) - np.pi
         lo, hi = limits[:, 0], limits[:, 1]
         want = np.where((x < lo) & (x + 2 * np.pi <= hi), x + 2 * np.pi,
