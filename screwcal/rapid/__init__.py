@@ -1,6 +1,6 @@
-"""RAPID, read once: a parser for ABB RAPID modules (`parse_module`), its AST (`ast`), and the
-static check behind `screwcal rapid check` (`check`). The program filter, `rapid check` and the
-simulators' interpreter all read RAPID through it.
+"""RAPID, read once: a parser for ABB RAPID modules (`parse_module`, over its `scanner` and
+`expressions`), its AST (`ast`), and the static check behind `screwcal rapid check` (`check`).
+The program filter, `rapid check` and the simulators' interpreter all read RAPID through it.
 
 May import: nothing of ours (a core layer below every other: the standard library only).
 """

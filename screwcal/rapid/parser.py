@@ -9,38 +9,31 @@ read in one regular-expression match, the common case of every robtarget.
 
 One reading differs from the kernel grammar: NOT binds one relation (`NOT a AND b` is
 `(NOT a) AND b`), as in the RAPID overview's examples.
+
+In three modules, one grammar level each: the tokens (`scanner`), the expressions and argument
+lists (`expressions`), and here the module, its declarations, routines and statements.
 """
+
 
 from __future__ import annotations
 
 import re
 from bisect import bisect_right
-from itertools import accumulate
 
-from screwcal.rapid.ast import (
-    Aggregate as AggregateNode,
-)
 from screwcal.rapid.ast import (
     AliasDecl,
     Argument,
     Assign,
-    Binary,
-    Call,
     Case,
-    Comment,
-    Component,
     Connect,
     DataDecl,
     Expr,
     For,
     Goto,
     If,
-    Index,
     Label,
     Module,
     Name,
-    Num,
-    NumberRow,
     Param,
     ProcCall,
     Raise,
@@ -50,53 +43,19 @@ from screwcal.rapid.ast import (
     Routine,
     Simple,
     Stmt,
-    Str,
     Test,
-    Unary,
     While,
 )
+from screwcal.rapid.expressions import ExpressionParser
+from screwcal.rapid.scanner import KEYWORDS, RapidSyntaxError
 
-
-class RapidSyntaxError(ValueError):
-    """RAPID text that does not parse: where (file, 1-based line and column) and why."""
-
-    def __init__(self, path: str, line: int, col: int, reason: str):
-        self.path, self.line, self.col, self.reason = path, line, col, reason
-        super().__init__(f"{path}:{line}:{col}: {reason}")
-
-
-KEYWORDS = frozenset("""ALIAS AND BACKWARD CASE CONNECT CONST DEFAULT DIV DO ELSE ELSEIF ENDFOR
-ENDFUNC ENDIF ENDMODULE ENDPROC ENDRECORD ENDTEST ENDTRAP ENDWHILE ERROR EXIT FOR FROM FUNC GOTO
-IF INOUT LOCAL MOD MODULE NOT OR PERS PROC RAISE RECORD RETRY RETURN STEP TEST THEN TO TRAP
-TRYNEXT UNDO VAR WHILE WITH XOR""".split())
-
-_NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
-_SKIP = re.compile(r"(?:\s+|![^\n]*)*")
-_COMMENT = re.compile(r"![^\n]*")
-_TOKEN_PATTERN = (
-    r"(?P<num>0[xX][0-9A-Fa-f]+|0[bB][01]+|0[oO][0-7]+|" + _NUMBER + r")(?![A-Za-z_])"
-    r"|(?P<id>[A-Za-z]\w*)"
-    r'|(?P<str>"(?:[^"\n]|"")*")'
-    r"|(?P<op>:=|<=|>=|<>|[-+*/<>=(){}\[\],;:\\.%?|])")
-_SKIP_TOKEN = re.compile(r"(?:\s+|![^\n]*)*(?:" + _TOKEN_PATTERN + ")")
-# After a name or literal: the end of an argument, item or statement (the value is that atom).
-_ATOM_END = re.compile(r"[ \t]*[,;)\]]")
-# `[n, n, ...]` of plain numbers on one line: most of a robtarget, read in one match.
-_SIGNED = re.compile(r"[-+]?" + _NUMBER)
-_FLAT = re.compile(r"\[[ \t]*[-+]?" + _NUMBER + r"(?:[ \t]*,[ \t]*[-+]?" + _NUMBER
-                   + r")*[ \t]*\]")
-# `[[n, ...], [n, ...], ...]` on one line: a whole robtarget.
-_NESTED = re.compile(r"\[[ \t]*" + _FLAT.pattern + r"(?:[ \t]*,[ \t]*" + _FLAT.pattern
-                     + r")*[ \t]*\]")
+__all__ = ["KEYWORDS", "RapidSyntaxError", "parse_expression", "parse_module"]
 
 # A procedure call whose arguments are all names, on one line (the rest of most statements).
 _PLAIN_CALL = re.compile(r"[ \t]+([A-Za-z]\w*(?:[ \t]*,[ \t]*[A-Za-z]\w*)*)[ \t]*;")
 _NAME = re.compile(r"[A-Za-z]\w*")
-_AFTER_NAME = re.compile(r"\s*(:=|:|\{|\.(?!\d)|!)")
-_ATOMS = frozenset(("id", "num", "str"))
 _ENDS = {"PROC": "ENDPROC", "FUNC": "ENDFUNC", "TRAP": "ENDTRAP"}
 _HANDLERS = ("BACKWARD", "ERROR", "UNDO")
-_RELATIONS = frozenset(("<", "<=", "=", ">=", ">", "<>"))
 _CLOSERS = frozenset(("ENDPROC", "ENDFUNC", "ENDTRAP", "ENDIF", "ENDWHILE", "ENDFOR", "ENDTEST",
                       "ENDMODULE", "ENDRECORD", "ELSE", "ELSEIF", "CASE", "DEFAULT",
                       *_HANDLERS))
@@ -119,104 +78,8 @@ def parse_expression(text: str, path: str = "<expression>") -> Expr:
     return e
 
 
-class _Parser:
-    def __init__(self, text: str, path: str):
-        if text.startswith("\ufeff"):  # a byte-order mark: not part of the module
-            text = " " + text[1:]
-        elif text.startswith("\xef\xbb\xbf"):  # the same, read as latin-1
-            text = "   " + text[3:]
-        self.text, self.path = text, path
-        self.starts = [0] + [m.end() for m in re.finditer("\n", text)]
-        self.comments: list[Comment] = []
-        self.pos = 0
-        self.kind, self.value, self.start, self.end = "bof", "", 0, 0
-        self.advance()
-
-    # ------------------------------------------------------------ scanning
-    def where(self, offset: int) -> tuple[int, int]:
-        line = bisect_right(self.starts, offset)
-        return line, offset - self.starts[line - 1] + 1
-
-    def advance(self) -> None:
-        self.last_end = self.end
-        text, pos = self.text, self.pos
-        m = _SKIP_TOKEN.match(text, pos)  # blanks and comments, then one token
-        if m is None:  # the end of the text, or a character no token begins with
-            skip = _SKIP.match(text, pos)
-            self.collect_comments(pos, skip.end())
-            p = skip.end()
-            self.start = p
-            if p >= len(text):
-                self.kind, self.value, self.end = "eof", "", p
-                self.pos = p
-                return
-            self.fail("a string that never closes (missing '\"' on its line)"
-                      if text[p] == '"' else f"unexpected character {text[p]!r}")
-        kind = m.lastgroup
-        p = m.start(kind)
-        if p > pos and text.find("!", pos, p) >= 0:
-            self.collect_comments(pos, p)
-        value = m.group(kind)
-        if kind == "id" and value.upper() in KEYWORDS:
-            kind, value = "kw", value.upper()
-        self.kind, self.value, self.start, self.end = kind, value, p, m.end()
-        self.pos = m.end()
-
-    def collect_comments(self, start: int, end: int) -> None:
-        for c in _COMMENT.finditer(self.text, start, end):
-            line, col = self.where(c.start())
-            self.comments.append(Comment(line, col, c.start(), c.end(), c.group()))
-
-    def fail(self, reason: str, offset: int | None = None) -> None:
-        line, col = self.where(self.start if offset is None else offset)
-        raise RapidSyntaxError(self.path, line, col, reason)
-
-    def shown(self) -> str:
-        return "the end of the file" if self.kind == "eof" else f"'{self.value}'"
-
-    def at(self, value: str) -> bool:
-        return self.value == value and self.kind in ("op", "kw")
-
-    def accept(self, value: str) -> bool:
-        if self.value == value and self.kind in ("op", "kw"):
-            self.advance()
-            return True
-        return False
-
-    def expect(self, value: str, context: str = "") -> None:
-        if not self.accept(value):
-            self.fail(f"expected '{value}'{context}, found {self.shown()}")
-
-    def ident(self, what: str) -> str:
-        if self.kind != "id":
-            self.fail(f"expected {what}, found {self.shown()}")
-        name = self.value
-        self.advance()
-        return name
-
-    def loc(self, start: int) -> tuple[int, int, int, int]:
-        line, col = self.where(start)
-        return line, col, start, self.last_end
-
-    def after_ident(self) -> tuple[str, str]:
-        """The token after the current name, when it is one of `:= : { .` (the common
-        case, read without scanning on), else as peek_after_ident finds it."""
-        m = _AFTER_NAME.match(self.text, self.end)
-        if m is None:
-            return "", ""
-        if m.group(1) == "!":
-            return self.peek_after_ident()
-        return "op", m.group(1)
-
-    def peek_after_ident(self) -> tuple[str, str]:
-        """The token after the current one (kind, value), the state left as it was."""
-        saved = (self.pos, self.kind, self.value, self.start, self.end, self.last_end,
-                 len(self.comments))
-        self.advance()
-        nxt = (self.kind, self.value)
-        (self.pos, self.kind, self.value, self.start, self.end, self.last_end, n) = saved
-        del self.comments[n:]
-        return nxt
+class _Parser(ExpressionParser):
+    """Modules, declarations, routines and statements over the expressions."""
 
     # ------------------------------------------------------------ module level
     def module(self) -> Module:
@@ -521,209 +384,3 @@ class _Parser:
             else:
                 self.expect("ENDTEST", " (or CASE, DEFAULT)")
                 return Test(*self.loc(start), subject, tuple(cases), default)
-
-    def arguments(self, close: str) -> tuple[Argument, ...]:
-        """Arguments up to `close` (`;` of a procedure call, `)` of a function call), which is
-        consumed. Positional ones are separated by commas; an optional one (`\\Name`) may follow
-        the previous one without a comma."""
-        args: list[Argument] = []
-        first = True
-        while not self.accept(close):
-            if not first and not self.accept(",") and not self.at("\\"):
-                self.fail(f"expected ',' or '{close}' between arguments, found {self.shown()}")
-            first = False
-            start = self.start
-            name, value, optional, conditional = None, None, False, False
-            if self.accept("\\"):
-                optional = True
-                name = self.ident("an optional argument's name after '\\'")
-                if self.accept(":="):
-                    value = self.expr()
-                elif self.accept("?"):
-                    conditional = True
-                    value = self.postfix(self.name_expr())
-            elif self.kind == "id" and self.after_ident() == ("op", ":="):
-                name = self.value  # a required argument given by name
-                self.advance()
-                self.advance()
-                value = self.expr()
-            else:
-                value = self.expr()
-            args.append(Argument(*self.loc(start), value, name, optional, conditional))
-        return tuple(args)
-
-    # ------------------------------------------------------------ expressions
-    def expr_list(self, close: str) -> tuple[Expr, ...]:
-        items = [self.expr()]
-        while self.accept(","):
-            items.append(self.expr())
-        self.expect(close)
-        return tuple(items)
-
-    def expr(self) -> Expr:
-        if self.kind in _ATOMS and _ATOM_END.match(self.text, self.end):
-            return self.primary()  # a lone name or literal: most arguments and items
-        start = self.start
-        left = self.and_()
-        while self.kind == "kw" and self.value in ("OR", "XOR"):
-            op = self.value
-            self.advance()
-            right = self.and_()
-            left = Binary(*self.loc(start), op, left, right)
-        return left
-
-    def and_(self) -> Expr:
-        start = self.start
-        left = self.not_()
-        while self.kind == "kw" and self.value == "AND":
-            self.advance()
-            right = self.not_()
-            left = Binary(*self.loc(start), "AND", left, right)
-        return left
-
-    def not_(self) -> Expr:
-        start = self.start
-        if self.accept("NOT"):
-            operand = self.not_()
-            return Unary(*self.loc(start), "NOT", operand)
-        left = self.simple()
-        if self.kind == "op" and self.value in _RELATIONS:
-            op = self.value
-            self.advance()
-            right = self.simple()
-            left = Binary(*self.loc(start), op, left, right)
-        return left
-
-    def simple(self) -> Expr:
-        start = self.start
-        if self.kind == "op" and self.value in ("-", "+"):
-            op = self.value
-            self.advance()
-            operand = self.term()
-            if isinstance(operand, Num) and operand.text[0] not in "+-":  # a signed literal
-                left: Expr = Num(*self.loc(start), self.text[start:self.last_end])
-            else:
-                left = Unary(*self.loc(start), op, operand)
-        else:
-            left = self.term()
-        while self.kind == "op" and self.value in ("+", "-"):
-            op = self.value
-            self.advance()
-            right = self.term()
-            left = Binary(*self.loc(start), op, left, right)
-        return left
-
-    def term(self) -> Expr:
-        start = self.start
-        left = self.primary()
-        while (self.kind == "op" and self.value in ("*", "/")) or \
-                (self.kind == "kw" and self.value in ("DIV", "MOD")):
-            op = self.value
-            self.advance()
-            right = self.primary()
-            left = Binary(*self.loc(start), op, left, right)
-        return left
-
-    def primary(self) -> Expr:
-        kind, value, start = self.kind, self.value, self.start
-        if kind == "num":
-            self.advance()
-            return Num(*self.loc(start), value)
-        if kind == "str":
-            self.advance()
-            return Str(*self.loc(start), value)
-        if kind == "id":
-            return self.postfix(self.name_expr())
-        if kind == "op":
-            if value == "[":
-                return self.aggregate()
-            if value == "(":
-                self.advance()
-                e = self.expr()
-                self.expect(")", " to close '('")
-                return e
-            if value == "%":
-                self.advance()
-                late = self.expr()
-                self.expect("%", " to close the late-bound name")
-                self.expect("(", " after a late-bound function")
-                return Call(*self.loc(start), "", self.arguments(")"), late)
-        self.fail(f"expected a value, found {self.shown()}")
-        raise AssertionError  # fail raises
-
-    def name_expr(self) -> Expr:
-        start, name = self.start, self.ident("a name")
-        if self.at("("):
-            self.advance()
-            args = self.arguments(")")
-            return Call(*self.loc(start), name, args)
-        return Name(*self.loc(start), name)
-
-    def postfix(self, base: Expr) -> Expr:
-        while self.kind == "op" and self.value in ("{", "."):
-            if self.accept("{"):
-                indices = self.expr_list("}")
-                base = Index(base.line, base.col, base.start, self.last_end, base, indices)
-            else:
-                self.advance()
-                field = self.ident("a component name after '.'")
-                base = Component(base.line, base.col, base.start, self.last_end, base, field)
-        return base
-
-    def numbers(self, start: int, end: int, line: int, base: int) -> NumberRow:
-        """The NumberRow of `[n, n, ...]` between start and end (one line, checked by _FLAT)."""
-        body = self.text[start + 1:end - 1]
-        pieces = body.split(",")
-        if " " in body or "\t" in body:
-            texts, starts, at = [], [], start + 1
-            for piece in pieces:
-                t = piece.strip()
-                texts.append(t)
-                starts.append(at + piece.index(t))
-                at += len(piece) + 1
-        else:
-            texts = pieces
-            starts = list(accumulate([len(p) + 1 for p in pieces[:-1]], initial=start + 1))
-        return NumberRow(line, start - base, start, end, tuple(texts), tuple(starts))
-
-    def item(self) -> Expr:
-        """An item of an aggregate: most often an aggregate itself, read without going down
-        the operator levels (and again as an expression when an operator follows it)."""
-        if self.kind == "op" and self.value == "[":
-            saved = (self.pos, self.kind, self.value, self.start, self.end, self.last_end,
-                     len(self.comments))
-            value = self.aggregate()
-            if self.kind == "op" and self.value in (",", "]"):
-                return value
-            (self.pos, self.kind, self.value, self.start, self.end, self.last_end, n) = saved
-            del self.comments[n:]
-        return self.expr()
-
-    def aggregate(self) -> Expr:
-        start, text = self.start, self.text
-        flat = _FLAT.match(text, start)
-        nested = None if flat else _NESTED.match(text, start)
-        if flat or nested:  # plain numbers on one line: read in one match
-            end = (flat or nested).end()
-            line = bisect_right(self.starts, start)
-            base = self.starts[line - 1] - 1
-            value: Expr
-            if flat:
-                value = self.numbers(start, end, line, base)
-            else:
-                value = AggregateNode(line, start - base, start, end, tuple([
-                    self.numbers(m.start(), m.end(), line, base)
-                    for m in _FLAT.finditer(text, start + 1, end)]))
-            self.pos = self.end = end
-            self.advance()
-            return value
-        self.advance()
-        items_: list[Expr] = []
-        if not self.at("]"):
-            items_.append(self.item())
-            while self.accept(","):
-                items_.append(self.item())
-        if not self.accept("]"):
-            self.fail(f"expected ',' or ']' in the value begun at line {self.where(start)[0]}"
-                      f", found {self.shown()}")
-        return AggregateNode(*self.loc(start), tuple(items_))
