@@ -19,13 +19,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 
-from screwcal.errors import ScrewcalError
+from screwcal.errors import AlignmentError
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, invert_transform
-
-
-class AlignmentError(ScrewcalError):
-    """Sweep points that cannot give an axis."""
 
 
 @dataclass(frozen=True)

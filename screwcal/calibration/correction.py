@@ -26,7 +26,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import least_squares
 
-from screwcal.errors import JointLimitError, ScrewcalError, UnreachableError
+from screwcal.errors import (
+    CorrectionRefusedError,
+    JointLimitError,
+    TargetRefusedError,
+    UnreachableError,
+)
 from screwcal.kinematics.forward import (
     flange_kinematics,
     forward_kinematics,
@@ -44,14 +49,6 @@ PLAUSIBLE_OFFSET_DEG = 5.0
 # J6 together near the wrist singularity): twice the offsets' bound.
 PLAUSIBLE_CHANGE_DEG = 2 * PLAUSIBLE_OFFSET_DEG
 MAX_STD_ERROR_DEG = 0.1
-
-
-class CorrectionRefusedError(ScrewcalError):
-    """A correction outside plausible bounds: nothing is sent. `index`: the target refused."""
-
-    def __init__(self, message: str, index: int | None = None):
-        super().__init__(message)
-        self.index = index
 
 
 @dataclass(frozen=True)
@@ -257,7 +254,7 @@ def compensate_each(calibrated: SerialModel, nominal: SerialModel, T_desired: Ar
     T = np.asarray(T_desired, dtype=float)
     try:
         return _compensate_from_home(calibrated, nominal, T, frame, bound_deg)
-    except (UnreachableError, JointLimitError, CorrectionRefusedError):
+    except TargetRefusedError:
         pass  # one target fails the batch: each on its own
     n = calibrated.n_joints
     q, tool0, change = np.zeros((len(T), n)), np.tile(np.eye(4), (len(T), 1, 1)), \
@@ -266,7 +263,7 @@ def compensate_each(calibrated: SerialModel, nominal: SerialModel, T_desired: Ar
     for k in range(len(T)):
         try:
             one = _compensate_from_home(calibrated, nominal, T[k:k + 1], frame, bound_deg)
-        except (UnreachableError, JointLimitError, CorrectionRefusedError) as err:
+        except TargetRefusedError as err:
             refused.append((k, str(err).replace("target 0 is", "it is")
                             .replace("target 0: ", "").replace("target 0", "it")))
             continue

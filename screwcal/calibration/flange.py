@@ -19,7 +19,7 @@ from itertools import permutations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.errors import ScrewcalError
+from screwcal.errors import FlangeError
 from screwcal.kinematics.se3 import Array, invert_transform
 
 # A measuring flange's three holes in the robot flange (tool0) frame, mm: the default layout of
@@ -28,10 +28,6 @@ DEFAULT_HOLES_IN_FLANGE_MM = ((0.0, -30.0, 20.0), (40.0, 0.0, 20.0), (0.0, 30.0,
 MIN_SEPARATION_MM = 1.0
 MIN_ANGLE_DEG = 5.0  # smallest angle at P1 between P1->P2 and P1->P3 for a usable frame
 _PAIRS = ((0, 1), (0, 2), (1, 2))
-
-
-class FlangeError(ScrewcalError):
-    """Probed holes that cannot define the flange frame."""
 
 
 def _as_points(points: ArrayLike) -> Array:

@@ -79,17 +79,13 @@ from screwcal.calibration.plausible import (
     outside_ranges,
     prior_sigma,
 )
-from screwcal.errors import ScrewcalError
+from screwcal.errors import IdentificationError
 from screwcal.instrument import JOINT_ERROR_DEG, ORIENTATION_NOISE_DEG, POSITION_NOISE_MM
 from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, rotvec_from_rotation
 
 Frames = Literal["unknown", "known", "base"]  # base: only the measuring frame is unknown
-class IdentificationError(ScrewcalError):
-    """The identification cannot run on these data (too few poses, nothing identifiable)."""
-
-
 LAG_ROUNDS = 4  # estimate-correct-refit rounds of lag="auto", while the residual falls
 COMPLIANCE_T = 5.0  # |value| / std error above which "auto" keeps a joint compliance
 FREE_MIN_POSES = 200  # enough poses to let auto try a compliance per joint and arm mass

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.errors import DataFileError, ScrewcalError
+from screwcal.errors import DataFileError, InputError
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import rotation_from_euler_zyx_deg
 from screwcal.kinematics.se3 import Array, transform_points
@@ -34,11 +34,11 @@ class MeasurementSet:
     def __post_init__(self) -> None:
         N = len(self.q)
         if self.positions_mm.shape != (N, 3):
-            raise ScrewcalError(f"positions must be ({N}, 3); got {self.positions_mm.shape}")
+            raise InputError(f"positions must be ({N}, 3); got {self.positions_mm.shape}")
         if self.rotations is not None and self.rotations.shape != (N, 3, 3):
-            raise ScrewcalError(f"rotations must be ({N}, 3, 3); got {self.rotations.shape}")
+            raise InputError(f"rotations must be ({N}, 3, 3); got {self.rotations.shape}")
         if self.q_previous is not None and self.q_previous.shape != self.q.shape:
-            raise ScrewcalError(f"previous readings must be {self.q.shape}; got "
+            raise InputError(f"previous readings must be {self.q.shape}; got "
                                 f"{self.q_previous.shape}")
         if not self.ids:
             object.__setattr__(self, "ids", tuple(str(k + 1) for k in range(N)))
@@ -95,7 +95,7 @@ def read_measurements_csv(path: str | Path, model: SerialModel, *, joint_unit: s
     `length_unit` ("m", "in") read files written in other units; numbers that look like
     another unit than the one given are refused with the fix (`check_units`)."""
     if joint_unit not in JOINT_UNITS or length_unit not in LENGTH_UNITS_MM:
-        raise ScrewcalError(f"joint unit is one of {JOINT_UNITS}, length unit one of "
+        raise InputError(f"joint unit is one of {JOINT_UNITS}, length unit one of "
                             f"{tuple(LENGTH_UNITS_MM)}; not {joint_unit!r}, {length_unit!r}")
     table = read_numeric_csv(path, [*joint_columns(model.n_joints), "x", "y", "z"],
                              optional_groups=[["rx", "ry", "rz"]])

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.errors import ScrewcalError
+from screwcal.errors import InputError, ScrewcalError
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
@@ -57,7 +57,7 @@ def cube_set(model: SerialModel, name: str, n: int = 40, seed: int = 0,
     """n configurations (rad) whose TCP lies in the named 600 mm cube. `spread` (default: for
     the Klimchik-style set) draws them as Latin hypercubes, otherwise uniformly."""
     if name not in CUBES_MM:
-        raise ScrewcalError(f"unknown pose set '{name}'; choose {', '.join(CUBES_MM)}")
+        raise InputError(f"unknown pose set '{name}'; choose {', '.join(CUBES_MM)}")
     spread = name == "Klimchik" if spread is None else spread
     rng = np.random.default_rng(seed)
     lo, hi = model.limits[:, 0].copy(), model.limits[:, 1].copy()
@@ -112,7 +112,7 @@ def quadrant_variants(q_rad: ArrayLike, quadrants: int) -> Array:
     by 90, 180, 270 deg, the set split evenly among the quadrants (same count)."""
     q = np.array(q_rad, dtype=float)
     if quadrants not in (1, 2, 4):
-        raise ScrewcalError(f"quadrants are 1, 2 or 4, got {quadrants}")
+        raise InputError(f"quadrants are 1, 2 or 4, got {quadrants}")
     turns = {1: [0], 2: [0, 90], 4: [0, 90, 180, 270]}[quadrants]
     for k in range(len(q)):
         q[k, 0] += np.radians(turns[k % len(turns)])

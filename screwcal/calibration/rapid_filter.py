@@ -24,7 +24,7 @@ import numpy as np
 
 from screwcal.calibration.correction import compensate
 from screwcal.calibration.rapid_source import NUMBER, Aggregate, RapidModule, Token
-from screwcal.errors import ScrewcalError
+from screwcal.errors import DataFileError
 from screwcal.kinematics.confdata import confdata, solution_for_confdata
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import (
@@ -146,8 +146,8 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
     tools, wobjs = _frames(module)
     for name, frames in ((tool, tools), (wobj, wobjs)):
         if name.lower() not in frames:
-            raise ScrewcalError(f"{module.path}: '{name}' is not declared in the module (nor "
-                                "tool0 / wobj0)")
+            raise DataFileError(str(module.path), f"'{name}' is not declared in the module "
+                                "(nor tool0 / wobj0): declare it, or name a declared one")
     declared = {d.name.lower() for d in module.declarations if d.kind == "robtarget"}
     uses: dict[str, set[tuple[str, str]]] = {}
     for m in module.motions:

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from screwcal.calibration.correction import CorrectionRefusedError, joint_correction
+from screwcal.calibration.correction import joint_correction
 from screwcal.calibration.identify import CalibrationResult
+from screwcal.errors import CorrectionRefusedError
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.modelfile import model_document, pose_document
 

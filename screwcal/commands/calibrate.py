@@ -71,10 +71,10 @@ solution.
 
 def run_calibrate(args: argparse.Namespace) -> int:
     from screwcal.calibration.base_alignment import base_from_sweeps, read_sweeps_csv
-    from screwcal.calibration.identify import IdentificationError, NoiseModel, identify
+    from screwcal.calibration.identify import NoiseModel, identify
     from screwcal.calibration.measurements import read_measurements_csv
     from screwcal.calibration.resultfile import result_document
-    from screwcal.errors import DataFileError
+    from screwcal.errors import DataFileError, IdentificationError
     from screwcal.kinematics.modelfile import resolve_model
     from screwcal.tables import write_json_atomic
 

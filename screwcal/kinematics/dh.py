@@ -29,7 +29,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.errors import ModelError
+from screwcal.errors import DegenerateTableError, ModelError
 from screwcal.kinematics.model import PRISMATIC, SerialModel
 from screwcal.kinematics.se3 import Array, invert_transform, transform_from_rotation_translation
 
@@ -38,10 +38,6 @@ _PARALLEL_TOL = 1e-9
 _DIST_TOL = 1e-9
 HAYATI_DEG = 5.0  # mdh: consecutive axes closer than this to parallel take a beta
 DEGENERATE_RATIO = 10.0  # dh: an offset this many times the robot's size is refused
-
-
-class DegenerateTableError(ModelError):
-    """A standard DH table would need offsets far beyond the robot (near-parallel axes)."""
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.errors import ScrewcalError
+from screwcal.errors import InputError
 from screwcal.kinematics.pose import euler_zyx_deg_near, rotation_from_euler_zyx_deg
 from screwcal.kinematics.se3 import Array
 
@@ -71,11 +71,11 @@ def pose_metrics(p_cmd_mm: ArrayLike, p_mm: ArrayLike, r_cmd_deg: ArrayLike | No
     p_cmd = np.asarray(p_cmd_mm, dtype=float)
     p = np.asarray(p_mm, dtype=float)
     if p.ndim != 2 or p.shape[1] != 3 or p_cmd.shape != (3,):
-        raise ScrewcalError(f"pose metrics need attained positions (n, 3) and a commanded (3,); "
+        raise InputError(f"pose metrics need attained positions (n, 3) and a commanded (3,); "
                             f"got {p.shape} and {p_cmd.shape}")
     n = len(p)
     if n < 2:
-        raise ScrewcalError(f"repeatability needs at least 2 cycles of a pose; got {n}")
+        raise InputError(f"repeatability needs at least 2 cycles of a pose; got {n}")
     mean = p.mean(axis=0)
     ap_xyz = mean - p_cmd  # Eq. 2.5 components
     dist = np.linalg.norm(p - mean, axis=1)  # l_j, Eq. 2.6
@@ -83,12 +83,12 @@ def pose_metrics(p_cmd_mm: ArrayLike, p_mm: ArrayLike, r_cmd_deg: ArrayLike | No
     s_l = float(np.std(dist, ddof=1))  # Eq. 2.8
     ap_abc = rp_abc = None
     if (r_cmd_deg is None) != (r_deg is None):
-        raise ScrewcalError("give both commanded and attained orientations, or neither")
+        raise InputError("give both commanded and attained orientations, or neither")
     if r_deg is not None:
         r = np.asarray(r_deg, dtype=float)
         r_cmd = np.asarray(r_cmd_deg, dtype=float)
         if r.shape != p.shape or r_cmd.shape != (3,):
-            raise ScrewcalError(f"orientations must be (n, 3) and (3,); got {r.shape}, "
+            raise InputError(f"orientations must be (n, 3) and (3,); got {r.shape}, "
                                 f"{r_cmd.shape}")
         r = euler_zyx_deg_near(rotation_from_euler_zyx_deg(r), r_cmd)
         dev = wrap_deg(r - r_cmd)  # attained - commanded, near 0

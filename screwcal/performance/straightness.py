@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.errors import ScrewcalError
+from screwcal.errors import InputError
 from screwcal.kinematics.se3 import Array
 
 
@@ -57,15 +57,15 @@ def straightness(points_mm: ArrayLike) -> Straightness:
     """Least-squares straightness of measured points (n >= 3, (n, 3)) along a straight path."""
     p = np.asarray(points_mm, dtype=float)
     if p.ndim != 2 or p.shape[1] != 3:
-        raise ScrewcalError(f"straightness needs points of shape (n, 3); got {p.shape}")
+        raise InputError(f"straightness needs points of shape (n, 3); got {p.shape}")
     if len(p) < 3:
-        raise ScrewcalError(f"straightness needs at least 3 points; got {len(p)}")
+        raise InputError(f"straightness needs at least 3 points; got {len(p)}")
     if not np.all(np.isfinite(p)):
-        raise ScrewcalError("straightness: every coordinate must be a finite number")
+        raise InputError("straightness: every coordinate must be a finite number")
     c = p.mean(axis=0)
     _, s, Vt = np.linalg.svd(p - c, full_matrices=False)
     if s[0] <= 1e-9 * max(1.0, np.abs(p).max()):
-        raise ScrewcalError("straightness: the points coincide; there is no line to fit")
+        raise InputError("straightness: the points coincide; there is no line to fit")
     d, u = Vt[0], Vt[1]
     if np.dot(p[-1] - p[0], d) < 0:
         d = -d

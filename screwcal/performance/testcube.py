@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.errors import ScrewcalError
+from screwcal.errors import InfeasibleCubeError, InputError
 from screwcal.kinematics.ik import BRANCHES, closed_form_ik
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import transform_from_pose
@@ -32,10 +32,6 @@ CYCLE_ORDER = ("P1", "P5", "P4", "P3", "P2")
 DIAGONAL_FRACTION = 0.10
 _BRANCH = BRANCHES.index(("front", "up", "noflip"))
 FLANGE_DOWN_DEG = (0.0, 180.0, 0.0)
-
-
-class InfeasibleCubeError(ScrewcalError):
-    """No cube of the requested size fits the robot's workspace (and the arm's sphere)."""
 
 
 @dataclass(frozen=True)
@@ -144,7 +140,7 @@ def find_test_cube(model: SerialModel, edge_mm: float | None = None, *,
     centres = np.array([[x, 0.0, z] for x in xs for z in zs])
     if centre_mm is not None:
         if edge_mm is None:
-            raise ScrewcalError("a given cube centre needs its edge length too")
+            raise InputError("a given cube centre needs its edge length too")
         centres = np.asarray(centre_mm, dtype=float).reshape(1, 3)
 
     def best_for(edge: float) -> TestCube | None:
@@ -189,7 +185,7 @@ def performance_pose_list(model: SerialModel, cube: TestCube, cycles: int = 30
     """The PERF list: per cycle, for each of P1, P5, P4, P3, P2 a return point then the target,
     as joint targets (deg) on one IK branch, all inside the joint limits."""
     if cycles < 1:
-        raise ScrewcalError(f"cycles must be at least 1; got {cycles}")
+        raise InputError(f"cycles must be at least 1; got {cycles}")
     pts = cube.points_mm
     order = [(label, role) for label in CYCLE_ORDER for role in ("approach", "target")]
     positions = np.array([pts[label] + (cube.approach_mm if role == "approach" else 0.0)

@@ -42,7 +42,7 @@ import numpy as np
 from screwcal.calibration.flange import frame_from_holes, hole_distances
 from screwcal.calibration.initial_frames import rigid_motion
 from screwcal.calibration.measurements import MeasurementSet, previous_rows
-from screwcal.errors import DataFileError
+from screwcal.errors import DataFileError, DatasetMissingError
 from screwcal.kinematics.se3 import Array
 
 DATASET_NAME = "irb120-laser-tracker"
@@ -53,10 +53,6 @@ WHERE_TO_GET = (f"the {DATASET_NAME} data set is public in the repository "
                 f"--data DIR or set {DATA_DIR_ENV}=DIR (DIR: that folder or the one holding it)")
 DRIFT_TOL_MM = 0.25  # the good rows stay within 0.07 mm
 RIGIDITY_TOL_MM = 0.1  # the reflector triangle's sides vary by 0.02 mm in good rows
-
-
-class DatasetMissingError(DataFileError):
-    """The real data set is not where it was looked for; the message says where to get it."""
 
 
 def locate_dataset(data_dir: str | Path | None = None) -> Path:

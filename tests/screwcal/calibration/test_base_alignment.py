@@ -3,10 +3,11 @@ import json
 import numpy as np
 import pytest
 
-from screwcal.calibration.base_alignment import AlignmentError, base_from_sweeps, fit_circle
+from screwcal.calibration.base_alignment import base_from_sweeps, fit_circle
 from screwcal.calibration.identify import identify
 from screwcal.calibration.posesets import random_configurations
 from screwcal.commands.main import main
+from screwcal.errors import AlignmentError
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.pose import transform_from_pose
 from screwcal.kinematics.robots import irb1600

@@ -1,7 +1,8 @@
 import numpy as np
 import pytest
 
-from screwcal.calibration.flange import FlangeError, MeasuringFlange, check_holes, frame_from_holes
+from screwcal.calibration.flange import MeasuringFlange, check_holes, frame_from_holes
+from screwcal.errors import FlangeError
 from screwcal.kinematics.se3 import exp_twist, invert_transform
 
 HOLES_IN_TCP = np.array([[0.0, 0, 0], [30.0, 40.0, 0], [60.0, 0, 0]])  # P1, P2, P3

@@ -3,11 +3,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from screwcal.calibration.correction import CorrectionRefusedError, joint_correction
+from screwcal.calibration.correction import joint_correction
 from screwcal.calibration.error_parameters import Param
-from screwcal.calibration.identify import IdentificationError, NoiseModel, identify
+from screwcal.calibration.identify import NoiseModel, identify
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.errors import CorrectionRefusedError, IdentificationError
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist

@@ -6,9 +6,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from screwcal.errors import ModelError
+from screwcal.errors import DegenerateTableError, ModelError
 from screwcal.kinematics.describe import description_text, read_description
-from screwcal.kinematics.dh import DegenerateTableError, dh_forward_kinematics, dh_from_model
+from screwcal.kinematics.dh import dh_forward_kinematics, dh_from_model
 from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
 from screwcal.kinematics.robots import ENTRIES, LIBRARY, builtin_model, reach_mm
 from screwcal.kinematics.se3 import exp_twist, rotation_from_rotvec
