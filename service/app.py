@@ -189,7 +189,7 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
 
     def public(job: dict, manager: JobManager) -> dict:
         runner = manager.runners.get(job["id"])
-        waiting = runner.waiting_for if runner is not None else None
+        waiting = runner.gate.waiting_for if runner is not None else None
         return {**job, "waiting_for": {"phase": waiting[0], "index": waiting[1]}
                 if waiting else None}
 

@@ -63,12 +63,11 @@ class JobManager:
         return runner
 
     async def go(self, job_id: int, index: int) -> None:
-        runner = self.runner(job_id)
-        if runner.waiting_for is None or runner.waiting_for[1] != index:
+        gate = self.runner(job_id).gate
+        waiting = gate.waiting_for
+        if not gate.take(index):  # consumed now: a second go-ahead for this pose is refused
             raise ConflictError(f"job {job_id} is not waiting for pose {index} "
-                                f"(waiting for {runner.waiting_for})")
-        runner.waiting_for = None  # consumed now: a second go-ahead for this pose is refused
-        await runner.go_ahead.put(index)
+                                f"(waiting for {waiting})")
 
     async def abort(self, job_id: int) -> None:
         await self.runner(job_id).abort()

@@ -153,7 +153,7 @@ async def test_reads_need_a_token_too(tmp_path):
 
 
 def test_a_poor_fit_or_a_worse_robot_is_a_warning_not_a_silent_done():
-    from service.runner import _warnings
+    from service.analysis import job_warnings as _warnings
 
     result = {"estimation": {"chi2_reduced": 40.0, "warnings": ["poses rejected"]},
               "performance": {"perf_before": {"overall": {"ap_mm_mean": 2.47}},

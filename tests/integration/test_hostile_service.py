@@ -223,7 +223,7 @@ async def test_last_event_id_outside_the_stream_is_a_400(app_http, rig, seq):
 
 # -- 6. the operator's CLI ----------------------------------------------------------------------
 def test_worse_repeatability_after_a_correction_is_a_warning():
-    from service.runner import _warnings
+    from service.analysis import job_warnings as _warnings
 
     result = {"performance": {"perf_before": {"overall": {"ap_mm_mean": 2.4, "rp_mm_mean": 0.045}},
                               "perf_after": {"overall": {"ap_mm_mean": 0.3, "rp_mm_mean": 0.066}}}}

@@ -1,0 +1,278 @@
+"""Acquisition: the links to the controller and the measuring arm, the operator's gate, and the
+measured poses committed one by one.
+
+Every list runs in STEP mode on the wire: the go-ahead for a pose is sent only once the previous
+pose is committed to the store, so no measurement is ever lost to a crash; an AUTO job gives the
+go-ahead itself, a STEP job waits for the operator's. A lost link raises one of the protocol's
+`LinkError`s; the runner pauses the job and calls `reconnect`. An arm reading is taken for a pose
+only when `service/readings.py` accepts it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections import Counter
+from collections.abc import Sequence
+from typing import Any, Literal
+
+import numpy as np
+
+from protocol.arm import ArmReader
+from protocol.arm_url import check_arm_url
+from protocol.client import ControllerClient, Timeouts
+from protocol.codec import MAX_LIST
+from protocol.errors import ArmLineError, LinkError, LinkTimeoutError, ProtocolError
+from screwcal.calibration.flange import MeasuringFlange
+from screwcal.kinematics.forward import flange_kinematics
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
+from service.errors import SafetyError
+from service.events import JobEvents
+from service.plans import PlannedPose
+from service.readings import EarlierReadings, MotionTolerance, PoseReading, refusal
+from service.settings import ServiceSettings
+from service.store import Store
+
+LINK_ERRORS = (LinkError,)  # protocol/errors.py: lost, timed out, busy, the arm's line or port
+ZERO_NOTE = ("ZERO: the robot stands at the correction; enter the offsets on the FlexPendant "
+             "(calibration data), then give the go-ahead")
+
+
+class JobAborted(Exception):  # noqa: N818 (control flow, not an error)
+    """The operator aborted the job."""
+
+
+class OperatorGate:
+    """The operator's go-ahead before a move: in a STEP job before every pose, in every mode
+    before a step that needs a person at the controller (a `note`)."""
+
+    def __init__(self, step_mode: bool):
+        self.step_mode = step_mode
+        self.aborted = asyncio.Event()
+        self.go_ahead: asyncio.Queue[int] = asyncio.Queue()
+        self.waiting_for: tuple[str, int] | None = None
+
+    def check_aborted(self) -> None:
+        if self.aborted.is_set():
+            raise JobAborted()
+
+    def take(self, index: int) -> bool:
+        """The operator lets the robot move to pose `index`: False when the job waits for no
+        such pose (consumed at once: a second go-ahead for the same pose is refused)."""
+        if self.waiting_for is None or self.waiting_for[1] != index:
+            return False
+        self.waiting_for = None
+        self.go_ahead.put_nowait(index)
+        return True
+
+    async def wait(self, phase: str, planned: PlannedPose, events: JobEvents,
+                   note: str = "") -> None:
+        """Wait for the go-ahead for `planned` (at once in AUTO without a note)."""
+        if not self.step_mode and not note:
+            return
+        self.waiting_for = (phase, planned.idx)
+        extra = {"note": note} if note else {}
+        await events.publish("waiting", phase=phase, index=planned.idx,
+                             joints_deg=list(planned.joints_deg), **extra)
+        try:
+            while True:
+                getter = asyncio.create_task(self.go_ahead.get())
+                stopper = asyncio.create_task(self.aborted.wait())
+                finished, _ = await asyncio.wait({getter, stopper},
+                                                 return_when=asyncio.FIRST_COMPLETED)
+                getter.cancel()
+                stopper.cancel()
+                self.check_aborted()
+                if getter in finished and getter.result() == planned.idx:
+                    return
+        finally:
+            self.waiting_for = None
+
+
+class Acquisition:
+    """One job's links and measurements. `robot` is the robot's stored record."""
+
+    def __init__(self, store: Store, settings: ServiceSettings, events: JobEvents, job_id: int,
+                 robot: dict[str, Any], model: SerialModel, gate: OperatorGate):
+        self.store, self.settings, self.events, self.job_id = store, settings, events, job_id
+        self.robot, self.model, self.gate = robot, model, gate
+        self.flange = MeasuringFlange.from_holes_in_flange(robot["holes_mm"])
+        self.discarded: Counter[str] = Counter()  # arm readings refused, by kind
+        self.client: ControllerClient | None = None
+        self.arm: ArmReader | None = None
+
+    # -- links ---------------------------------------------------------------------------------
+    async def connect(self) -> None:
+        if self.client is None or self.client.lost is not None:
+            self.client = ControllerClient(self.robot["controller_host"],
+                                           self.robot["controller_port"],
+                                           Timeouts(pose_s=self.settings.pose_timeout_s))
+            # a few quick tries: the controller may not yet have seen the last client leave
+            await self.client.reconnect(attempts=3, first_delay_s=0.05)
+        if self.arm is None:
+            url = check_arm_url(self.robot["arm_url"])  # a record older than the check too
+            opening = asyncio.ensure_future(asyncio.to_thread(ArmReader, url))
+            try:
+                self.arm = await asyncio.shield(opening)
+            except asyncio.CancelledError:  # aborted while the port opened: close it when open
+                opening.add_done_callback(_close_opened)
+                raise
+
+    async def disconnect(self) -> None:
+        if self.client is not None:
+            await self.client.close()
+            self.client = None
+        if self.arm is not None:
+            # pyserial's socket:// close() sleeps 0.3 s: never on the event loop.
+            await asyncio.to_thread(self.arm.close)
+            self.arm = None
+
+    async def reconnect(self) -> None:
+        while True:
+            self.gate.check_aborted()
+            await self.disconnect()
+            try:
+                await self.connect()
+                return
+            except LINK_ERRORS:
+                await asyncio.sleep(self.settings.reconnect_interval_s)
+
+    async def abort(self) -> None:
+        self.gate.aborted.set()
+        if self.client is not None and self.client.lost is None:
+            try:
+                await self.client.abort()
+            except ProtocolError:
+                pass
+
+    # -- measuring -----------------------------------------------------------------------------
+    async def measure(self, phase: str, plan: list[PlannedPose]) -> None:
+        """Every pose of `plan` not yet committed for `phase`, in lists of at most MAX_LIST."""
+        assert self.client is not None and self.arm is not None
+        for p in plan:  # the service refuses targets outside the limits before sending
+            if not self.model.within_limits(np.radians(p.joints_deg)):
+                raise SafetyError(f"{phase} pose {p.idx} is outside the joint limits")
+        list_name: Literal["CAL", "PERF"] = "CAL" if phase.startswith("cal") else "PERF"
+        last = self.store.last_measurement(self.job_id)
+        previous = None if last is None else self._reading(
+            last["holes_mm"], last["flange_pose"], last["joints_deg"])
+        rows = self.store.measurements(self.job_id)
+        earlier = EarlierReadings.empty() if not rows else EarlierReadings(
+            np.array([r["holes_mm"] for r in rows], dtype=float),
+            flange_kinematics(self.model, np.radians([r["joints_deg"] for r in rows]))[:, :3, 3],
+            tuple(f"{r['phase']}/{r['idx']}" for r in rows))
+        while True:
+            measured = self.store.measured_indices(self.job_id, phase)  # once per chunk
+            todo = [p for p in plan if p.idx not in measured]
+            if not todo:
+                return
+            done = len(measured)
+            chunk = todo[:MAX_LIST]
+            await self.client.load(list_name, [p.joints_deg for p in chunk])
+
+            async def gate(k: int, chunk: list[PlannedPose] = chunk) -> None:
+                await self._before_move(phase, chunk[k])
+
+            async for got in self.client.run(list_name, "STEP", on_wait=gate, count=len(chunk)):
+                planned = chunk[got.idx]
+                reading = await self._read_pose(phase, planned.idx, got.joints_deg, previous,
+                                                earlier)
+                self.store.add_measurement(self.job_id, phase, planned.idx, list(got.joints_deg),
+                                           list(got.tool0), reading.holes_mm.tolist(),
+                                           pose_from_transform(reading.flange).tolist())
+                previous = reading
+                earlier = earlier.plus(reading, f"{phase}/{planned.idx}")
+                done += 1
+                await self.events.publish("measured", phase=phase, index=planned.idx,
+                                          done=done, total=len(plan))
+            self._count_discarded()
+
+    async def zero(self, phase: str, zero_deg: Sequence[float]) -> None:
+        """ZERO to `zero_deg`; its WAIT (a person enters the offsets) needs the operator's
+        go-ahead in every mode, AUTO included."""
+        assert self.client is not None
+
+        async def gate(idx: int) -> None:
+            await self._before_move(phase, PlannedPose(idx, tuple(zero_deg), "zero"),
+                                    note=ZERO_NOTE)
+
+        await self.client.zero(list(zero_deg), on_wait=gate)
+
+    def _reading(self, holes_mm: Any, flange_pose: Any, joints_deg: Any) -> PoseReading:
+        nominal = flange_kinematics(self.model, np.radians([joints_deg]))[0]
+        flange = transform_from_pose(np.asarray(flange_pose, dtype=float))
+        return PoseReading(np.asarray(holes_mm, dtype=float), flange, nominal)
+
+    async def _read_pose(self, phase: str, idx: int, joints_deg: Any,
+                         previous: PoseReading | None, earlier: EarlierReadings
+                         ) -> PoseReading:
+        """The arm reading of the pose the robot reported arriving at (service/readings.py): a
+        duplicated, stale or early triple is discarded and logged and the next one read; when
+        none is accepted in time, the arm is asked to probe again (`remeasure_attempts`), then
+        the job pauses and the pose is measured anew."""
+        assert self.arm is not None
+        tol = MotionTolerance(self.settings.motion_tolerance_mm,
+                              self.settings.motion_tolerance_rel,
+                              self.settings.motion_tolerance_deg)
+        attempts = 0
+        last_refusal = ""
+        deadline = time.monotonic() + self.settings.arm_timeout_s
+        while True:
+            try:
+                holes = await asyncio.to_thread(self.arm.read_holes,
+                                                max(0.05, deadline - time.monotonic()))
+            except LinkTimeoutError:
+                if last_refusal and attempts >= self.settings.remeasure_attempts:
+                    raise ArmLineError(  # say why, not only "no reading": it may be the check
+                        f"{phase} pose {idx}: every reading of this pose was refused, the last "
+                        f"one: {last_refusal}. If the robot is this far from its nominal "
+                        "model, raise motion_tolerance_deg / motion_tolerance_rel") from None
+                if attempts >= self.settings.remeasure_attempts or not self.discarded:
+                    raise
+                attempts += 1
+                await asyncio.to_thread(self.arm.request)
+                deadline = time.monotonic() + self.settings.arm_timeout_s
+                continue
+            points = np.array(holes.points_mm)
+            flange = self.flange.flange_poses(points)[0]
+            nominal = flange_kinematics(self.model, np.radians([joints_deg]))[0]
+            reading = PoseReading(points, flange, nominal)
+            refused = refusal(previous, reading, tol, earlier)
+            if refused is None:
+                return reading
+            kind, why = refused
+            last_refusal = why
+            self.discarded[kind] += 1
+            await self.events.publish("discarded", phase=phase, index=idx, reason=why,
+                                      seqs=list(holes.seqs))
+
+    def _count_discarded(self) -> None:
+        """The result says how many arm readings were refused and why (and the arm's lines
+        that were not readings at all)."""
+        assert self.arm is not None
+        if not self.discarded and not self.arm.problems:
+            return
+        job_result = dict(self.store.job(self.job_id)["result"] or {})
+        job_result["arm_readings_discarded"] = {
+            "duplicate": self.discarded["duplicate"], "stale": self.discarded["stale"],
+            "motion": self.discarded["motion"],
+            "bad_lines": len(self.arm.problems),
+            "meaning": "arm triples not used as a pose's reading: repeats of the previous "
+                       "pose's, re-probes of a pose the robot had left (stale), readings whose "
+                       "measured motion disagreed with the commanded one (early, foreign), and "
+                       "lines that broke a triple"}
+        self.store.set_job(self.job_id, result=job_result)
+
+    async def _before_move(self, phase: str, planned: PlannedPose, note: str = "") -> None:
+        """Before the robot moves to `planned`: the previous pose is committed; drop stale arm
+        lines; then the operator's gate."""
+        self.gate.check_aborted()
+        assert self.arm is not None
+        await asyncio.to_thread(self.arm.drain)
+        await self.gate.wait(phase, planned, self.events, note)
+
+
+def _close_opened(opening: asyncio.Future[ArmReader]) -> None:
+    if not opening.cancelled() and opening.exception() is None:
+        opening.result().close()

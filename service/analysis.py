@@ -1,0 +1,231 @@
+"""What a job's measurements say, computed without I/O: the estimation's summary, the correction a
+route would make (checked before anything moves), ISO 9283 performance (the performance package's
+own computation), the home check (thesis Table 14), the test conditions, and the warnings a user
+must see."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from screwcal.calibration.correction import (
+    CorrectionRefusedError,
+    after_zero,
+    compensate,
+    joint_correction,
+)
+from screwcal.calibration.identify import CalibrationResult
+from screwcal.calibration.measurements import MeasurementSet
+from screwcal.kinematics.forward import flange_kinematics
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
+from screwcal.kinematics.se3 import Array, invert_transform
+from screwcal.performance.evaluate import PerformanceData, PointData, point_metrics, summarise
+from screwcal.performance.straightness import straightness
+from service.plans import PlannedPose
+
+POOR_FIT_CHI2 = 10.0  # chi2/dof above this with the stated noise: the model misses something
+
+
+def measurement_set(rows: Sequence[Mapping[str, Any]]) -> MeasurementSet:
+    """The committed poses of a phase as the identification reads them."""
+    T = transform_from_pose(np.array([r["flange_pose"] for r in rows]))
+    return MeasurementSet(np.radians([r["joints_deg"] for r in rows]), T[:, :3, 3].copy(),
+                          T[:, :3, :3].copy(), tuple(str(r["idx"]) for r in rows))
+
+
+def compensate_plan(plan: list[PlannedPose], robot: SerialModel, nominal: SerialModel
+                    ) -> tuple[list[PlannedPose], float]:
+    """The plan's joints replaced by those that take `robot` to the `nominal` model's targets,
+    and the largest joint change (deg). Raises before anything moves when one cannot be
+    reached."""
+    q_nominal = np.radians([p.joints_deg for p in plan])
+    comp = compensate(robot, nominal, flange_kinematics(nominal, q_nominal), q_nominal,
+                      frame="base")
+    q = np.round(np.degrees(comp.q_rad), 4)
+    return ([replace(p, joints_deg=tuple(float(v) for v in q[k]))
+             for k, p in enumerate(plan)], comp.max_change_deg)
+
+
+def flange_error_mm(robot: SerialModel, q_sent: Array, target: Array) -> Array:
+    """Per pose: how far `robot`'s flange (its base frame) lands from the target (N, 4, 4) when
+    sent the joints q_sent (N, n) rad."""
+    return np.linalg.norm(flange_kinematics(robot, q_sent)[:, :3, 3] - target[:, :3, 3], axis=1)
+
+
+def estimation_summary(result: CalibrationResult) -> dict[str, Any]:
+    """The robot's identified parameters; the measuring frame as the pose it came out as (its
+    parameters are increments from the starting alignment, meaningless alone)."""
+    x, y, z, rx, ry, rz = (float(v) for v in pose_from_transform(result.model.base))
+    return {
+        "parameters": [{"name": p.name, "unit": p.unit, "value": float(v),
+                        "std_error": float(s)}
+                       for p, v, s in zip(result.params, result.values, result.std_errors,
+                                          strict=True) if p.group == "robot"],
+        "measuring_frame": {"x": x, "y": y, "z": z, "rx": rx, "ry": ry, "rz": rz,
+                            "meaning": "robot base in the measuring system's frame, mm/deg"},
+        "removed": [{"name": n, "reason": why} for n, why in result.removed],
+        "rank": result.rank, "condition_number": result.condition_number,
+        "chi2_reduced": result.chi2_reduced, "converged": result.converged,
+        "noise": result.noise.to_dict() if result.noise is not None else None,
+        "warnings": result.warnings,
+        "residual_before_mm": float(result.residuals_before.mean()),
+        "residual_after_mm": float(result.residuals_after.mean()),
+    }
+
+
+@dataclass(frozen=True)
+class PlannedCorrection:
+    """What a route will do (the result document's `correction` section) and, when it
+    compensates, the performance list as it will be sent."""
+
+    section: dict[str, Any]
+    compensated: list[PlannedPose] | None = None
+
+
+def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
+                    perf_plan: list[PlannedPose], suffix: str) -> PlannedCorrection:
+    """What the route will do, checked before anything moves: the ZERO targets (refused
+    when implausible), the compensated lists (refused when unreachable or implausible), the
+    accuracy the model predicts before and after, and what stays in the robot."""
+    robot_params = [(p, v) for p, v in zip(result.params, result.values, strict=True)
+                    if p.group == "robot"]
+    not_identified = [n for n, _ in result.removed if not n.startswith(("base", "tool"))]
+    if route == "none":
+        return PlannedCorrection({
+            "route": "none", "note": "a calibration job sends no correction; the calibrated "
+            "model is downloadable (screwcal job model N)", "not_identified": not_identified})
+    q_nominal = np.radians([p.joints_deg for p in perf_plan])
+    robot = result.model
+    out: dict[str, Any] = {"route": route, "not_identified": not_identified}
+    if route.startswith("zero"):
+        correction = joint_correction(result.params, result.values, result.std_errors,
+                                      nominal.n_joints)
+        out |= correction.to_dict()
+        robot = after_zero(robot, correction.zero_command_deg)
+    target = flange_kinematics(nominal, q_nominal)
+    before = flange_error_mm(result.model, q_nominal, target)
+    compensated = None
+    if "compensate" in route:
+        compensated, change = compensate_plan(perf_plan, robot, nominal)
+        q_sent = np.radians([p.joints_deg for p in compensated])
+        after = flange_error_mm(robot, q_sent, target)
+        out |= {"compensated_lists": ["perf_after" + suffix], "max_joint_change_deg": change,
+                "left_in_robot": []}
+    else:
+        after = flange_error_mm(robot, q_nominal, target)
+        out["left_in_robot"] = [
+            {"name": p.name, "value": float(v), "unit": p.unit}
+            for p, v in robot_params if p.kind != "zero" and abs(v) > 0.0]
+    out["predicted_position_error_mm"] = {
+        "before": float(before.mean()), "after": float(after.mean()),
+        "meaning": "mean over the performance targets of the calibrated model's flange "
+                   "position minus the nominal target"}
+    if after.mean() > before.mean():
+        raise CorrectionRefusedError(
+            f"the {route} route would leave the robot worse ({before.mean():.3f} -> "
+            f"{after.mean():.3f} mm predicted): nothing is sent")
+    return PlannedCorrection(out, compensated)
+
+
+def performance_section(rows: Sequence[Mapping[str, Any]], plan: Mapping[int, PlannedPose],
+                        base: Array) -> dict[str, Any]:
+    """ISO 9283 per point (the evaluate command's computation) and straightness, attained poses
+    in the robot base frame."""
+    attained = pose_from_transform(invert_transform(base) @ transform_from_pose(
+        np.array([r["flange_pose"] for r in rows])))
+    by_point: dict[str, list[int]] = {}
+    line = []
+    for k, r in enumerate(rows):
+        p = plan[r["idx"]]
+        if p.role == "target":
+            by_point.setdefault(p.point, []).append(k)
+        elif p.role == "line":
+            line.append(r["flange_pose"][:3])
+    data = PerformanceData("measurements", tuple(
+        PointData(label, np.array(plan[rows[ks[0]]["idx"]].commanded), attained[ks])
+        for label, ks in sorted(by_point.items()) if len(ks) >= 2), full_pose=True)
+    metrics = point_metrics(data)
+    out: dict[str, Any] = {"points": {k: m.to_dict() for k, m in metrics.items()}}
+    if metrics:
+        out["overall"] = summarise(metrics)
+    if len(line) >= 3:
+        s = straightness(np.array(line))
+        out["straightness"] = {"peak_to_valley_mm": s.peak_to_valley_mm,
+                               "along_mm": s.along_mm.tolist(),
+                               "deviation_mm": s.deviation_u_mm.tolist()}
+    return out
+
+
+def home_check(nominal: SerialModel, last_home_rows: Mapping[str, Mapping[str, Any]],
+               base: Array) -> dict[str, Any]:
+    """Table 14: the flange at home (all joints 0) measured before and after the correction,
+    in the robot base frame, against the nominal home. `last_home_rows`: the last committed
+    pose of each home phase measured, by phase."""
+    home = flange_kinematics(nominal, np.zeros((1, nominal.n_joints)))[0, :3, 3]
+    out: dict[str, Any] = {}
+    for phase, row in last_home_rows.items():
+        T = invert_transform(base) @ transform_from_pose(np.array(row["flange_pose"]))
+        error = T[:3, 3] - home
+        out[phase.removeprefix("home_")] = {
+            "measured_mm": T[:3, 3].round(3).tolist(),
+            "error_mm": error.round(3).tolist(),
+            "distance_mm": round(float(np.linalg.norm(error)), 3)}
+    if out:
+        out["nominal_mm"] = home.round(3).tolist()
+        out["note"] = ("the robot sent to all joints 0 (HOME), its flange measured and "
+                       "compared with the nominal home (thesis Table 14); error = measured "
+                       "- nominal, robot base frame. After ZERO the controller's zeros are "
+                       "corrected; the compensate route corrects programmed targets, not "
+                       "the joints' zeros, so its home is the robot's uncorrected one")
+    return out
+
+
+def iso_test_conditions(robot: Mapping[str, Any], model: SerialModel, options: Mapping[str, Any],
+                    plan: Mapping[int, PlannedPose], created: float | None) -> dict[str, Any]:
+    """The conditions ISO 9283 asks a report to state."""
+    centre = next(p.commanded[:3] for p in plan.values()
+                  if p.point == "P1" and p.role == "target")
+    return {
+        "robot": f"{robot['name']} (model {model.name})",
+        "controller": f"{robot['controller_host']}:{robot['controller_port']}",
+        "measuring arm": robot["arm_url"],
+        "cube edge mm": float(options.get("cube_edge_mm", 300.0)),
+        "cube centre (P1) mm": ", ".join(f"{v:.1f}" for v in centre),
+        "cycles": int(options.get("cycles", 30)),
+        "speed": "v100, fine (the RAPID server module's MoveAbsJ)",
+        "date (UTC)": time.strftime("%Y-%m-%d %H:%M", time.gmtime(created)) if created else "",
+    }
+
+
+def job_warnings(job_result: Mapping[str, Any]) -> list[str]:
+    """What a user must see: a poor fit, an accuracy that did not improve."""
+    out = []
+    for suffix in ("", "_2"):
+        est = job_result.get("estimation" + suffix)
+        out += [f"estimation{suffix}: {w}" for w in (est or {}).get("warnings", [])]
+        if est and est["chi2_reduced"] > POOR_FIT_CHI2:
+            out.append(f"poor fit in the estimation{suffix}: chi2/dof {est['chi2_reduced']:.1f} "
+                       f"(> {POOR_FIT_CHI2:g}): the model misses something (compliance, a loose "
+                       "flange, drift) or the noise is larger than stated")
+    perf = job_result.get("performance") or {}
+    overall = perf.get("perf_before", {}).get("overall", {})
+    for phase in ("perf_after", "perf_after_2"):
+        after = perf.get(phase, {}).get("overall", {})
+        before_ap, after_ap = overall.get("ap_mm_mean"), after.get("ap_mm_mean")
+        if before_ap is not None and after_ap is not None and after_ap > before_ap:
+            out.append(f"accuracy got worse in {phase}: AP mean {before_ap:.3f} -> "
+                       f"{after_ap:.3f} mm; do not use this correction")
+        before_rp, after_rp = overall.get("rp_mm_mean"), after.get("rp_mm_mean")
+        # repeatability is the robot's own: a correction should not change it; a rise beyond
+        # 20 % (and 0.01 mm) says the corrected targets sit where the robot repeats worse
+        if before_rp is not None and after_rp is not None and \
+                after_rp > 1.2 * before_rp + 0.01:
+            out.append(f"repeatability got worse in {phase}: RP mean {before_rp:.3f} -> "
+                       f"{after_rp:.3f} mm (a correction should leave it unchanged): check "
+                       "the cell (warm-up, payload, fixture) before trusting the after-figures")
+    return out

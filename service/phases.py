@@ -1,0 +1,42 @@
+"""The phases of a job, named in one place: the steps of each kind, the measured lists among
+them, and the names people read for the performance lists."""
+
+from __future__ import annotations
+
+from typing import Final
+
+# A step is a measured list (home_*, perf_*, cal*), an estimation, a correction or the
+# evaluation; "setup" (the links) comes before every job's steps.
+STEPS: Final = {
+    "performance": ("perf_before", "evaluation"),
+    "calibration": ("cal", "estimation"),
+    "procedure": ("home_before", "perf_before", "cal", "estimation", "correction", "home_after",
+                  "perf_after", "evaluation"),
+}
+# Table 14's check: the robot sent home (all joints 0) before and after, its flange measured.
+HOME_PHASES: Final = ("home_before", "home_after")
+# The thesis's "Calibracao 2" (4.7): acquire again, estimate, correct, evaluate.
+SECOND_ROUND: Final = ("cal_2", "estimation_2", "correction_2", "perf_after_2")
+# The ISO 9283 lists, in the order they are measured, and what a person calls each.
+PERF_PHASES: Final = ("perf_before", "perf_after", "perf_after_2")
+PERF_PHASE_NAMES: Final = {"perf_before": "before", "perf_after": "after",
+                           "perf_after_2": "round 2"}
+# The estimation whose model drives a performance list's targets when the route compensates.
+# A calibration list (the second round's) is sent as planned: its poses need reach no
+# particular target, only be measured, and compensating them could push one out of the limits.
+ESTIMATION_FOR: Final = {"perf_after": "", "perf_after_2": "_2"}
+ROUND_SUFFIXES: Final = ("", "_2")  # the first and the second calibration round
+
+
+def job_steps(kind: str, rounds: int = 1) -> tuple[str, ...]:
+    """The steps of a job of `kind`; a procedure of 2 rounds adds the second round before its
+    evaluation."""
+    steps = STEPS[kind]
+    if kind == "procedure" and rounds == 2:
+        steps = (*steps[:-1], *SECOND_ROUND, steps[-1])
+    return steps
+
+
+def round_suffix(step: str) -> str:
+    """'_2' for a step of the second calibration round, '' otherwise."""
+    return "_2" if step.endswith("_2") else ""
