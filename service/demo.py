@@ -34,9 +34,11 @@ NOISE_SEED = 2018  # the arm's noise when no --seed is given (Table 11's errors)
 
 
 @contextlib.contextmanager
-def emulators(time_scale: float, seed: int | None, world: Path) -> Iterator[tuple[str, int, str]]:
+def emulators(time_scale: float, seed: int | None, world: Path, realism: str = "ideal"
+              ) -> Iterator[tuple[str, int, str]]:
     cmd = [sys.executable, "-m", "screwcal", "emulator", "irc5", "--port", "0",
-           "--time-scale", str(time_scale), "--arm-port", "0", "--world", str(world)]
+           "--time-scale", str(time_scale), "--arm-port", "0", "--world", str(world),
+           "--realism", realism]
     if seed is not None:
         cmd += ["--seed", str(seed)]
     # The arm's noise is seeded too: two runs with the same seed print the same table.
@@ -93,7 +95,8 @@ def run(args: argparse.Namespace) -> int:
         token = secrets.token_urlsafe(16)
         settings = ServiceSettings(db_path=Path(tmp) / "screwcal.db", token=token,
                                    port=0, reconnect_interval_s=0.2)
-        with emulators(args.time_scale, args.seed, Path(tmp) / "world.json") as (host, port, arm):
+        with emulators(args.time_scale, args.seed, Path(tmp) / "world.json",
+                       args.realism) as (host, port, arm):
             with service(settings) as url, Operator(url, token) as op:
                 robot = op.add_robot(name="ABB IRB 1600 (emulated)", controller_host=host,
                                      controller_port=port, arm_url=arm, model="irb1600")
@@ -152,4 +155,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="error model identified (default full)")
     p.add_argument("--time-scale", type=float, default=0.002,
                    help="motion time factor of the emulated robot")
+    p.add_argument("--realism", choices=["ideal", "typical", "harsh"], default="typical",
+                   help="what the emulated robot has beyond its geometry (default typical)")
     p.set_defaults(func=run)

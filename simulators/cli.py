@@ -2,13 +2,20 @@
 
     screwcal emulator irc5 --host 127.0.0.1 --port 4012 [--errors FILE | --seed N]
                            [--time-scale X] [--world FILE] [--arm-port P]
+                           [--realism ideal|typical|harsh | --realism-file FILE]
+                           [--realism-seed N] [--payload-kg KG --payload-cog-mm X,Y,Z]
     screwcal emulator arm --port PORT [--world FILE] [--pty]
     (both: [--arm-faults duplicate=P,late=P,stale=P])
 
 Each prints its bound address on one line (`--port 0` picks a free port). The true robot is the
 nominal IRB 1600 with the thesis's Table 11 errors, or the virtual-joint errors of a JSON file
 ({"J1rz": 2.0, ...}), or a whole model file (any full-model errors), or random errors from a
-seed. The arm runs in the IRC5 process (`--arm-port`) or in its own, following the world file
+seed. Beyond its geometry the true robot has what real ones have (`--realism`, default ideal:
+nothing more): joint compliance under its own masses and payload, backlash, read-back lag, thermal
+drift over its running time and repeatability error (simulators/realism.py says each effect,
+its units and the published figures the presets follow); a realism file is a JSON such as
+{"preset": "typical", "backlash_deg": [0, 0.01, 0, 0, 0, 0], "payload_kg": 10}. The arm runs in
+the IRC5 process (`--arm-port`) or in its own, following the world file
 the IRC5 process writes: `--world FILE`, or by default a new private folder per run, whose file
 the IRC5 process prints on its second line. Until a robot is known the arm answers
 `$NM ... NO_ROBOT`. Ctrl-C (SIGINT) or `kill` (SIGTERM) closes the servers and exits 0, also when
@@ -26,6 +33,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     import asyncio
 
+    from simulators.realism import Realism
+
 
 async def _serve_irc5(args: argparse.Namespace) -> None:
 
@@ -33,7 +42,8 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
     from simulators.irc5 import EmulatorSettings, IRC5Emulator
     from simulators.truth import make_world
 
-    world = make_world(args.errors, args.seed)
+    world = make_world(args.errors, args.seed, realism=realism_of(args),
+                       realism_seed=args.realism_seed)
     # One world per run, in a private folder (mkdtemp: mode 0700), unless --world names one.
     world_file = Path(args.world) if args.world else \
         Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "world.json"
@@ -84,6 +94,19 @@ async def _serve_arm(args: argparse.Namespace) -> None:
         await stopped.wait()
     finally:
         await arm.stop()
+
+
+def realism_of(args: argparse.Namespace) -> Realism:
+    """The realism the options name: a preset or a file, the payload options over either."""
+    from dataclasses import replace
+
+    from simulators.realism import PRESETS, read_realism
+
+    realism = read_realism(args.realism_file) if args.realism_file else PRESETS[args.realism]
+    if args.payload_kg is not None:
+        realism = replace(realism, payload_kg=args.payload_kg,
+                          payload_cog_mm=tuple(args.payload_cog_mm))
+    return realism
 
 
 def stop_on_signals() -> asyncio.Event:
@@ -150,6 +173,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     irc5.add_argument("--arm-port", type=int, default=None,
                       help="also serve the measuring arm on this TCP port")
     _add_arm_faults(irc5)
+    _add_realism(irc5)
     irc5.set_defaults(func=run)
     arm = which.add_parser("arm", help="the measuring arm ($PT lines)", description=__doc__,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -176,3 +200,19 @@ def _add_arm_faults(p: argparse.ArgumentParser) -> None:
                    help="a careless arm line: probabilities per arrival of a triple sent twice "
                         "(duplicate), late, or a stale re-probe sent later (stale), e.g. "
                         "duplicate=0.3,late=0.2,stale=0.2 (seeded with the noise seed)")
+
+
+def _add_realism(p: argparse.ArgumentParser) -> None:
+    from screwcal.commands.calibrate import add_payload_arguments
+
+    realism = p.add_mutually_exclusive_group()
+    realism.add_argument("--realism", choices=["ideal", "typical", "harsh"], default="ideal",
+                         help="what the true robot has beyond its geometry: ideal (nothing, "
+                         "the default), typical (a geometric-only calibration leaves 0.2-0.4 mm, "
+                         "as published for the IRB 1600) or harsh (twice typical's effects)")
+    realism.add_argument("--realism-file", metavar="FILE",
+                         help="JSON: a preset with fields changed, e.g. {\"preset\": "
+                         "\"typical\", \"lag\": [0.001, 0.001, 0.001, 0, 0, 0]}")
+    p.add_argument("--realism-seed", type=int, default=None,
+                   help="seed of the robot's own masses and of its stops (default: --seed)")
+    add_payload_arguments(p)

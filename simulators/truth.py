@@ -1,6 +1,7 @@
 """The emulators' true robot: the nominal IRB 1600 with imposed errors (the thesis's Table 11,
-a JSON of virtual-joint errors, a whole model file, or random errors from a seed), and the world
-it lives in (the measuring arm's frame)."""
+a JSON of virtual-joint errors, a whole model file, or random errors from a seed), what it has
+beyond its geometry (`simulators.realism`: compliance under its own masses, payload, backlash,
+read-back lag, drift, repeatability), and the world it lives in (the measuring arm's frame)."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.modelfile import parse_model
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist
+from simulators.realism import IDEAL, Realism, with_realism
 from simulators.world import World
 
 # Where the measuring arm stands by default: (500, 0, 600) mm in the robot frame.
@@ -62,7 +64,19 @@ def true_robot(errors_file: str | None, seed: int | None) -> SerialModel:
     return apply_virtual_joints(nominal, doc)
 
 
+DEFAULT_REALISM_SEED = 2018  # the realism's draws when neither --realism-seed nor --seed is given
+
+
 def make_world(errors_file: str | None, seed: int | None,
-               arm_position_mm: tuple[float, float, float] = DEFAULT_ARM_POSITION_MM) -> World:
+               arm_position_mm: tuple[float, float, float] = DEFAULT_ARM_POSITION_MM,
+               realism: Realism = IDEAL, realism_seed: int | None = None) -> World:
+    """The emulators' world. The realism's draws (the robot's own masses, then its stops) come
+    from `realism_seed`, by default `seed` (or 2018 without one): a seed gives one robot."""
+    if realism_seed is None:
+        realism_seed = DEFAULT_REALISM_SEED if seed is None else seed
+    nominal = irb1600()
     truth = true_robot(errors_file, seed).with_frames(base=arm_base(arm_position_mm))
-    return World(nominal=irb1600(), truth=truth)
+    if not truth.masses:  # a model file without a gravity section: the nominal table
+        truth = replace(truth, masses=nominal.masses)
+    truth = with_realism(truth, realism, np.random.default_rng([realism_seed, 1]))
+    return World(nominal=nominal, truth=truth, realism=realism, realism_seed=realism_seed)

@@ -3,6 +3,13 @@ read, and where the measuring arm sits. The IRC5 emulator moves it; the arm emul
 
 Joint readings are kept as 32-bit floats, like a RAPID num. The true joint angle is the reading
 plus the true model's joint zero; a ZERO correction moves that zero.
+
+With a `Realism` (`simulators.realism`) the true robot also has what real ones have; the world
+keeps its true state inside and its interface unchanged: `q_deg` is what the encoders REPORT
+(trailing the motion by the read-back lag), `set_joints(q)` still means "arrived at the commanded
+joints", and `true_holes_mm()` places the holes from the joints where the links really stand
+(backlash, repeatability error), bent under gravity (compliance, payload), with the lengths of
+the arm grown by its warm-up (drift over the robot's running time, `running_s`).
 """
 
 from __future__ import annotations
@@ -15,9 +22,11 @@ import numpy as np
 
 from screwcal.calibration.correction import after_zero
 from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM
+from screwcal.kinematics.compliance import Payload
 from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, transform_points
+from simulators.realism import IDEAL, Realism
 
 DEFAULT_HOLES_MM = np.array(DEFAULT_HOLES_IN_FLANGE_MM)  # P1, P2, P3 in tool0 (thesis 4.2)
 
@@ -32,9 +41,46 @@ class World:
     arrivals: int = 0  # counts completed moves
     arrived: asyncio.Condition | None = None
     observers: list[Callable[[World], None]] = field(default_factory=list)  # after each arrival
+    realism: Realism = IDEAL  # the true robot's compliance is in `truth`, drawn with it
+    realism_seed: int | None = None  # backlash side, repeatability error
+    running_s: float = 0.0  # the robot's own running time (drift), seconds
 
     def __post_init__(self) -> None:
         self.q_deg = np.asarray(self.q_deg, dtype=np.float32)
+        self._commanded = self.q_deg.astype(float)  # where the motors were sent (deg)
+        self._link = self._commanded.copy()  # where the joints really stand (deg, readings' zero)
+        self._direction = np.zeros(len(self._commanded))  # sign of each joint's last move
+        self._rng = np.random.default_rng(self.realism_seed)
+        self._drifted: tuple[float, SerialModel] | None = None
+
+    @property
+    def true_joints_deg(self) -> Array:
+        """Where the joints really stand, in the readings' zero (deg): the commanded joints
+        with the backlash and the repeatability error, before gravity bends them."""
+        return self._link.copy()
+
+    def set_payload(self, payload: Payload) -> None:
+        """What the flange now carries (the joints bend under it when the robot is compliant)."""
+        self.truth = self.truth.derived(payload=payload)
+        self._drifted = None
+
+    def _arrive(self, q_deg: Array) -> None:
+        """The true state after a move to the commanded `q_deg` (deg)."""
+        r = self.realism
+        target = np.asarray(q_deg, dtype=float)
+        move = target - self._commanded
+        self.running_s += float(np.max(np.abs(move), initial=0.0)) / r.speed_deg_s + r.dwell_s
+        self._direction = np.where(move != 0.0, np.sign(move), self._direction)
+        # Backlash (lost motion b): the link stops b/2 short, on the side it came from.
+        self._link = target - self._direction * np.asarray(r.backlash_deg) / 2.0
+        if r.repeatability_deg:
+            self._link = self._link + self._rng.normal(0.0, r.repeatability_deg, len(target))
+        self._commanded = target
+        # Read-back lag (calibration.lag's model): q_read = q_true - lag (q_read - q_previous),
+        # q_true the encoders' settled reading (the commanded joints), q_previous the last read.
+        lag = np.asarray(r.lag)
+        previous = self.q_deg.astype(float)
+        self.q_deg = ((target + lag * previous) / (1.0 + lag)).astype(np.float32)
 
     def _condition(self) -> asyncio.Condition:
         if self.arrived is None:
@@ -42,8 +88,9 @@ class World:
         return self.arrived
 
     async def set_joints(self, q_deg: Array) -> None:
-        """The robot has arrived at these encoder readings (rounded to a RAPID num)."""
-        self.q_deg = np.asarray(q_deg, dtype=np.float32)
+        """The robot has arrived at these commanded joints (rounded to a RAPID num); `q_deg`
+        reports them (with the read-back lag, when the robot has one)."""
+        self._arrive(np.asarray(q_deg, dtype=np.float32))
         self.moving = False
         self.arrivals += 1
         for observer in self.observers:
@@ -61,7 +108,22 @@ class World:
         """ZERO: the position whose reading is `at_deg` now reads 0 (thesis 4.5)."""
         at = np.asarray(at_deg, dtype=float)
         self.truth = after_zero(self.truth, at)
+        self._drifted = None
         self.q_deg = (self.q_deg.astype(float) - at).astype(np.float32)
+        self._commanded = self._commanded - at
+        self._link = self._link - at
+
+    def true_model(self) -> SerialModel:
+        """The true robot now: its lengths grown by the warm-up so far (thermal drift)."""
+        scale = self.realism.drift_scale(self.running_s)
+        if scale == 1.0:
+            return self.truth
+        if self._drifted is None or self._drifted[0] != scale:
+            flange = self.truth.home_flange.copy()
+            flange[:3, 3] *= scale
+            self._drifted = (scale, self.truth.derived(
+                axis_points_mm=self.truth.axis_points_mm * scale, home_flange=flange))
+        return self._drifted[1]
 
     def nominal_tool0(self) -> Array:
         """The controller's idea of tool0 (4, 4) in the robot base frame: nominal FK."""
@@ -70,6 +132,6 @@ class World:
 
     def true_holes_mm(self) -> Array:
         """Where the three holes really are, in the arm's frame (3, 3)."""
-        q = np.radians(self.q_deg.astype(float))[None]
-        T = forward_kinematics(self.truth.with_frames(tool=np.eye(4)), q)[0]
+        q = np.radians(self._link)[None]
+        T = forward_kinematics(self.true_model().with_frames(tool=np.eye(4)), q)[0]
         return transform_points(T, self.holes_mm)
