@@ -8,7 +8,8 @@ from screwcal.calibration.virtual_joints import THESIS_TABLE11
 from screwcal.kinematics.pose import transform_from_pose
 from screwcal.studies.chapter5 import sample_chapter5
 from screwcal.studies.distance_only import sample_distance_only
-from screwcal.studies.study import STUDIES, sample_sets, sample_solvers, study_table
+from screwcal.studies.samples_6r import sample_sets, sample_solvers
+from screwcal.studies.study import STUDIES, study_table
 from screwcal.studies.thesis_metrics import euler_difference_deg, set_errors
 
 
