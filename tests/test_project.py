@@ -102,3 +102,32 @@ def test_the_package_stands_on_its_own():
     offenders = [str(p.relative_to(ROOT)) for p in places
                  if "../shared" in p.read_text(encoding="utf-8")]
     assert not offenders, offenders
+
+
+_IMPORT_COMPUTES_NOTHING = """
+import importlib, pkgutil
+import numpy as np
+import screwcal.calibration.posesets as posesets
+import screwcal.kinematics.robots as robots
+
+def refuse(*args, **kwargs):
+    raise AssertionError("computed at import")
+
+posesets.random_set = posesets.cube_set = refuse
+robots.irb1600 = robots.irb120 = refuse
+np.random.default_rng = refuse
+import screwcal.studies as studies
+for info in pkgutil.iter_modules(studies.__path__):
+    module = importlib.import_module("screwcal.studies." + info.name)
+    arrays = [n for n, v in vars(module).items() if isinstance(v, np.ndarray)]
+    assert not arrays, f"screwcal.studies.{info.name} builds {arrays} at import"
+"""
+
+
+def test_studies_compute_nothing_at_import():
+    """Importing a study module draws no configurations and builds no robot (study.py drew its
+    200 held-out configurations at import, in every worker and every `screwcal --help`): the
+    held-out sets are drawn on first use."""
+    result = subprocess.run([sys.executable, "-c", _IMPORT_COMPUTES_NOTHING],
+                            capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr[-2000:]

@@ -44,7 +44,6 @@ _EXPORTS = {
     "ORIENTATION_PANEL": "registry",
     "PARAMS_6R": "registry",
     "PLANAR_ERRORS": "samples_planar",
-    "PLANAR_VALIDATION": "samples_planar",
     "POSITION_PANEL": "registry",
     "Panel": "registry",
     "Quantities": "registry",
@@ -58,7 +57,6 @@ _EXPORTS = {
     "THESIS_6R": "registry",
     "THESIS_RESIDUAL_LM": "montecarlo",
     "TrackerData": "tracker_dataset",
-    "VALIDATION": "samples_6r",
     "WHERE_TO_GET": "tracker_dataset",
     "arm_frame": "distance_only",
     "calibrate_6r": "samples_6r",
@@ -82,6 +80,7 @@ _EXPORTS = {
     "own_frame": "chapter5",
     "parameter_errors": "samples_6r",
     "planar_model": "samples_planar",
+    "planar_validation_configurations": "samples_planar",
     "plot": "study",
     "pose_errors": "thesis_metrics",
     "position_errors": "tracker_study",
@@ -109,6 +108,7 @@ _EXPORTS = {
     "study_table": "study",
     "true_robot": "simulated_calibration",
     "truth_6r": "samples_6r",
+    "validation_configurations": "samples_6r",
     "weight_conclusion": "conclusions",
 }
 __all__ = sorted(_EXPORTS)
