@@ -1,7 +1,9 @@
 """Calibration: measurements, error models (`error_parameters`, `virtual_joints`), identification
-(`identify`, `identifiability`, `alignment`), the measuring flange (`flange`), base alignment by
-hand (`base_alignment`), the correction of the robot (`correction`), pose sets and their design
-(`posesets`, `design`).
+(`identify` over its parts: `identify_settings`, `residual_problem`, `noise_levels`, `solvers`,
+`single_fit`, `identify_result`; with `identifiability` and `initial_frames`), the measuring
+flange (`flange`), base alignment by hand (`base_alignment`), the correction of the robot
+(`correction`), pose sets and their design (`posesets`, `design`). Its errors are in
+`screwcal.errors`.
 
 May import: `screwcal.kinematics`, `screwcal.rapid` (the RAPID parser), `screwcal.errors`,
 `screwcal.tables`; never performance, studies, commands, nor `protocol`, `service` or `simulators`.
@@ -11,14 +13,12 @@ from screwcal._lazy import lazy_exports
 
 _EXPORTS = {
     "Aggregate": "rapid_source",
-    "AlignmentError": "base_alignment",
     "COMPLIANCE_T": "identify",
     "CUBES_MM": "posesets",
     "CUBE_EDGE_MM": "posesets",
-    "CalibrationResult": "identify",
+    "CalibrationResult": "identify_result",
     "Circle": "base_alignment",
     "Compensation": "correction",
-    "CorrectionRefusedError": "correction",
     "DEFAULT_HOLES_IN_FLANGE_MM": "flange",
     "DRIFT_MIN_CORRELATION": "diagnostics",
     "Declaration": "rapid_source",
@@ -27,9 +27,8 @@ _EXPORTS = {
     "FREE_MIN_POSES": "identify",
     "FREE_P": "identify",
     "FilterReport": "rapid_filter",
-    "FlangeError": "flange",
-    "Frames": "identify",
-    "IdentificationError": "identify",
+    "Frames": "identify_settings",
+    "IdentifySettings": "identify_settings",
     "JointCorrection": "correction",
     "LAG_MIN_CORRELATION": "diagnostics",
     "LAG_ROUNDS": "identify",
@@ -42,18 +41,16 @@ _EXPORTS = {
     "MeasuringFlange": "flange",
     "ModelKind": "error_parameters",
     "Motion": "rapid_source",
-    "NEGLIGIBLE": "identify",
     "NUMBER": "rapid_source",
-    "NoiseEstimate": "identify",
-    "NoiseModel": "identify",
+    "NoiseEstimate": "identify_result",
+    "NoiseModel": "identify_settings",
     "Note": "rapid_filter",
     "OUTLIER_ALPHA": "diagnostics",
-    "Outlier": "identify",
+    "Outlier": "identify_result",
     "PLANAR_SETS_DEG": "posesets",
     "PLAUSIBLE_CHANGE_DEG": "correction",
     "PLAUSIBLE_OFFSET_DEG": "correction",
-    "PRESS_MARGIN": "identify",
-    "PRIOR_NOISE": "identify",
+    "PRIOR_NOISE": "identify_settings",
     "Param": "error_parameters",
     "PlausibleRanges": "plausible",
     "PoseTest": "diagnostics",
@@ -63,15 +60,12 @@ _EXPORTS = {
     "RapidModule": "rapid_source",
     "Residual": "identifiability",
     "SIGNIFICANCE": "diagnostics",
-    "STEP_LIMIT": "identify",
     "SWEEP_COLUMNS": "base_alignment",
     "THESIS_JOINT_OFFSETS": "error_parameters",
     "THESIS_LINK_OFFSETS": "error_parameters",
     "THESIS_TABLE11": "virtual_joints",
     "TRANS_DECIMALS": "rapid_filter",
     "Token": "rapid_source",
-    "VCE_MAX_ITER": "identify",
-    "VCE_TOL": "identify",
     "WORKING_REGION_DEG": "posesets",
     "acquisition_order": "diagnostics",
     "after_zero": "correction",

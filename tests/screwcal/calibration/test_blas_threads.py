@@ -4,12 +4,13 @@ import numpy as np
 import pytest
 from threadpoolctl import ThreadpoolController
 
-import screwcal.calibration.identify as identify_module
+import screwcal.calibration.solvers as solvers_module
 from screwcal.calibration.blas_threads import (
     hold_one_blas_thread,
     one_blas_thread,
     pin_one_blas_thread,
 )
+from screwcal.calibration.identify import identify
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.robots import irb1600
@@ -59,14 +60,14 @@ def test_identify_solves_with_one_thread(two_threads, monkeypatch, rng):
     truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
     data = simulate_measurements(truth, random_configurations(30, rng), rng)
     seen = []
-    solve = identify_module.least_squares
+    solve = solvers_module.least_squares
 
     def watched(*args, **kwargs):
         seen.append(blas_threads())
         return solve(*args, **kwargs)
 
-    monkeypatch.setattr(identify_module, "least_squares", watched)
-    result = identify_module.identify(irb1600(), data, kind="thesis", frames="known")
+    monkeypatch.setattr(solvers_module, "least_squares", watched)
+    result = identify(irb1600(), data, kind="thesis", frames="known")
     assert seen and all(s == [1] for s in seen)
     assert blas_threads() == [2]
     assert np.isfinite(result.residuals_after).all()

@@ -137,10 +137,10 @@ def test_compensate_refuses_a_position_only_model(tmp_path, capsys):
 def test_a_fit_at_the_noise_floor_is_converged_whatever_stopped_the_solver(monkeypatch):
     """The solver stopped on its evaluation budget (here forced to one evaluation) at the
     minimum: converged, and the message says why; it used to say NOT converged."""
-    import screwcal.calibration.identify as identify_module
+    import screwcal.calibration.solvers as solvers_module
 
-    real = identify_module.least_squares
-    monkeypatch.setattr(identify_module, "least_squares",
+    real = solvers_module.least_squares
+    monkeypatch.setattr(solvers_module, "least_squares",
                         lambda *a, **k: real(*a, **{**k, "max_nfev": 1}))
     _, data, _ = _on_axis(5, poses=60)
     result = identify(irb1600(), data)

@@ -1,0 +1,246 @@
+"""The identification problem: weighted residuals and their Jacobian, pure functions of the
+parameter vector x (thesis 2.2.3, Eq. 2.4).
+
+Residuals per pose, model minus measured: position (mm), then for full-pose data the rotation
+vector of R_model R_meas^T; or, for "distance" data (thesis Appendix D), the differences of all
+pairwise distances between measured points, which need no base alignment.
+
+Weighting:
+- "statistical" (default): each pose's residual is whitened by its covariance, the measuring
+  noise plus the random joint error carried through the joint Jacobian,
+  S_i = s_m^2 I + J_q,i S_q J_q,i^T (uniform +-a joint error: s_q = a / sqrt 3). Standard errors
+  then come from (J^T J)^-1 of the whitened Jacobian: the Cramer-Rao bound of this noise model.
+- "eq2.4": the thesis's objective, (1/W^2) sum |e_pos|^2 + sum |e_rot|^2, with the rotation
+  errors in degrees (the thesis gives no unit; in degrees W = 1 mm/deg balances the two, which is
+  what its Figs. 20-21 found best).
+
+Below the measurements' rows, each parameter's weak prior (`screwcal.calibration.plausible`):
+what the solvers minimise is the posterior.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from screwcal.calibration.error_parameters import ErrorModel, forward_batch
+from screwcal.calibration.identifiability import Residual, pairs
+from screwcal.calibration.identify_settings import IdentifySettings, variance_from_levels
+from screwcal.calibration.measurements import MeasurementSet
+from screwcal.calibration.plausible import PlausibleRanges, prior_sigma
+from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
+from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.se3 import Array, rotvec_from_rotation
+
+
+def whitening(cov: Array) -> Array:
+    """W_i with W_i^T W_i = cov_i^-1, per pose (N, k, k)."""
+    return np.linalg.inv(np.linalg.cholesky(cov))
+
+
+def prior_weights(errors: ErrorModel, ranges: PlausibleRanges | None) -> Array:
+    """1 / sigma of the prior per parameter (numeric units); zeros without one."""
+    if ranges is None:
+        return np.zeros(len(errors.params))
+    return 1.0 / prior_sigma(errors.params, ranges)
+
+
+def residual_rows(residual: Residual) -> int:
+    """Rows per pose: 6 for pose residuals, 3 for positions (and the points of distances)."""
+    return 6 if residual == "pose" else 3
+
+
+def joint_jacobian(errors: ErrorModel, data: MeasurementSet, rows: int, at: Array) -> Array:
+    """The residuals' Jacobian w.r.t. the joints (N, rows, n) at x = `at`."""
+    model = errors.apply(at)
+    T = forward_kinematics(model, data.q)
+    return point_jacobian(spatial_jacobian(model, data.q), T)[:, :rows, :]
+
+
+def covariance_components(errors: ErrorModel, data: MeasurementSet, rows: int, at: Array
+                          ) -> Array:
+    """The unit covariance components V_k (3, N, k, k) at x = `at`: position rows (mm^2),
+    orientation rows (rad^2), and the joints' through the joint Jacobian (per rad^2)."""
+    k = rows
+    Jq = joint_jacobian(errors, data, rows, at)
+    V = np.zeros((3, len(data), k, k))
+    V[0, :, range(3), range(3)] = 1.0
+    if k == 6:
+        V[1, :, range(3, 6), range(3, 6)] = 1.0
+    V[2] = np.einsum("nij,nkj->nik", Jq, Jq)
+    return V
+
+
+def _weights(errors: ErrorModel, data: MeasurementSet, residual: Residual,
+             settings: IdentifySettings, at: Array) -> Array:
+    """Per-pose whitening matrices (N, k, k), or per-pair weights (P,) for distances; the
+    joint-noise part is carried through the joint Jacobian of the model at x = `at`."""
+    k = residual_rows(residual)
+    N = len(data)
+    if settings.weighting == "eq2.4":
+        w = np.r_[np.full(3, 1.0 / settings.weight_mm), np.full(3, 180.0 / np.pi)][:k]
+        W = np.broadcast_to(np.diag(w), (N, k, k)).copy()
+        return W if residual != "distance" else np.full(len(pairs(N)[0]), w[0])
+    cov = np.einsum("k,knij->nij", variance_from_levels(settings.noise.filled()),
+                    covariance_components(errors, data, k, at))
+    if residual == "distance":
+        i, j = pairs(N)
+        u = data.positions_mm[i] - data.positions_mm[j]
+        u /= np.linalg.norm(u, axis=1, keepdims=True)
+        var = np.einsum("pi,pij,pj->p", u, cov[i] + cov[j], u)
+        return 1.0 / np.sqrt(var)
+    return whitening(cov)
+
+
+class ResidualProblem:
+    """Residuals and Jacobian of one identification, pure functions of x; `whiten` holds the
+    per-pose whitening matrices (N, k, k), or the per-pair weights (P,) of distances."""
+
+    def __init__(self, errors: ErrorModel, data: MeasurementSet, residual: Residual,
+                 whiten: Array, ranges: PlausibleRanges | None):
+        self.errors = errors
+        self.data = data
+        self.residual = residual
+        self.rows = residual_rows(residual)
+        self.whiten = whiten
+        self.ranges = ranges
+        self.prior = prior_weights(errors, ranges)
+        self._last: tuple[bytes, tuple[Array, Array]] | None = None
+
+    @classmethod
+    def weighted_at(cls, errors: ErrorModel, data: MeasurementSet, residual: Residual,
+                    settings: IdentifySettings, at: Array | None = None) -> ResidualProblem:
+        """The problem with the settings' weights taken at x = `at` (default: the start)."""
+        at = np.zeros(len(errors.params)) if at is None else at
+        return cls(errors, data, residual, _weights(errors, data, residual, settings, at),
+                   settings.ranges)
+
+    def restricted(self, errors: ErrorModel) -> ResidualProblem:
+        """The same data and weights (taken at the same starting model) for a subset of the
+        parameters: the weights depend on the model at the start, not on which are free."""
+        return ResidualProblem(errors, self.data, self.residual, self.whiten, self.ranges)
+
+    def with_whitening(self, whiten: Array) -> ResidualProblem:
+        """The same problem with other whitening matrices (N, k, k)."""
+        return ResidualProblem(self.errors, self.data, self.residual, whiten, self.ranges)
+
+    def posterior(self, x: Array) -> tuple[Array, Array]:
+        """The weighted residuals and Jacobian with the prior's rows (plausible.py) below:
+        what the solvers minimise."""
+        r, J = self.weighted(x)
+        return np.concatenate([r, self.prior * x]), np.vstack([J, np.diag(self.prior)])
+
+    def posterior_residuals(self, x: Array) -> Array:
+        return np.concatenate([self.residuals(x), self.prior * x])
+
+    def posterior_jacobian(self, x: Array) -> Array:
+        return self.posterior(x)[1]
+
+    def joint_jacobian(self, at: Array) -> Array:
+        """The residuals' Jacobian w.r.t. the joints (N, k, n) at x = `at`."""
+        return joint_jacobian(self.errors, self.data, self.rows, at)
+
+    def components(self, at: Array) -> Array:
+        """The unit covariance components V_k (3, N, k, k) at x = `at`."""
+        return covariance_components(self.errors, self.data, self.rows, at)
+
+    def raw(self, x: Array) -> tuple[Array, Array]:
+        """Unweighted residuals (N, k) or (P,) and their Jacobian (N, k, p) or (P, p)."""
+        T, Js = self.errors.jacobian(x, self.data.q)
+        J = point_jacobian(Js, T)
+        dp = T[:, :3, 3] - self.data.positions_mm
+        if self.residual == "distance":
+            i, j = pairs(len(self.data))
+            d_model = T[i, :3, 3] - T[j, :3, 3]
+            n_model = np.linalg.norm(d_model, axis=1)
+            r = n_model - np.linalg.norm(self.data.positions_mm[i] - self.data.positions_mm[j],
+                                         axis=1)
+            u = d_model / n_model[:, None]
+            return r, np.einsum("pi,pij->pj", u, J[i, :3] - J[j, :3])
+        if self.residual == "position":
+            return dp, J[:, :3]
+        dR = T[:, :3, :3] @ np.swapaxes(self._rotations(), 1, 2)
+        # (d rotvec / d omega is the identity to first order: the residual rotations are small)
+        return np.concatenate([dp, rotvec_from_rotation(dR)], axis=1), J
+
+    def raw_residuals(self, x: Array) -> Array:
+        """Unweighted residuals alone (N, k) or (P,): no Jacobian."""
+        T = forward_kinematics(self.errors.apply(x), self.data.q)
+        if self.residual == "distance":
+            i, j = pairs(len(self.data))
+            return (np.linalg.norm(T[i, :3, 3] - T[j, :3, 3], axis=1)
+                    - np.linalg.norm(self.data.positions_mm[i] - self.data.positions_mm[j],
+                                     axis=1))
+        dp = T[:, :3, 3] - self.data.positions_mm
+        if self.residual == "position":
+            return dp
+        dR = T[:, :3, :3] @ np.swapaxes(self._rotations(), 1, 2)
+        return np.concatenate([dp, rotvec_from_rotation(dR)], axis=1)
+
+    def _rotations(self) -> Array:
+        rotations = self.data.rotations
+        assert rotations is not None  # pose residuals are refused for position-only data
+        return rotations
+
+    def residuals(self, x: Array) -> Array:
+        """Weighted residuals alone (no Jacobian: most LM evaluations only need these)."""
+        if self._last is not None and self._last[0] == x.tobytes():
+            return self._last[1][0]
+        return self._apply_weights(self.raw_residuals(x))
+
+    def weighted(self, x: Array) -> tuple[Array, Array]:
+        """Weighted residuals and Jacobian; the last evaluation is kept, since least_squares
+        asks for the residuals and the Jacobian at the same x one after the other."""
+        key = x.tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        r, J = self.raw(x)
+        if self.residual == "distance":
+            out = (r * self.whiten, J * self.whiten[:, None])
+        else:
+            out = (self._apply_weights(r),
+                   np.einsum("nij,njp->nip", self.whiten, J).reshape(-1, J.shape[-1]))
+        self._last = (key, out)
+        return out
+
+    def _apply_weights(self, r: Array) -> Array:
+        if self.residual == "distance":
+            return r * self.whiten
+        return np.einsum("nij,nj->ni", self.whiten, r).reshape(-1)
+
+    def cost(self, x: Array) -> float:
+        r = self.residuals(x)
+        return float(r @ r)
+
+    def cost_batch(self, X: Array) -> Array:
+        """Weighted sum of squares for a population X (p, S) (scipy's vectorized layout)."""
+        T = forward_batch(self.errors, X.T, self.data.q)  # (S, N, 4, 4)
+        prior = np.sum((self.prior[:, None] * X) ** 2, axis=0)
+        if self.residual == "distance":
+            i, j = pairs(len(self.data))
+            P = T[:, :, :3, 3]  # (S, N, 3); indexing T[:, i, :3, 3] would put the pairs first
+            d_model = np.linalg.norm(P[:, i] - P[:, j], axis=2)
+            d_meas = np.linalg.norm(self.data.positions_mm[i] - self.data.positions_mm[j], axis=1)
+            return np.sum(((d_model - d_meas) * self.whiten) ** 2, axis=1) + prior
+        r = T[:, :, :3, 3] - self.data.positions_mm
+        if self.residual == "pose":
+            dR = T[:, :, :3, :3] @ np.swapaxes(self._rotations(), 1, 2)
+            r = np.concatenate([r, rotvec_from_rotation(dR)], axis=2)
+        rw = np.einsum("nij,snj->sni", self.whiten, r)
+        return np.sum(rw**2, axis=(1, 2)) + prior
+
+
+def pose_errors(model: SerialModel, data: MeasurementSet, residual: Residual
+                ) -> tuple[Array, Array | None]:
+    """Position error norm per pose (mm) and rotation error (deg) when measured; for distance
+    data, the absolute error of each pairwise distance."""
+    T = forward_kinematics(model, data.q)
+    if residual == "distance":
+        i, j = pairs(len(data))
+        return (np.abs(np.linalg.norm(T[i, :3, 3] - T[j, :3, 3], axis=1)
+                       - np.linalg.norm(data.positions_mm[i] - data.positions_mm[j], axis=1)),
+                None)
+    pos = np.linalg.norm(T[:, :3, 3] - data.positions_mm, axis=1)
+    if data.rotations is None:
+        return pos, None
+    dR = T[:, :3, :3] @ np.swapaxes(data.rotations, 1, 2)
+    return pos, np.degrees(np.linalg.norm(rotvec_from_rotation(dR), axis=-1))
