@@ -292,16 +292,33 @@ class ErrorModel:
         x = np.asarray(x, dtype=float)
         model = self.apply(x)
         q = _check_q(model, q)
-        c = self._collect(x)
         A_end, partial = _chain(model, q, keep=True)
         Y = _to_homogeneous((A_end.reshape(-1, 4) @ model.home_flange).reshape(-1, 3, 4))
         T = Y @ model.tool
+        local = self._local_twists(model, self._collect(x))
+        J = np.empty((len(q), 6, len(self.params)))
+        ad = [adjoint(A) for A in partial]
+        for key, cols in self._layout["carriers"].items():
+            L = local[:, cols]
+            if key[0] == "base":
+                J[:, :, cols] = L
+            elif key[0] == "partial":
+                J[:, :, cols] = ad[key[1]] @ L
+            elif key[0] == "axis":  # effect of a displacement of axis i
+                J[:, :, cols] = (ad[key[1]] - ad[key[1] + 1]) @ L
+            else:  # tool: expressed in the flange frame, carried by the flange pose
+                J[:, :, cols] = adjoint(Y) @ L
+        self._scale_compliance(J, model, q)
+        return T, J
+
+    def _local_twists(self, model: SerialModel, c: dict[str, Array]) -> Array:
+        """Each parameter's twist (6, P) in the frame of its carrier, at the model of x."""
         lay = self._layout
         normals = self._normals_table
         local = np.zeros((6, len(self.params)))
         kinds, joint, axis = lay["kinds"], lay["joint"], lay["axis"]
         for kind in ("zero", "compliance", "compliance_mass"):  # compliance: a zero scaled by
-            # the torque, below
+            # the torque (_scale_compliance)
             if kind not in kinds:
                 continue
             cols = kinds[kind]
@@ -337,33 +354,25 @@ class ErrorModel:
             if f"{frame}_pos" in kinds:
                 cols = kinds[f"{frame}_pos"]
                 local[3 + axis[cols], cols] = 1.0
-        J = np.empty((len(q), 6, len(self.params)))
-        ad = [adjoint(A) for A in partial]
-        for key, cols in lay["carriers"].items():
-            L = local[:, cols]
-            if key[0] == "base":
-                J[:, :, cols] = L
-            elif key[0] == "partial":
-                J[:, :, cols] = ad[key[1]] @ L
-            elif key[0] == "axis":  # effect of a displacement of axis i
-                J[:, :, cols] = (ad[key[1]] - ad[key[1] + 1]) @ L
-            else:  # tool: expressed in the flange frame, carried by the flange pose
-                J[:, :, cols] = adjoint(Y) @ L
-        if "compliance" in kinds or "compliance_mass" in kinds:
-            # d theta_j / d c_j = tau_j(q), d theta_j / d C_jk = tau_jk(q) with the payload's
-            # torque riding on the last arm mass's coefficient (kN m; the bending's own effect
-            # on tau is of second order)
-            tau = joint_torques_by_mass(model, q)
-            if "compliance" in kinds:
-                cols = kinds["compliance"]
-                J[:, :, cols] *= tau.sum(axis=2)[:, joint[cols]][:, None, :] / 1000.0
-            if "compliance_mass" in kinds:
-                cols = kinds["compliance_mass"]
-                arm = len(model.masses)
-                if tau.shape[2] > arm:
-                    tau[:, :, arm - 1] += tau[:, :, arm]
-                J[:, :, cols] *= tau[:, joint[cols], axis[cols]][:, None, :] / 1000.0
-        return T, J
+        return local
+
+    def _scale_compliance(self, J: Array, model: SerialModel, q: Array) -> None:
+        """The compliance columns of J (N, 6, P), in place: d theta_j / d c_j = tau_j(q),
+        d theta_j / d C_jk = tau_jk(q) with the payload's torque riding on the last arm mass's
+        coefficient (kN m; the bending's own effect on tau is of second order)."""
+        kinds, joint, axis = self._layout["kinds"], self._layout["joint"], self._layout["axis"]
+        if "compliance" not in kinds and "compliance_mass" not in kinds:
+            return
+        tau = joint_torques_by_mass(model, q)
+        if "compliance" in kinds:
+            cols = kinds["compliance"]
+            J[:, :, cols] *= tau.sum(axis=2)[:, joint[cols]][:, None, :] / 1000.0
+        if "compliance_mass" in kinds:
+            cols = kinds["compliance_mass"]
+            arm = len(model.masses)
+            if tau.shape[2] > arm:
+                tau[:, :, arm - 1] += tau[:, :, arm]
+            J[:, :, cols] *= tau[:, joint[cols], axis[cols]][:, None, :] / 1000.0
 
 
 def _batched_frames(T0: Array, rotvec: Array, pos: Array) -> Array:

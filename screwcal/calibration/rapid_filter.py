@@ -19,11 +19,18 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import TypeGuard
 
 import numpy as np
 
 from screwcal.calibration.correction import compensate
-from screwcal.calibration.rapid_source import NUMBER, Aggregate, RapidModule, Token
+from screwcal.calibration.rapid_source import (
+    NUMBER,
+    Aggregate,
+    Declaration,
+    RapidModule,
+    Token,
+)
 from screwcal.errors import DataFileError
 from screwcal.kinematics.confdata import confdata, solution_for_confdata
 from screwcal.kinematics.model import SerialModel
@@ -36,6 +43,7 @@ from screwcal.kinematics.se3 import Array, invert_transform
 
 TRANS_DECIMALS = 4  # mm
 QUAT_DECIMALS = 9
+Frames = dict[str, "Array | str"]  # by lower-case name: a 4x4 frame, or why it cannot be used
 
 
 @dataclass(frozen=True)
@@ -75,7 +83,7 @@ class _Target:
     tokens: list[Token]  # x y z, q1..q4, cf1 cf4 cf6 cfx
 
 
-def _is_robtarget(node: object) -> bool:
+def _is_robtarget(node: object) -> TypeGuard[list[list[Token]]]:
     """[[x,y,z],[q1..q4],[cf1,cf4,cf6,cfx],[extax]]: four lists, numbers in the first three."""
     return (isinstance(node, list) and len(node) == 4 and isinstance(node[0], list)
             and len(node[0]) == 3 and isinstance(node[0][0], Token)
@@ -90,7 +98,7 @@ def _targets(name: str, value: Aggregate, line_of: Callable[[int], int]) -> list
     def walk(node: object, index: list[int]) -> None:
         if _is_robtarget(node):
             label = name + (f"{{{','.join(str(i + 1) for i in index)}}}" if index else "")
-            tokens = [t for part in node[:3] for t in part]  # type: ignore[index]
+            tokens = [t for part in node[:3] for t in part]
             out.append(_Target(label, name, line_of(tokens[0].start), tokens))
         elif isinstance(node, list):
             for k, child in enumerate(node):
@@ -107,17 +115,19 @@ def _frame(trans: list[Token], rot: list[Token]) -> Array:
     return T
 
 
-def _frames(module: RapidModule) -> tuple[dict, dict]:
+def _frames(module: RapidModule) -> tuple[Frames, Frames]:
     """Tool and work-object frames by lower-case name: a 4x4 array, or the reason they cannot
     be used statically."""
-    tools: dict[str, Array | str] = {"tool0": np.eye(4)}
-    wobjs: dict[str, Array | str] = {"wobj0": np.eye(4)}
+    tools: Frames = {"tool0": np.eye(4)}
+    wobjs: Frames = {"wobj0": np.eye(4)}
     for d in module.declarations:
         key = d.name.lower()
         if d.value is None:
             (tools if d.kind == "tooldata" else wobjs)[key] = "declared without a value"
             continue
         try:
+            if not isinstance(d.value, list):  # an expression: not of the standard form
+                raise TypeError(d.kind)
             if d.kind == "tooldata":
                 robhold, (trans, rot) = d.value[0], d.value[1]
                 tools[key] = _frame(trans, rot) if robhold.text.upper() == "TRUE" else \
@@ -141,13 +151,43 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
                  tool: str = "tool0", wobj: str = "wobj0") -> tuple[str, FilterReport]:
     """The module's text with every declared robtarget compensated, and what was done.
     `tool` and `wobj` apply to targets no motion instruction of the module names."""
-    text = module.text
     report = FilterReport(module.path)
     tools, wobjs = _frames(module)
-    for name, frames in ((tool, tools), (wobj, wobjs)):
-        if name.lower() not in frames:
+    for name, known in ((tool, tools), (wobj, wobjs)):
+        if name.lower() not in known:
             raise DataFileError(str(module.path), f"'{name}' is not declared in the module "
                                 "(nor tool0 / wobj0): declare it, or name a declared one")
+    uses = _uses(module, report)
+    default = (tool.lower(), wobj.lower())
+    targets: list[_Target] = []
+    frames: list[tuple[Array, Array]] = []  # (work object, tool) per target
+    for d in module.declarations:
+        if d.kind != "robtarget":
+            continue
+        found = _static_targets(module, d, report)
+        combos = uses.get(d.name.lower(), {default})
+        if len(combos) > 1:
+            pairs = "; ".join(f"{t} with {w}" for t, w in sorted(combos))
+            report.refused += [Note(t.line, t.name, f"used with several tools or work objects "
+                                    f"({pairs}): one static value cannot serve them all")
+                               for t in found]
+            continue
+        (tname, wname), = combos
+        tframe, wframe = tools.get(tname), wobjs.get(wname)
+        if not isinstance(tframe, np.ndarray) or not isinstance(wframe, np.ndarray):
+            problem = _frame_problem(tname, tframe, wname, wframe)
+            report.refused += [Note(t.line, t.name, problem) for t in found]
+            continue
+        targets += found
+        frames += [(wframe, tframe)] * len(found)
+    if not targets:
+        return module.text, report
+    return _compensated_text(module.text, targets, frames, calibrated, nominal, report), report
+
+
+def _uses(module: RapidModule, report: FilterReport) -> dict[str, set[tuple[str, str]]]:
+    """The (tool, work object) pairs each declared robtarget is moved to with; the targets
+    only the program knows are noted in the report."""
     declared = {d.name.lower() for d in module.declarations if d.kind == "robtarget"}
     uses: dict[str, set[tuple[str, str]]] = {}
     for m in module.motions:
@@ -161,47 +201,43 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
     for line, what in module.runtime:
         report.not_static.append(Note(line, what, "computed at run time from other targets: "
                                       "its offset is applied in the nominal frame"))
+    return uses
 
-    targets: list[_Target] = []
-    frames: list[tuple[Array, Array]] = []
-    for d in module.declarations:
-        if d.kind != "robtarget":
-            continue
-        if d.value is None:
-            report.refused.append(Note(d.line, d.name, "declared without a value: assigned at "
-                                       "run time"))
-            continue
-        if isinstance(d.value, Token):
-            report.refused.append(Note(d.line, d.name, "its value is an expression, computed "
-                                       "when the program runs"))
-            continue
-        combos = uses.get(d.name.lower(), {(tool.lower(), wobj.lower())})
-        found = _targets(d.name, d.value, module.line_of)
-        computed = [t for t in found if not all(NUMBER.fullmatch(k.text) for k in t.tokens)]
-        if computed:
-            report.refused += [Note(t.line, t.name, "a number of its value is an expression, "
-                                    "computed when the program runs") for t in computed]
-            found = [t for t in found if t not in computed]
-        if len(combos) > 1:
-            pairs = "; ".join(f"{t} with {w}" for t, w in sorted(combos))
-            report.refused += [Note(t.line, t.name, f"used with several tools or work objects "
-                                    f"({pairs}): one static value cannot serve them all")
-                               for t in found]
-            continue
-        (tname, wname), = combos
-        tframe, wframe = tools.get(tname), wobjs.get(wname)
-        problem = (f"tool {tname}: " + (tframe if isinstance(tframe, str) else "not declared "
-                   "in this module")) if not isinstance(tframe, np.ndarray) else \
-            (f"work object {wname}: " + (wframe if isinstance(wframe, str) else "not declared "
-             "in this module")) if not isinstance(wframe, np.ndarray) else None
-        if problem:
-            report.refused += [Note(t.line, t.name, problem) for t in found]
-            continue
-        targets += found
-        frames += [(wframe, tframe)] * len(found)
-    if not targets:
-        return text, report
 
+def _static_targets(module: RapidModule, d: Declaration, report: FilterReport
+                    ) -> list[_Target]:
+    """The robtargets of declaration `d` whose every number is a literal; the others are
+    noted as refused in the report."""
+    if d.value is None:
+        report.refused.append(Note(d.line, d.name, "declared without a value: assigned at "
+                                   "run time"))
+        return []
+    if isinstance(d.value, Token):
+        report.refused.append(Note(d.line, d.name, "its value is an expression, computed "
+                                   "when the program runs"))
+        return []
+    found = _targets(d.name, d.value, module.line_of)
+    computed = [t for t in found if not all(NUMBER.fullmatch(k.text) for k in t.tokens)]
+    report.refused += [Note(t.line, t.name, "a number of its value is an expression, "
+                            "computed when the program runs") for t in computed]
+    return [t for t in found if t not in computed]
+
+
+def _frame_problem(tname: str, tframe: Array | str | None, wname: str,
+                   wframe: Array | str | None) -> str:
+    """Why a target's tool or work object cannot be used statically."""
+    if not isinstance(tframe, np.ndarray):
+        return f"tool {tname}: " + (tframe if isinstance(tframe, str) else
+                                    "not declared in this module")
+    return f"work object {wname}: " + (wframe if isinstance(wframe, str) else
+                                       "not declared in this module")
+
+
+def _compensated_text(text: str, targets: list[_Target], frames: list[tuple[Array, Array]],
+                      calibrated: SerialModel, nominal: SerialModel, report: FilterReport
+                      ) -> str:
+    """The text with each target's numbers replaced by its compensated ones; the targets
+    the nominal or the calibrated robot cannot reach are noted as refused in the report."""
     W = np.array([f[0] for f in frames])
     Ttool = np.array([f[1] for f in frames])
     numbers = np.array([[tok.text for tok in t.tokens] for t in targets]).astype(float)
@@ -211,12 +247,12 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
     conf = np.rint(numbers[:, 7:11]).astype(int)
     T_flange = W @ T_target @ invert_transform(Ttool)
     q_nominal, keep = solution_for_confdata(nominal, T_flange, conf, strict=False)
-    for k in np.flatnonzero(~keep):
+    for k in np.flatnonzero(np.logical_not(keep)):
         report.refused.append(Note(targets[k].line, targets[k].name, "the nominal robot has no "
                                    f"solution with confdata {conf[k].tolist()} in its limits"))
     idx = np.flatnonzero(keep)
     if idx.size == 0:
-        return text, report
+        return text
     comp = compensate(calibrated, nominal, T_flange[idx], q_nominal[idx], frame="base",
                       strict=False)
     for row, why in comp.refused:  # the calibrated robot cannot reach it plausibly
@@ -224,19 +260,10 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
     comp_ok = comp.ok
     idx = idx[comp_ok]
     if idx.size == 0:
-        return text, report
+        return text
     comp = replace(comp, q_rad=comp.q_rad[comp_ok], nominal_tool0=comp.nominal_tool0[comp_ok])
     new_target = invert_transform(W[idx]) @ comp.nominal_tool0 @ Ttool[idx]
-    new_conf = confdata(nominal, comp.q_rad)
-    quats = quaternion_wxyz_from_rotation(new_target[:, :3, :3])
-    old_quats = numbers[idx, 3:7]
-    quats *= np.where(np.sum(quats * old_quats, axis=1) < 0, -1.0, 1.0)[:, None]
-    # The new numbers as text, a row per target: x y z (mm), q1..q4, cf1 cf4 cf6 cfx.
-    trans = np.round(new_target[:, :3, 3], TRANS_DECIMALS) + 0.0  # + 0.0: no "-0.0"
-    quats = np.round(quats, QUAT_DECIMALS) + 0.0
-    rows = [[*(f"{v:.{TRANS_DECIMALS}f}" for v in tr), *(f"{v:.{QUAT_DECIMALS}f}" for v in qu),
-             *map(str, cf)]
-            for tr, qu, cf in zip(trans.tolist(), quats.tolist(), new_conf.tolist(), strict=True)]
+    rows = _target_text(new_target, confdata(nominal, comp.q_rad), numbers[idx, 3:7])
     report.compensated = len(idx)
     report.max_position_change_mm = float(np.linalg.norm(
         new_target[:, :3, 3] - T_target[idx, :3, 3], axis=1).max())
@@ -248,4 +275,16 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
             out += [text[last:tok.start], value]
             last = tok.end
     out.append(text[last:])
-    return "".join(out), report
+    return "".join(out)
+
+
+def _target_text(T: Array, conf: Array, old_quats: Array) -> list[list[str]]:
+    """The numbers of targets T (N, 4, 4) as text, a row per target: x y z (mm), q1..q4 (on
+    the side of the old quaternions), cf1 cf4 cf6 cfx."""
+    quats = quaternion_wxyz_from_rotation(T[:, :3, :3])
+    quats *= np.where(np.sum(quats * old_quats, axis=1) < 0, -1.0, 1.0)[:, None]
+    trans = np.round(T[:, :3, 3], TRANS_DECIMALS) + 0.0  # + 0.0: no "-0.0"
+    quats = np.round(quats, QUAT_DECIMALS) + 0.0
+    return [[*(f"{v:.{TRANS_DECIMALS}f}" for v in tr), *(f"{v:.{QUAT_DECIMALS}f}" for v in qu),
+             *map(str, cf)]
+            for tr, qu, cf in zip(trans.tolist(), quats.tolist(), conf.tolist(), strict=True)]
