@@ -321,6 +321,12 @@ def run_align(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    _add_align(sub)
+    _add_calibrate(sub)
+    _add_compensate(sub)
+
+
+def _add_align(sub: argparse._SubParsersAction) -> None:
     a = sub.add_parser("align", help="base frame from joint 1 and joint 2 sweeps (thesis 4.6)",
                        description=ALIGN_DOC,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -332,6 +338,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     a.add_argument("--out", required=True, help="JSON with the base pose")
     a.set_defaults(func=run_align)
 
+
+def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("calibrate", help="identify the robot's geometric errors from a CSV",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--robot", required=True,
@@ -384,6 +392,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_payload_arguments(p)
     p.set_defaults(func=run_calibrate)
 
+
+def _add_compensate(sub: argparse._SubParsersAction) -> None:
     c = sub.add_parser(
         "compensate", help="targets and RAPID programs compensated for the calibrated robot",
         description=COMPENSATE_DOC, formatter_class=argparse.RawDescriptionHelpFormatter)
