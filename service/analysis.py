@@ -26,6 +26,7 @@ from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
 from screwcal.kinematics.se3 import Array, invert_transform
 from screwcal.performance.evaluate import PerformanceData, PointData, point_metrics, summarise
 from screwcal.performance.straightness import straightness
+from service.phases import PERF_PHASES, ROUND_SUFFIXES
 from service.plans import PlannedPose
 
 POOR_FIT_CHI2 = 10.0  # chi2/dof above this with the stated noise: the model misses something
@@ -205,7 +206,7 @@ def iso_test_conditions(robot: Mapping[str, Any], model: SerialModel, options: M
 def job_warnings(job_result: Mapping[str, Any]) -> list[str]:
     """What a user must see: a poor fit, an accuracy that did not improve."""
     out = []
-    for suffix in ("", "_2"):
+    for suffix in ROUND_SUFFIXES:
         est = job_result.get("estimation" + suffix)
         out += [f"estimation{suffix}: {w}" for w in (est or {}).get("warnings", [])]
         if est and est["chi2_reduced"] > POOR_FIT_CHI2:
@@ -213,8 +214,9 @@ def job_warnings(job_result: Mapping[str, Any]) -> list[str]:
                        f"(> {POOR_FIT_CHI2:g}): the model misses something (compliance, a loose "
                        "flange, drift) or the noise is larger than stated")
     perf = job_result.get("performance") or {}
-    overall = perf.get("perf_before", {}).get("overall", {})
-    for phase in ("perf_after", "perf_after_2"):
+    first, *later = PERF_PHASES
+    overall = perf.get(first, {}).get("overall", {})
+    for phase in later:
         after = perf.get(phase, {}).get("overall", {})
         before_ap, after_ap = overall.get("ap_mm_mean"), after.get("ap_mm_mean")
         if before_ap is not None and after_ap is not None and after_ap > before_ap:

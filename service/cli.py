@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from screwcal.commands.options import finite_float
 from service.errors import ServiceError
+from service.phases import PERF_PHASE_NAMES, ROUND_SUFFIXES
 from service.summary import before_after
 
 if TYPE_CHECKING:  # imported where used: `screwcal --help` pays for neither
@@ -210,8 +211,7 @@ def result_table(result: dict, times: bool = True) -> str:
     lines = [f"job {result['id']}: {result['state']} {result.get('reason', '')}".rstrip()]
     phases, rows = before_after(result.get("performance") or {})
     if rows:
-        names = {"perf_before": "before", "perf_after": "after", "perf_after_2": "round 2"}
-        lines.append(f"  {'ISO 9283':<36}" + "".join(f"{names[p]:>12}" for p in phases)
+        lines.append(f"  {'ISO 9283':<36}" + "".join(f"{PERF_PHASE_NAMES[p]:>12}" for p in phases)
                      + (f"{'factor':>9}" if len(phases) > 1 else ""))
         for r in rows:
             cells = "".join(f"{v:>9.3f} {r.unit:<2}" if v is not None else f"{'-':>12}"
@@ -242,7 +242,7 @@ def result_table(result: dict, times: bool = True) -> str:
             e = home[when]["error_mm"]
             lines.append(f"  home position error {when} (Table 14): x {e[0]:+.3f}, y {e[1]:+.3f}, "
                          f"z {e[2]:+.3f} mm, |e| {home[when]['distance_mm']:.3f} mm")
-    for suffix in ("", "_2"):
+    for suffix in ROUND_SUFFIXES:
         lines += _route_lines(result.get("correction" + suffix) or {}, suffix)
     for warning in result.get("warnings", []):
         lines.append(f"  WARNING: {warning}")

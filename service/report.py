@@ -15,6 +15,7 @@ import numpy as np
 
 from screwcal.performance import plots
 from screwcal.performance.iso9283 import PoseMetrics
+from service.phases import PERF_PHASE_NAMES, ROUND_SUFFIXES
 from service.summary import before_after
 
 # Thesis Table 13: minutes per activity of a whole calibration.
@@ -83,9 +84,8 @@ def report_html(job: dict, robot: dict) -> str:
         out.write(f"<p class='warning'><b>Warning:</b> {html.escape(warning)}</p>")
     phases, rows = before_after(result.get("performance") or {})
     if rows:
-        names = {"perf_before": "before", "perf_after": "after", "perf_after_2": "round 2"}
         out.write("<h2>Summary: ISO 9283 before and after</h2>" + _table(
-            ["", "unit", *(names[p] for p in phases), "factor"],
+            ["", "unit", *(PERF_PHASE_NAMES[p] for p in phases), "factor"],
             [[r.label, r.unit, *("-" if v is None else float(v) for v in r.values),
               "-" if r.factor is None else f"{r.factor:.1f}x"] for r in rows]))
         note = result.get("frame_note")
@@ -98,7 +98,7 @@ def report_html(job: dict, robot: dict) -> str:
     if conditions:
         out.write("<h2>Test conditions</h2>" + _table(
             ["condition", "value"], [[k.replace("_", " "), v] for k, v in conditions.items()]))
-    for suffix in ("", "_2"):
+    for suffix in ROUND_SUFFIXES:
         corr = result.get("correction" + suffix)
         if corr:
             out.write(correction_section(corr, suffix))

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from service.phases import PERF_PHASES
+
 # (label, key in the phase's section, section, unit)
 ROWS = (
     ("position accuracy AP, mean", "ap_mm_mean", "overall", "mm"),
@@ -30,7 +32,7 @@ class SummaryRow:
 
 
 def performance_phases(perf: dict) -> tuple[str, ...]:
-    return tuple(p for p in ("perf_before", "perf_after", "perf_after_2") if p in perf)
+    return tuple(p for p in PERF_PHASES if p in perf)
 
 
 def before_after(perf: dict) -> tuple[tuple[str, ...], list[SummaryRow]]:
