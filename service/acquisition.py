@@ -27,6 +27,7 @@ from screwcal.calibration.flange import MeasuringFlange
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
+from service.document import DiscardedReadings
 from service.errors import SafetyError
 from service.events import JobEvents
 from service.plans import PlannedPose
@@ -253,16 +254,15 @@ class Acquisition:
         assert self.arm is not None
         if not self.discarded and not self.arm.problems:
             return
-        job_result = dict(self.store.job(self.job_id)["result"] or {})
-        job_result["arm_readings_discarded"] = {
-            "duplicate": self.discarded["duplicate"], "stale": self.discarded["stale"],
-            "motion": self.discarded["motion"],
-            "bad_lines": len(self.arm.problems),
-            "meaning": "arm triples not used as a pose's reading: repeats of the previous "
-                       "pose's, re-probes of a pose the robot had left (stale), readings whose "
-                       "measured motion disagreed with the commanded one (early, foreign), and "
-                       "lines that broke a triple"}
-        self.store.set_job(self.job_id, result=job_result)
+        result = self.store.job(self.job_id).result
+        result.arm_readings_discarded = DiscardedReadings(
+            duplicate=self.discarded["duplicate"], stale=self.discarded["stale"],
+            motion=self.discarded["motion"], bad_lines=len(self.arm.problems),
+            meaning="arm triples not used as a pose's reading: repeats of the previous "
+                    "pose's, re-probes of a pose the robot had left (stale), readings whose "
+                    "measured motion disagreed with the commanded one (early, foreign), and "
+                    "lines that broke a triple")
+        self.store.set_result(self.job_id, result)
 
     async def _before_move(self, phase: str, planned: PlannedPose, note: str = "") -> None:
         """Before the robot moves to `planned`: the previous pose is committed; drop stale arm

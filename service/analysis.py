@@ -24,8 +24,20 @@ from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
 from screwcal.kinematics.se3 import Array, invert_transform
-from screwcal.performance.evaluate import PerformanceData, PointData, point_metrics, summarise
+from screwcal.performance.evaluate import PerformanceData, PointData, performance_section
 from screwcal.performance.straightness import straightness
+from service.document import (
+    CorrectionPlan,
+    EstimatedParameter,
+    EstimationSummary,
+    HomeCheck,
+    HomeMeasurement,
+    JobOptions,
+    MeasuringFrame,
+    PerformanceSection,
+    RemovedParameter,
+    ResultDocument,
+)
 from service.phases import PERF_PHASES, ROUND_SUFFIXES
 from service.plans import PlannedPose
 
@@ -58,25 +70,25 @@ def flange_error_mm(robot: SerialModel, q_sent: Array, target: Array) -> Array:
     return np.linalg.norm(flange_kinematics(robot, q_sent)[:, :3, 3] - target[:, :3, 3], axis=1)
 
 
-def estimation_summary(result: CalibrationResult) -> dict[str, Any]:
+def estimation_summary(result: CalibrationResult) -> EstimationSummary:
     """The robot's identified parameters; the measuring frame as the pose it came out as (its
     parameters are increments from the starting alignment, meaningless alone)."""
     x, y, z, rx, ry, rz = (float(v) for v in pose_from_transform(result.model.base))
-    return {
-        "parameters": [{"name": p.name, "unit": p.unit, "value": float(v),
-                        "std_error": float(s)}
-                       for p, v, s in zip(result.params, result.values, result.std_errors,
-                                          strict=True) if p.group == "robot"],
-        "measuring_frame": {"x": x, "y": y, "z": z, "rx": rx, "ry": ry, "rz": rz,
-                            "meaning": "robot base in the measuring system's frame, mm/deg"},
-        "removed": [{"name": n, "reason": why} for n, why in result.removed],
-        "rank": result.rank, "condition_number": result.condition_number,
-        "chi2_reduced": result.chi2_reduced, "converged": result.converged,
-        "noise": result.noise.to_dict() if result.noise is not None else None,
-        "warnings": result.warnings,
-        "residual_before_mm": float(result.residuals_before.mean()),
-        "residual_after_mm": float(result.residuals_after.mean()),
-    }
+    return EstimationSummary(
+        parameters=[EstimatedParameter(name=p.name, unit=p.unit, value=float(v),
+                                       std_error=float(s))
+                    for p, v, s in zip(result.params, result.values, result.std_errors,
+                                       strict=True) if p.group == "robot"],
+        measuring_frame=MeasuringFrame(
+            x=x, y=y, z=z, rx=rx, ry=ry, rz=rz,
+            meaning="robot base in the measuring system's frame, mm/deg"),
+        removed=[RemovedParameter(name=n, reason=why) for n, why in result.removed],
+        rank=result.rank, condition_number=result.condition_number,
+        chi2_reduced=result.chi2_reduced, converged=result.converged,
+        noise=result.noise.to_dict() if result.noise is not None else None,
+        warnings=list(result.warnings),
+        residual_before_mm=float(result.residuals_before.mean()),
+        residual_after_mm=float(result.residuals_after.mean()))
 
 
 @dataclass(frozen=True)
@@ -84,7 +96,7 @@ class PlannedCorrection:
     """What a route will do (the result document's `correction` section) and, when it
     compensates, the performance list as it will be sent."""
 
-    section: dict[str, Any]
+    section: CorrectionPlan
     compensated: list[PlannedPose] | None = None
 
 
@@ -97,9 +109,9 @@ def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
                     if p.group == "robot"]
     not_identified = [n for n, _ in result.removed if not n.startswith(("base", "tool"))]
     if route == "none":
-        return PlannedCorrection({
-            "route": "none", "note": "a calibration job sends no correction; the calibrated "
-            "model is downloadable (screwcal job model N)", "not_identified": not_identified})
+        return PlannedCorrection(CorrectionPlan(
+            route="none", note="a calibration job sends no correction; the calibrated model "
+            "is downloadable (screwcal job model N)", not_identified=not_identified))
     q_nominal = np.radians([p.joints_deg for p in perf_plan])
     robot = result.model
     out: dict[str, Any] = {"route": route, "not_identified": not_identified}
@@ -130,13 +142,14 @@ def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
         raise CorrectionRefusedError(
             f"the {route} route would leave the robot worse ({before.mean():.3f} -> "
             f"{after.mean():.3f} mm predicted): nothing is sent")
-    return PlannedCorrection(out, compensated)
+    return PlannedCorrection(CorrectionPlan.model_validate(out), compensated)
 
 
-def performance_section(rows: Sequence[Mapping[str, Any]], plan: Mapping[int, PlannedPose],
-                        base: Array) -> dict[str, Any]:
-    """ISO 9283 per point (the evaluate command's computation) and straightness, attained poses
-    in the robot base frame."""
+def performance_figures(rows: Sequence[Mapping[str, Any]], plan: Mapping[int, PlannedPose],
+                        base: Array) -> PerformanceSection:
+    """ISO 9283 per point and straightness of one performance list's committed poses, as the
+    performance package computes them (`performance_section`: the evaluate command's), attained
+    poses in the robot base frame."""
     attained = pose_from_transform(invert_transform(base) @ transform_from_pose(
         np.array([r["flange_pose"] for r in rows])))
     by_point: dict[str, list[int]] = {}
@@ -150,44 +163,37 @@ def performance_section(rows: Sequence[Mapping[str, Any]], plan: Mapping[int, Pl
     data = PerformanceData("measurements", tuple(
         PointData(label, np.array(plan[rows[ks[0]]["idx"]].commanded), attained[ks])
         for label, ks in sorted(by_point.items()) if len(ks) >= 2), full_pose=True)
-    metrics = point_metrics(data)
-    out: dict[str, Any] = {"points": {k: m.to_dict() for k, m in metrics.items()}}
-    if metrics:
-        out["overall"] = summarise(metrics)
-    if len(line) >= 3:
-        s = straightness(np.array(line))
-        out["straightness"] = {"peak_to_valley_mm": s.peak_to_valley_mm,
-                               "along_mm": s.along_mm.tolist(),
-                               "deviation_mm": s.deviation_u_mm.tolist()}
-    return out
+    path = straightness(np.array(line)) if len(line) >= 3 else None
+    return PerformanceSection.model_validate(performance_section(data, path))
 
 
 def home_check(nominal: SerialModel, last_home_rows: Mapping[str, Mapping[str, Any]],
-               base: Array) -> dict[str, Any]:
+               base: Array) -> HomeCheck | None:
     """Table 14: the flange at home (all joints 0) measured before and after the correction,
     in the robot base frame, against the nominal home. `last_home_rows`: the last committed
     pose of each home phase measured, by phase."""
     home = flange_kinematics(nominal, np.zeros((1, nominal.n_joints)))[0, :3, 3]
-    out: dict[str, Any] = {}
+    measured: dict[str, HomeMeasurement] = {}
     for phase, row in last_home_rows.items():
         T = invert_transform(base) @ transform_from_pose(np.array(row["flange_pose"]))
         error = T[:3, 3] - home
-        out[phase.removeprefix("home_")] = {
-            "measured_mm": T[:3, 3].round(3).tolist(),
-            "error_mm": error.round(3).tolist(),
-            "distance_mm": round(float(np.linalg.norm(error)), 3)}
-    if out:
-        out["nominal_mm"] = home.round(3).tolist()
-        out["note"] = ("the robot sent to all joints 0 (HOME), its flange measured and "
-                       "compared with the nominal home (thesis Table 14); error = measured "
-                       "- nominal, robot base frame. After ZERO the controller's zeros are "
-                       "corrected; the compensate route corrects programmed targets, not "
-                       "the joints' zeros, so its home is the robot's uncorrected one")
-    return out
+        measured[phase.removeprefix("home_")] = HomeMeasurement(
+            measured_mm=T[:3, 3].round(3).tolist(), error_mm=error.round(3).tolist(),
+            distance_mm=round(float(np.linalg.norm(error)), 3))
+    if not measured:
+        return None
+    return HomeCheck.model_validate({
+        **measured, "nominal_mm": home.round(3).tolist(),
+        "note": "the robot sent to all joints 0 (HOME), its flange measured and compared with "
+                "the nominal home (thesis Table 14); error = measured - nominal, robot base "
+                "frame. After ZERO the controller's zeros are corrected; the compensate route "
+                "corrects programmed targets, not the joints' zeros, so its home is the "
+                "robot's uncorrected one"})
 
 
-def iso_test_conditions(robot: Mapping[str, Any], model: SerialModel, options: Mapping[str, Any],
-                    plan: Mapping[int, PlannedPose], created: float | None) -> dict[str, Any]:
+def iso_test_conditions(robot: Mapping[str, Any], model: SerialModel,
+                        options: JobOptions, plan: Mapping[int, PlannedPose],
+                        created: float | None) -> dict[str, str | int | float]:
     """The conditions ISO 9283 asks a report to state."""
     centre = next(p.commanded[:3] for p in plan.values()
                   if p.point == "P1" and p.role == "target")
@@ -195,29 +201,31 @@ def iso_test_conditions(robot: Mapping[str, Any], model: SerialModel, options: M
         "robot": f"{robot['name']} (model {model.name})",
         "controller": f"{robot['controller_host']}:{robot['controller_port']}",
         "measuring arm": robot["arm_url"],
-        "cube edge mm": float(options.get("cube_edge_mm", 300.0)),
+        "cube edge mm": float(options.cube_edge_mm),
         "cube centre (P1) mm": ", ".join(f"{v:.1f}" for v in centre),
-        "cycles": int(options.get("cycles", 30)),
+        "cycles": int(options.cycles),
         "speed": "v100, fine (the RAPID server module's MoveAbsJ)",
         "date (UTC)": time.strftime("%Y-%m-%d %H:%M", time.gmtime(created)) if created else "",
     }
 
 
-def job_warnings(job_result: Mapping[str, Any]) -> list[str]:
+def job_warnings(result: ResultDocument) -> list[str]:
     """What a user must see: a poor fit, an accuracy that did not improve."""
     out = []
     for suffix in ROUND_SUFFIXES:
-        est = job_result.get("estimation" + suffix)
-        out += [f"estimation{suffix}: {w}" for w in (est or {}).get("warnings", [])]
-        if est and est["chi2_reduced"] > POOR_FIT_CHI2:
-            out.append(f"poor fit in the estimation{suffix}: chi2/dof {est['chi2_reduced']:.1f} "
+        est = result.estimation_of(suffix)
+        if est is None:
+            continue
+        out += [f"estimation{suffix}: {w}" for w in est.warnings]
+        if est.chi2_reduced > POOR_FIT_CHI2:
+            out.append(f"poor fit in the estimation{suffix}: chi2/dof {est.chi2_reduced:.1f} "
                        f"(> {POOR_FIT_CHI2:g}): the model misses something (compliance, a loose "
                        "flange, drift) or the noise is larger than stated")
-    perf = job_result.get("performance") or {}
+    perf = result.performance or {}
     first, *later = PERF_PHASES
-    overall = perf.get(first, {}).get("overall", {})
+    overall = _overall(perf.get(first))
     for phase in later:
-        after = perf.get(phase, {}).get("overall", {})
+        after = _overall(perf.get(phase))
         before_ap, after_ap = overall.get("ap_mm_mean"), after.get("ap_mm_mean")
         if before_ap is not None and after_ap is not None and after_ap > before_ap:
             out.append(f"accuracy got worse in {phase}: AP mean {before_ap:.3f} -> "
@@ -231,3 +239,7 @@ def job_warnings(job_result: Mapping[str, Any]) -> list[str]:
                        f"{after_rp:.3f} mm (a correction should leave it unchanged): check "
                        "the cell (warm-up, payload, fixture) before trusting the after-figures")
     return out
+
+
+def _overall(section: PerformanceSection | None) -> dict[str, Any]:
+    return (section.overall if section is not None else None) or {}

@@ -27,6 +27,7 @@ from screwcal.calibration.blas_threads import hold_one_blas_thread
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.modelfile import model_document, parse_model
 from screwcal.kinematics.robots import BUILTIN_MODELS, builtin_model
+from service.document import JobRecord
 from service.errors import ConflictError, NotFoundError, SafetyError, StoreError, StoreLostError
 from service.manager import JobManager
 from service.plans import LISTS_OF_KIND, plan_for
@@ -187,15 +188,13 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
 
     jobs = APIRouter(prefix="/jobs", tags=["jobs"])
 
-    def public(job: dict, manager: JobManager) -> dict:
-        runner = manager.runners.get(job["id"])
-        waiting = runner.gate.waiting_for if runner is not None else None
-        return {**job, "waiting_for": {"phase": waiting[0], "index": waiting[1]}
-                if waiting else None}
+    def public(job: JobRecord, manager: JobManager) -> JobPublic:
+        runner = manager.runners.get(job.id)
+        return JobPublic.of(job, runner.gate.waiting_for if runner is not None else None)
 
     @jobs.post("", status_code=202, response_model=JobPublic)
     async def create_job(body: JobCreate, _: Auth, request: Request, store: StoreDep,
-                         manager: ManagerDep) -> dict:
+                         manager: ManagerDep) -> JobPublic:
         """One unfinished job per robot: refused at once when the robot has one or another
         request is planning one for it; the database's unique index decides in the end (a
         second service on a server database included)."""
@@ -215,10 +214,9 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
             planning.discard(body.robot_id)
 
     async def _plan_and_add(body: JobCreate, robot: dict, store: Store, manager: JobManager,
-                            plans: asyncio.Semaphore) -> dict:
-        options = body.options.model_dump()
-        source = options.get("frame_from_job")
-        if source is not None and not (store.job(source)["result"] or {}).get("base"):
+                            plans: asyncio.Semaphore) -> JobPublic:
+        source = body.options.frame_from_job
+        if source is not None and not store.job(source).result.base:
             raise HTTPException(422, f"job {source} has no identified robot base frame to "
                                 "measure in: choose a calibration or procedure job that ran "
                                 "its estimation")
@@ -226,20 +224,20 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
             model = parse_model(robot["model"], f"robot {body.robot_id}")
             async with plans:  # a bounded number of plans at once: each takes a worker thread
                 for kind in LISTS_OF_KIND[body.kind]:
-                    await asyncio.to_thread(plan_for, model, kind, options)
+                    await asyncio.to_thread(plan_for, model, kind, body.options)
         except ScrewcalError as err:
             raise HTTPException(422, f"this job cannot run on robot {body.robot_id}: "
                                 f"{err}") from None
-        job = store.add_job(body.robot_id, body.kind, body.mode, options)
-        manager.start(job["id"])
+        job = store.add_job(body.robot_id, body.kind, body.mode, body.options.model_dump())
+        manager.start(job.id)
         return public(job, manager)
 
     @jobs.get("", response_model=list[JobPublic])
-    def list_jobs(_: Read, store: StoreDep, manager: ManagerDep) -> list[dict]:
+    def list_jobs(_: Read, store: StoreDep, manager: ManagerDep) -> list[JobPublic]:
         return [public(j, manager) for j in store.jobs()]
 
     @jobs.get("/{job_id}", response_model=JobPublic)
-    def get_job(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep) -> dict:
+    def get_job(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep) -> JobPublic:
         return public(store.job(job_id), manager)
 
     @jobs.post("/{job_id}/go", status_code=204)
@@ -256,13 +254,9 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
         store.job(job_id)
         return store.measurements(job_id, phase)
 
-    @jobs.get("/{job_id}/result", response_model=JobResult)
-    def result(job_id: JobId, _: Read, store: StoreDep) -> dict[str, Any]:
-        job = store.job(job_id)
-        found = {k: v for k, v in (job["result"] or {}).items()
-                 if not k.startswith("calibration")}  # the whole documents: GET .../model
-        return {"id": job_id, "state": job["state"], "reason": job["reason"],
-                "phases": job["phases"], **found}
+    @jobs.get("/{job_id}/result", response_model=JobResult, response_model_exclude_unset=True)
+    def result(job_id: JobId, _: Read, store: StoreDep) -> JobResult:
+        return JobResult.of(store.job(job_id))
 
     @jobs.get("/{job_id}/model", responses={200: {"description": (
         "the calibration result document (format screwcal-calibration) whose `model` is the "
@@ -270,8 +264,7 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
         "`compensate` and the RAPID filter read it")}})
     def calibrated_model(job_id: JobId, _: Read, store: StoreDep,
                          round: Annotated[int, Query(ge=1, le=2)] = 1) -> dict[str, Any]:
-        job = store.job(job_id)
-        doc = (job["result"] or {}).get("calibration" + ("_2" if round == 2 else ""))
+        doc = store.job(job_id).result.calibration_of("_2" if round == 2 else "")
         if doc is None:
             raise NotFoundError(f"job {job_id} has no calibrated model (round {round}): "
                                 "a calibration or procedure job has one once its estimation ran")
@@ -280,7 +273,7 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
     @jobs.get("/{job_id}/report", response_class=HTMLResponse)
     async def report(job_id: JobId, _: Read, store: StoreDep) -> str:
         job = store.job(job_id)
-        return await asyncio.to_thread(report_html, job, store.robot(job["robot_id"]))
+        return await asyncio.to_thread(report_html, job, store.robot(job.robot_id))
 
     @jobs.get("/{job_id}/events", response_class=StreamingResponse, responses={200: {
         "content": {"text/event-stream": {}},
@@ -310,14 +303,14 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
         async def stream() -> AsyncIterator[str]:
             # First the job as it stands (a client that re-attaches, or comes after a restart,
             # knows where it is and what it waits for), then the events.
-            job = public(store.job(job_id), manager)
+            job = public(store.job(job_id), manager).model_dump()
             yield frame({**job, "kind": "state", "job_kind": job["kind"]}, None)
             sent = start
             while True:
                 while sent < len(bus.items):
                     yield frame(bus.items[sent], sent)
                     sent += 1
-                state = store.job(job_id)["state"]
+                state = store.job(job_id).state
                 if state in TERMINAL and sent >= len(bus.items):
                     yield frame({"kind": "end", "state": state}, None)
                     return

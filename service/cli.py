@@ -30,6 +30,8 @@ from service.summary import before_after
 if TYPE_CHECKING:  # imported where used: `screwcal --help` pays for neither
     import httpx
 
+    from service.document import CorrectionPlan, EstimationSummary
+    from service.schemas import JobResult
     from service.settings import ServiceSettings
 
 
@@ -128,8 +130,10 @@ class Operator:
     def abort(self, job_id: int) -> None:
         self._check(self.http.post(f"/jobs/{job_id}/abort"))
 
-    def result(self, job_id: int) -> dict:
-        return self._check(self.http.get(f"/jobs/{job_id}/result"))
+    def result(self, job_id: int) -> JobResult:
+        from service.schemas import JobResult
+
+        return JobResult.model_validate(self._check(self.http.get(f"/jobs/{job_id}/result")))
 
     def model(self, job_id: int, round_: int = 1) -> dict:
         return self._check(self.http.get(f"/jobs/{job_id}/model", params={"round": round_}))
@@ -206,10 +210,10 @@ class Operator:
         return self.job(job_id)["state"]
 
 
-def result_table(result: dict, times: bool = True) -> str:
+def result_table(result: JobResult, times: bool = True) -> str:
     """The before/after table a person reads (`times`: the seconds each phase took)."""
-    lines = [f"job {result['id']}: {result['state']} {result.get('reason', '')}".rstrip()]
-    phases, rows = before_after(result.get("performance") or {})
+    lines = [f"job {result.id}: {result.state} {result.reason}".rstrip()]
+    phases, rows = before_after(result.performance or {})
     if rows:
         lines.append(f"  {'ISO 9283':<36}" + "".join(f"{PERF_PHASE_NAMES[p]:>12}" for p in phases)
                      + (f"{'factor':>9}" if len(phases) > 1 else ""))
@@ -218,73 +222,71 @@ def result_table(result: dict, times: bool = True) -> str:
                             for v in r.values)
             factor = f"{r.factor:>8.1f}x" if r.factor is not None else ""
             lines.append(f"  {r.label:<36}{cells}{factor}")
-    est = result.get("estimation")
-    if est:
-        lines.append(f"  identified ({est['rank']} parameters, chi2/dof "
-                     f"{est['chi2_reduced']:.2f}):")
-        for p in est["parameters"]:
-            if p["name"].startswith("J"):
-                lines.append(f"    {p['name']:<8}{p['value']:>10.4f} {p['unit']:<3} "
-                             f"± {p['std_error']:.4f}")
-        noise = est.get("noise")
-        if noise:
-            lines.append("    noise levels: " + ", ".join(
-                f"{k} {v['value']:.4g} {v['unit']}" + (f" ± {v['std']:.2g}" if v["std"] else "")
-                for k, v in noise.items() if isinstance(v, dict) and v["measured"]))
-        if est.get("removed"):
-            lines.append("    not separable from these data (not corrected): " + ", ".join(
-                r["name"] for r in est["removed"]))
-    if result.get("frame_note"):
-        lines.append(f"  frame: {result['frame_note']}")
-    home = result.get("home_check") or {}
-    for when in ("before", "after"):
-        if when in home:
-            e = home[when]["error_mm"]
+    if result.estimation is not None:
+        lines += _estimation_lines(result.estimation)
+    if result.frame_note:
+        lines.append(f"  frame: {result.frame_note}")
+    home = result.home_check
+    for when, measured in (("before", home and home.before), ("after", home and home.after)):
+        if measured:
+            e = measured.error_mm
             lines.append(f"  home position error {when} (Table 14): x {e[0]:+.3f}, y {e[1]:+.3f}, "
-                         f"z {e[2]:+.3f} mm, |e| {home[when]['distance_mm']:.3f} mm")
+                         f"z {e[2]:+.3f} mm, |e| {measured.distance_mm:.3f} mm")
     for suffix in ROUND_SUFFIXES:
-        lines += _route_lines(result.get("correction" + suffix) or {}, suffix)
-    for warning in result.get("warnings", []):
+        lines += _route_lines(result.correction_of(suffix), suffix)
+    for warning in result.warnings or []:
         lines.append(f"  WARNING: {warning}")
-    phases = result.get("phases") or {}
-    if phases and times:
+    if result.phases and times:
         lines.append("  time per phase (s): " + ", ".join(
-            f"{k} {v.get('seconds', 0):.2f}" for k, v in phases.items()))
+            f"{k} {v.seconds:.2f}" for k, v in result.phases.items()))
     return "\n".join(lines)
 
 
-def _route_lines(corr: dict, suffix: str) -> list[str]:
+def _estimation_lines(est: EstimationSummary) -> list[str]:
+    """The joints' identified parameters, the noise levels measured, what was not separable."""
+    lines = [f"  identified ({est.rank} parameters, chi2/dof {est.chi2_reduced:.2f}):"]
+    for p in est.parameters:
+        if p.name.startswith("J"):
+            lines.append(f"    {p.name:<8}{p.value:>10.4f} {p.unit:<3} ± {p.std_error:.4f}")
+    if est.noise:
+        lines.append("    noise levels: " + ", ".join(
+            f"{k} {v['value']:.4g} {v['unit']}" + (f" ± {v['std']:.2g}" if v["std"] else "")
+            for k, v in est.noise.items() if isinstance(v, dict) and v["measured"]))
+    if est.removed:
+        lines.append("    not separable from these data (not corrected): " + ", ".join(
+            r.name for r in est.removed))
+    return lines
+
+
+def _route_lines(corr: CorrectionPlan | None, suffix: str) -> list[str]:
     """What the correction route did, compensated, or left in the robot."""
-    if not corr:
+    if corr is None:
         return []
-    head = f"  correction{' (round 2)' if suffix else ''}: {corr.get('route', 'zero')}"
+    head = f"  correction{' (round 2)' if suffix else ''}: {corr.route}"
     lines = []
-    if corr.get("route") == "none":
-        return [f"{head} ({corr.get('note', '')})"]
-    if "refused" in corr:
-        return [f"{head}: refused ({corr['refused']})"]
-    if "zero_command_deg" in corr:
-        sent = "sent" if corr.get("sent") else "planned, not sent"
+    if corr.route == "none":
+        return [f"{head} ({corr.note or ''})"]
+    if corr.zero_command_deg is not None:
+        sent = "sent" if corr.sent else "planned, not sent"
         lines.append(f"{head}; ZERO {sent} (deg): "
-                     + " ".join(f"{v:.4f}" for v in corr["zero_command_deg"]))
+                     + " ".join(f"{v:.4f}" for v in corr.zero_command_deg))
     else:
         lines.append(head)
-    if corr.get("compensated_lists"):
-        lines.append(f"    compensated joint targets for {', '.join(corr['compensated_lists'])} "
-                     f"(largest joint change {corr.get('max_joint_change_deg', 0):.3f} deg)")
-    predicted = corr.get("predicted_position_error_mm")
-    if predicted:
+    if corr.compensated_lists:
+        lines.append(f"    compensated joint targets for {', '.join(corr.compensated_lists)} "
+                     f"(largest joint change {corr.max_joint_change_deg or 0:.3f} deg)")
+    predicted = corr.predicted_position_error_mm
+    if predicted is not None:
         lines.append(f"    model-predicted flange error on the ISO targets: "
-                     f"{predicted['before']:.3f} -> {predicted['after']:.3f} mm")
-    left = corr.get("left_in_robot") or []
-    if left:
+                     f"{predicted.before:.3f} -> {predicted.after:.3f} mm")
+    if corr.left_in_robot:
         lines.append("    left in the robot (not corrected by this route): " + ", ".join(
-            f"{p['name']} {p['value']:+.3f} {p['unit']}" for p in left))
-    elif "left_in_robot" in corr:
+            f"{p.name} {p.value:+.3f} {p.unit}" for p in corr.left_in_robot))
+    elif corr.left_in_robot is not None:
         lines.append("    left in the robot: nothing the model identified")
-    if corr.get("not_identified"):
+    if corr.not_identified:
         lines.append("    not identified from these data (nothing corrects them): "
-                     + ", ".join(corr["not_identified"]))
+                     + ", ".join(corr.not_identified))
     return lines
 
 

@@ -19,7 +19,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -109,9 +109,8 @@ def run(args: argparse.Namespace) -> int:
                       "performance")
                 state = op.watch(job["id"], out=_quiet_progress())
                 result = op.result(job["id"])
-                job_doc = {**op.job(job["id"]), "result": result}
                 (out_dir / "report.html").write_text(op.report(job["id"]), encoding="utf-8")
-                for name, png in report_figures(job_doc).items():
+                for name, png in report_figures(result).items():
                     (out_dir / name).write_bytes(png)
     print(result_table(result, times=False))
     if args.seed is None:
@@ -122,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
     return 0 if state == "done" else 1
 
 
-def _quiet_progress() -> object:
+def _quiet_progress() -> Callable[[str], None]:
     """Print phase changes and a progress line per quarter of a list, not every pose."""
     last: dict[str, int] = {}
 

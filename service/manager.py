@@ -12,7 +12,7 @@ from service.errors import ConflictError, ServiceError
 from service.events import EventBus
 from service.runner import JobRunner
 from service.settings import ServiceSettings
-from service.store import UNFINISHED, Store
+from service.store import Store
 
 
 class JobManager:
@@ -41,7 +41,7 @@ class JobManager:
             runner = JobRunner(self.store, self.settings, self.events.of(job_id), job_id,
                                on_fatal=self.fatal)
         except (ScrewcalError, ServiceError, ValueError, KeyError, TypeError) as err:
-            self.store.set_job(job_id, state="failed", reason=f"cannot run: {err}")
+            self.store.fail(job_id, f"cannot run: {err}")
             return False
         self.runners[job_id] = runner
         self.tasks[job_id] = asyncio.create_task(runner.run(), name=f"job {job_id}")
@@ -50,7 +50,7 @@ class JobManager:
     def resume_unfinished(self) -> list[int]:
         """After a restart (or a crash): every unfinished job goes on where its store says;
         start-up never dies on one bad record."""
-        return [j["id"] for j in self.store.jobs(UNFINISHED) if self.start(j["id"])]
+        return [j for j in self.store.unfinished_jobs() if self.start(j)]
 
     def busy_with(self, robot_id: int) -> int | None:
         """The unfinished job of this robot, if any."""

@@ -3,7 +3,9 @@ them, and the names people read for the performance lists."""
 
 from __future__ import annotations
 
-from typing import Final
+from typing import Final, Literal
+
+Round = Literal["", "_2"]  # the suffix of the first and the second calibration round
 
 # A step is a measured list (home_*, perf_*, cal*), an estimation, a correction or the
 # evaluation; "setup" (the links) comes before every job's steps.
@@ -24,8 +26,8 @@ PERF_PHASE_NAMES: Final = {"perf_before": "before", "perf_after": "after",
 # The estimation whose model drives a performance list's targets when the route compensates.
 # A calibration list (the second round's) is sent as planned: its poses need reach no
 # particular target, only be measured, and compensating them could push one out of the limits.
-ESTIMATION_FOR: Final = {"perf_after": "", "perf_after_2": "_2"}
-ROUND_SUFFIXES: Final = ("", "_2")  # the first and the second calibration round
+ESTIMATION_FOR: Final[dict[str, Round]] = {"perf_after": "", "perf_after_2": "_2"}
+ROUND_SUFFIXES: Final[tuple[Round, Round]] = ("", "_2")  # the first and the second round
 
 
 def job_steps(kind: str, rounds: int = 1) -> tuple[str, ...]:
@@ -37,6 +39,6 @@ def job_steps(kind: str, rounds: int = 1) -> tuple[str, ...]:
     return steps
 
 
-def round_suffix(step: str) -> str:
+def round_suffix(step: str) -> Round:
     """'_2' for a step of the second calibration round, '' otherwise."""
     return "_2" if step.endswith("_2") else ""

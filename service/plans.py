@@ -21,6 +21,7 @@ from screwcal.kinematics.ik import closed_form_ik
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import transform_from_pose
 from screwcal.performance.testcube import ArmSphere, find_test_cube, performance_pose_list
+from service.document import JobOptions
 
 
 @dataclass(frozen=True)
@@ -64,14 +65,13 @@ def performance_plan(model: SerialModel, cycles: int = 30, edge_mm: float = 300.
     return plans
 
 
-def plan_for(model: SerialModel, kind: str, options: dict) -> list[PlannedPose]:
+def plan_for(model: SerialModel, kind: str, options: JobOptions) -> list[PlannedPose]:
     """A job's "cal" or "perf" list from its options (deterministic): what the job runs, and
     what is built when the job is posted to refuse one that cannot run."""
     if kind == "cal":
-        return calibration_plan(model, int(options.get("calibration_poses", 40)))
-    return performance_plan(model, int(options.get("cycles", 30)),
-                            float(options.get("cube_edge_mm", 300.0)),
-                            options.get("arm_position_mm"))
+        return calibration_plan(model, options.calibration_poses)
+    return performance_plan(model, options.cycles, options.cube_edge_mm,
+                            options.arm_position_mm)
 
 
 LISTS_OF_KIND = {"performance": ("perf",), "calibration": ("cal",), "procedure": ("cal", "perf")}

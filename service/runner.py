@@ -32,7 +32,6 @@ from __future__ import annotations
 import asyncio
 import time
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
@@ -45,9 +44,17 @@ from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.modelfile import model_document, parse_model
 from service import analysis
 from service.acquisition import LINK_ERRORS, Acquisition, JobAborted, OperatorGate
+from service.document import PhaseRecord
 from service.errors import ConflictError, SafetyError, StoreFullError, StoreLostError
 from service.events import JobEvents
-from service.phases import ESTIMATION_FOR, HOME_PHASES, PERF_PHASES, job_steps, round_suffix
+from service.phases import (
+    ESTIMATION_FOR,
+    HOME_PHASES,
+    PERF_PHASES,
+    Round,
+    job_steps,
+    round_suffix,
+)
 from service.plans import PlannedPose, plan_for
 from service.settings import ServiceSettings
 from service.store import Store
@@ -59,10 +66,10 @@ class JobRunner:
         self.store, self.settings, self.events, self.job_id = store, settings, events, job_id
         self.on_fatal = on_fatal
         self.job = store.job(job_id)
-        self.robot = store.robot(self.job["robot_id"])
+        self.robot = store.robot(self.job.robot_id)
         self.model = parse_model(self.robot["model"], f"robot {self.robot['id']}")
-        self.options: dict[str, Any] = self.job["options"]
-        self.gate = OperatorGate(step_mode=self.job["mode"] == "STEP")
+        self.options = self.job.options
+        self.gate = OperatorGate(step_mode=self.job.mode == "STEP")
         self.acquisition = Acquisition(store, settings, events, job_id, self.robot, self.model,
                                        self.gate)
         self._plans: dict[str, list[PlannedPose]] = {}
@@ -78,9 +85,7 @@ class JobRunner:
     @property
     def route(self) -> str:
         """The correction route of a procedure; 'none' for the other kinds."""
-        if self.job["kind"] != "procedure":
-            return "none"
-        return str(self.options.get("correction", "compensate"))
+        return self.options.correction if self.job.kind == "procedure" else "none"
 
     def targets(self, phase: str) -> list[PlannedPose]:
         """What a phase sends: its plan, compensated when the route says so (built once)."""
@@ -95,16 +100,16 @@ class JobRunner:
                 plan, self.robot_model(suffix), self.model)[0]
         return self._compensated[phase]
 
-    def robot_model(self, suffix: str) -> SerialModel:
+    def robot_model(self, suffix: Round) -> SerialModel:
         """The robot as its controller now reads it, from the stored calibration document."""
-        doc = (self.job["result"] or {}).get("calibration" + suffix)
+        doc = self.job.result.calibration_of(suffix)
         if not doc:
             raise SafetyError(f"no calibrated model for the estimation{suffix or ''}: the "
                               "compensated targets cannot be built")
         return parse_model(doc["model"], f"job {self.job_id} calibration{suffix}")
 
     def steps(self) -> tuple[str, ...]:
-        return job_steps(self.job["kind"], int(self.options.get("rounds", 1)))
+        return job_steps(self.job.kind, self.options.rounds)
 
     # -- the job -------------------------------------------------------------------------------
     async def run(self) -> None:
@@ -115,13 +120,13 @@ class JobRunner:
             self._set("running", "")
             t0 = time.perf_counter()
             await self._with_links("setup")
-            if "setup" not in self.job["phases"]:
+            if "setup" not in self.job.phases:
                 self.store.finish_step(self.job_id, "setup", time.perf_counter() - t0)
             for step in self.steps():
-                phases = self.store.claim_step(self.job_id, step)
-                if phases.get(step, {}).get("done"):
+                phase = self.store.claim_step(self.job_id, step).get(step, PhaseRecord())
+                if phase.done:
                     continue
-                if step.startswith("correction") and phases.get(step, {}).get("started") \
+                if step.startswith("correction") and phase.started \
                         and self.route.startswith("zero"):
                     raise SafetyError("the job stopped during the correction: whether ZERO took "
                                       "effect is unknown; check the controller, then start anew")
@@ -208,87 +213,85 @@ class JobRunner:
             await self.correct(suffix)
         elif step == "evaluation":
             await asyncio.to_thread(self.evaluate)
-            for warning in self.job["result"].get("warnings", []):
+            for warning in self.job.result.warnings or []:
                 await self.events.publish("warning", message=warning)
 
     # -- estimation, correction, evaluation ---------------------------------------------------
-    def estimate(self, suffix: str = "") -> None:
-        kind = self.options.get("model", "full")
+    def estimate(self, suffix: Round = "") -> None:
+        kind = self.options.model
         data = analysis.measurement_set(self.store.measurements(self.job_id, "cal" + suffix))
         result = identify(self.model, data, kind=kind, frames="base")
-        job_result = dict(self.job["result"] or {})
-        job_result["estimation" + suffix] = analysis.estimation_summary(result)
-        job_result["base"] = result.model.base.tolist()
-        job_result["calibration" + suffix] = result_document(
-            result, self.model.name, {"model": kind, "frames": "base", "poses": len(data),
-                                      "job": self.job_id, "phase": "cal" + suffix})
-        job_result["warnings"] = analysis.job_warnings(job_result)
+        doc = self.job.result.with_round(
+            suffix, estimation=analysis.estimation_summary(result),
+            calibration=result_document(
+                result, self.model.name, {"model": kind, "frames": "base", "poses": len(data),
+                                          "job": self.job_id, "phase": "cal" + suffix}))
+        doc.base = result.model.base.tolist()
+        doc.warnings = analysis.job_warnings(doc)
         try:
             perf_plan = self.plan("perf") if self.route != "none" else []
             planned = analysis.plan_correction(result, self.route, self.model, perf_plan,
                                                suffix)
-            job_result["correction" + suffix] = planned.section
+            doc = doc.with_round(suffix, correction=planned.section)
             if planned.compensated is not None:
                 self._compensated["perf_after" + suffix] = planned.compensated
         finally:
-            self.job = self.store.set_job(self.job_id, result=job_result)
+            self.job = self.store.set_result(self.job_id, doc)
 
-    async def correct(self, suffix: str = "") -> None:
-        correction = (self.job["result"] or {}).get("correction" + suffix, {})
+    async def correct(self, suffix: Round = "") -> None:
+        correction = self.job.result.correction_of(suffix)
         if not self.route.startswith("zero"):
             await self.events.publish("corrected", route=self.route, note="nothing sent to "
                                       "the controller: the later lists are compensated")
             return
-        zero = np.array(correction.get("zero_command_deg", []), dtype=float)
-        if zero.size != self.model.n_joints:
+        zero = np.array(correction.zero_command_deg if correction is not None
+                        and correction.zero_command_deg is not None else [], dtype=float)
+        if correction is None or zero.size != self.model.n_joints:
             raise SafetyError("no correction to send")
         if not self.model.within_limits(np.radians(zero)):
             raise SafetyError(f"correction target {zero.round(4).tolist()} outside the limits")
         await self.acquisition.zero("correction" + suffix, zero.tolist())
-        job_result = dict(self.job["result"] or {})
-        doc = dict(job_result["calibration" + suffix])
+        doc = dict(self.job.result.calibration_of(suffix) or {})
         doc["model"] = model_document(after_zero(parse_model(doc["model"]), zero))
         doc["model_note"] = ("the robot once ZERO made the identified offsets the new zero: "
                              "the model of the joints as the controller now reads them")
-        job_result["calibration" + suffix] = doc
-        job_result["correction" + suffix] = {**correction, "sent": True}
-        self.job = self.store.set_job(self.job_id, result=job_result)
+        sent = correction.model_copy(update={"sent": True})
+        self.job = self.store.set_result(self.job_id, self.job.result.with_round(
+            suffix, calibration=doc, correction=sent))
         await self.events.publish("corrected", route=self.route,
                                   zero_command_deg=zero.tolist())
 
     def evaluate(self) -> None:
-        job_result = dict(self.job["result"] or {})
-        base = job_result.get("base")
-        source = self.options.get("frame_from_job")
-        if base is None and source is not None:  # the frame an earlier calibration identified
-            base = (self.store.job(int(source))["result"] or {})["base"]
-            job_result["base"] = base
-            job_result["frame_note"] = (f"accuracy measured in the robot base frame identified "
-                                        f"by job {source}'s calibration")
-        elif base is None:  # a performance job alone: the measuring frame from its own data
+        doc = self.job.result.model_copy()
+        if doc.base is not None:
+            doc.frame_note = ("accuracy measured in the robot base frame identified by this "
+                              "job's calibration, before and after alike")
+        elif (source := self.options.frame_from_job) is not None:
+            # the frame an earlier calibration identified
+            doc.base = self.store.job(source).result.base
+            doc.frame_note = (f"accuracy measured in the robot base frame identified by job "
+                              f"{source}'s calibration")
+        else:  # a performance job alone: the measuring frame from its own data
             data = analysis.measurement_set(self.store.measurements(self.job_id, "perf_before"))
-            base = identify(self.model, data, kind="frames", frames="base").model.base.tolist()
-            job_result["base"] = base
-            job_result["frame_note"] = (
+            doc.base = identify(self.model, data, kind="frames", frames="base").model.base.tolist()
+            doc.frame_note = (
                 "accuracy measured in a robot base frame fitted to this performance data "
                 "itself (no calibration in this job): it hides any error such a frame absorbs, "
                 "so it reads lower than after a calibration's frame")
-        else:
-            job_result["frame_note"] = ("accuracy measured in the robot base frame identified "
-                                        "by this job's calibration, before and after alike")
+        if doc.base is None:
+            raise SafetyError(f"job {self.options.frame_from_job} has no identified robot base "
+                              "frame to measure in")
+        base = np.array(doc.base)
         plan = {p.idx: p for p in self.plan("perf")}
-        performance = {}
-        for phase in PERF_PHASES:
-            rows = self.store.measurements(self.job_id, phase)
-            if rows:
-                performance[phase] = analysis.performance_section(rows, plan, np.array(base))
-        job_result["performance"] = performance
+        doc.performance = {
+            phase: analysis.performance_figures(rows, plan, base) for phase in PERF_PHASES
+            if (rows := self.store.measurements(self.job_id, phase))}
         last_home = {phase: rows[-1] for phase in HOME_PHASES
                      if (rows := self.store.measurements(self.job_id, phase))}
-        home = analysis.home_check(self.model, last_home, np.array(base))
-        if home:
-            job_result["home_check"] = home
-        job_result["test_conditions"] = analysis.iso_test_conditions(
-            self.robot, self.model, self.options, plan, self.job.get("created"))
-        job_result["warnings"] = analysis.job_warnings(job_result)
-        self.job = self.store.set_job(self.job_id, result=job_result)
+        home = analysis.home_check(self.model, last_home, base)
+        if home is not None:
+            doc.home_check = home
+        doc.test_conditions = analysis.iso_test_conditions(
+            self.robot, self.model, self.options, plan, self.job.created)
+        doc.warnings = analysis.job_warnings(doc)
+        self.job = self.store.set_result(self.job_id, doc)

@@ -2,15 +2,24 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from protocol.arm_url import HOSTNAME, ArmUrlError, check_arm_url
 from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM, FlangeError, MeasuringFlange
+from service.document import (
+    SQLITE_MAX_ID,
+    Id,
+    JobOptions,
+    JobRecord,
+    PhaseRecord,
+    ResultDocument,
+)
 
-SQLITE_MAX_ID = 2**63 - 1  # SQLite's INTEGER: a larger id can name nothing (and must not 500)
-Id = Annotated[int, Field(ge=1, le=SQLITE_MAX_ID)]
+__all__ = ["SQLITE_MAX_ID", "GoAhead", "Id", "JobCreate", "JobOptions", "JobPublic", "JobResult",
+           "MeasurementPublic", "RobotCreate", "RobotPublic"]
+
 
 
 class RobotCreate(BaseModel):
@@ -65,27 +74,6 @@ class RobotPublic(BaseModel):
     holes_mm: list[list[float]]
 
 
-class JobOptions(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    model: Literal["thesis", "full", "joints"] = Field(
-        "full", description="error model identified: full (every identifiable parameter, "
-        "frames identified) or the thesis's virtual joints")
-    correction: Literal["compensate", "zero", "zero+compensate"] = Field(
-        "compensate", description="procedure: compensate the later lists' joint targets "
-        "(nothing changes in the controller), ZERO the joint offsets (thesis 4.5), or both")
-    rounds: int = Field(1, ge=1, le=2, description="procedure: 2 adds the thesis's second "
-                                                  "calibration round (4.7)")
-    calibration_poses: int = Field(40, ge=10, le=400)
-    cycles: int = Field(30, ge=2, le=60, description="ISO 9283 cycles (30 by the standard)")
-    cube_edge_mm: float = Field(300.0, gt=0, le=2000)
-    arm_position_mm: tuple[float, float, float] | None = Field(
-        None, description="where the arm stands in the robot frame, to keep the cube in reach")
-    frame_from_job: Id | None = Field(
-        None, description="performance: measure accuracy in the robot base frame that this "
-        "earlier job's calibration identified (default: a frame fitted to the job's own data, "
-        "which hides what such a frame absorbs)")
-
-
 class JobCreate(BaseModel):
     model_config = ConfigDict(extra="forbid")
     robot_id: Id
@@ -104,6 +92,15 @@ class JobPublic(BaseModel):
     options: dict[str, Any]
     phases: dict[str, Any]
     waiting_for: dict[str, Any] | None = None
+
+    @classmethod
+    def of(cls, job: JobRecord, waiting_for: tuple[str, int] | None) -> JobPublic:
+        """A stored job and the pose its runner waits for now (phase, index), if any."""
+        return cls(id=job.id, robot_id=job.robot_id, kind=job.kind, mode=job.mode,
+                   state=job.state, reason=job.reason, options=job.options.model_dump(),
+                   phases={k: v.document() for k, v in job.phases.items()},
+                   waiting_for=None if waiting_for is None else
+                   {"phase": waiting_for[0], "index": waiting_for[1]})
 
 
 class GoAhead(BaseModel):
@@ -126,18 +123,26 @@ class MeasurementPublic(BaseModel):
     created: float
 
 
-class JobResult(BaseModel):
-    """What a job found. Sections appear as its phases complete."""
+class JobResult(ResultDocument):
+    """What a job found (GET /jobs/ID/result): its state, the seconds per phase, and the result
+    document's sections as its phases complete; the calibration documents themselves are at
+    GET /jobs/ID/model."""
 
-    model_config = ConfigDict(extra="allow")
     id: int
     state: str
     reason: str
-    phases: dict[str, Any] = Field(description="seconds per phase (set-up, measuring, ...)")
-    estimation: dict[str, Any] | None = Field(
-        None, description="identified parameters with unit, value, std error; removed ones")
-    correction: dict[str, Any] | None = Field(
-        None, description="joint offsets, the ZERO targets sent (deg), or why refused")
-    performance: dict[str, Any] | None = Field(
-        None, description="ISO 9283 per point and overall, straightness, per phase")
-    base: list[list[float]] | None = Field(None, description="arm frame <- robot base (4x4)")
+    phases: dict[str, PhaseRecord] = Field(description="seconds per phase (set-up, measuring, "
+                                           "...)")
+    calibration: dict[str, Any] | None = Field(None, exclude=True)
+    calibration_2: dict[str, Any] | None = Field(None, exclude=True)
+
+
+    @classmethod
+    def of(cls, job: JobRecord) -> JobResult:
+        """The response for a stored job: the sections it has; estimation, correction,
+        performance and base always named (null until the job computed them)."""
+        return cls.model_validate({
+            "id": job.id, "state": job.state, "reason": job.reason,
+            "phases": {k: v.document() for k, v in job.phases.items()},
+            "estimation": None, "correction": None, "performance": None, "base": None,
+            **job.result.document()})

@@ -29,10 +29,12 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from service.document import JobRecord, PhaseRecord, ResultDocument
 from service.errors import (
     ConflictError,
     NotFoundError,
     StoreBusyError,
+    StoreError,
     StoreFullError,
     StoreLostError,
 )
@@ -85,6 +87,13 @@ def _row(row: sqlite3.Row | None, what: str) -> dict[str, Any]:
         if key in out and isinstance(out[key], str):
             out[key] = json.loads(out[key])
     return out
+
+
+def _row_id(cursor: sqlite3.Cursor) -> int:
+    """The id SQLite gave the row an INSERT just added."""
+    if cursor.lastrowid is None:  # only when the statement inserted nothing
+        raise StoreError("the database inserted no row")
+    return int(cursor.lastrowid)
 
 
 def _hold_owner_lock(path: Path) -> int:
@@ -184,12 +193,12 @@ class Store:
                     "holes_mm, created) VALUES (?, ?, ?, ?, ?, ?, ?)",
                     (name, controller_host, controller_port, arm_url, json.dumps(model),
                      json.dumps(holes_mm), time.time()))
-                rid = cur.lastrowid
+                rid = _row_id(cur)
         except sqlite3.IntegrityError:
             other = self.robot_named(name)
             raise ConflictError(f"a robot named {name!r} exists already (robot {other['id']}): "
                                 "robot names are unique") from None
-        return self.robot(int(rid))  # type: ignore[arg-type]
+        return self.robot(rid)
 
     def robot(self, robot_id: int) -> dict:
         return _row(self._db.execute("SELECT * FROM robots WHERE id = ?", (robot_id,))
@@ -203,7 +212,7 @@ class Store:
         return [_row(r, "robot") for r in self._db.execute("SELECT * FROM robots ORDER BY id")]
 
     # -- jobs ----------------------------------------------------------------------------------
-    def add_job(self, robot_id: int, kind: str, mode: str, options: dict) -> dict:
+    def add_job(self, robot_id: int, kind: str, mode: str, options: dict) -> JobRecord:
         """A new queued job; ConflictError when the robot has an unfinished job (the database's
         unique index decides, in the inserting transaction: no race between services)."""
         self.robot(robot_id)
@@ -214,12 +223,12 @@ class Store:
                     "INSERT INTO jobs (robot_id, kind, mode, state, reason, options, phases, "
                     "created, updated) VALUES (?, ?, ?, 'queued', '', ?, '{}', ?, ?)",
                     (robot_id, kind, mode, json.dumps(options), now, now))
-                jid = cur.lastrowid
+                jid = _row_id(cur)
         except sqlite3.IntegrityError:
             busy = self.unfinished_job(robot_id)
             raise ConflictError(f"robot {robot_id} is busy with job {busy}: wait for it to end "
                                 f"or abort it (screwcal job abort {busy})") from None
-        return self.job(int(jid))  # type: ignore[arg-type]
+        return self.job(jid)
 
     def unfinished_job(self, robot_id: int) -> int | None:
         row = self._db.execute(
@@ -227,7 +236,12 @@ class Store:
             (robot_id,)).fetchone()
         return None if row is None else int(row[0])
 
-    def claim_step(self, job_id: int, step: str) -> dict:
+    def unfinished_jobs(self) -> list[int]:
+        """The ids of every unfinished job, oldest first."""
+        return [int(r[0]) for r in self._db.execute(
+            f"SELECT id FROM jobs WHERE state IN {_UNFINISHED_SQL} ORDER BY id")]
+
+    def claim_step(self, job_id: int, step: str) -> dict[str, PhaseRecord]:
         """Mark `step` started, in one transaction that re-reads the job's phases: returns the
         phases as they were before (a runner decides from these, never from its own copy).
         ConflictError when the job is no longer unfinished (another runner ended it)."""
@@ -242,28 +256,30 @@ class Store:
                 new = {**phases, step: {**phases.get(step, {}), "started": True}}
                 db.execute("UPDATE jobs SET phases = ?, updated = ? WHERE id = ?",
                            (json.dumps(new), time.time(), job_id))
-        return phases
+        return {k: PhaseRecord.model_validate(v) for k, v in phases.items()}
 
-    def job(self, job_id: int) -> dict:
-        return _row(self._db.execute("SELECT * FROM jobs WHERE id = ?", (job_id,)).fetchone(),
-                    f"job {job_id}")
+    def job(self, job_id: int) -> JobRecord:
+        return JobRecord.model_validate(_row(self._db.execute(
+            "SELECT * FROM jobs WHERE id = ?", (job_id,)).fetchone(), f"job {job_id}"))
 
-    def jobs(self, states: tuple[str, ...] | None = None) -> list[dict]:
+    def jobs(self) -> list[JobRecord]:
         rows = self._db.execute("SELECT * FROM jobs ORDER BY id").fetchall()
-        out = [_row(r, "job") for r in rows]
-        return [j for j in out if states is None or j["state"] in states]
+        return [JobRecord.model_validate(_row(r, "job")) for r in rows]
 
-    def set_job(self, job_id: int, **fields: Any) -> dict:
-        for key in ("phases", "result", "options"):
-            if key in fields:
-                fields[key] = json.dumps(fields[key])
-        fields["updated"] = time.time()
-        cols = ", ".join(f"{k} = ?" for k in fields)
+    def set_result(self, job_id: int, result: ResultDocument) -> JobRecord:
+        """Store the job's result document (the sections set in it)."""
         with self._tx() as db:
-            db.execute(f"UPDATE jobs SET {cols} WHERE id = ?", (*fields.values(), job_id))
+            db.execute("UPDATE jobs SET result = ?, updated = ? WHERE id = ?",
+                       (json.dumps(result.document()), time.time(), job_id))
         return self.job(job_id)
 
-    def set_state(self, job_id: int, state: str, reason: str) -> dict:
+    def fail(self, job_id: int, reason: str) -> None:
+        """A job that cannot run, whatever its state (its records cannot make a runner)."""
+        with self._tx() as db:
+            db.execute("UPDATE jobs SET state = 'failed', reason = ?, updated = ? WHERE id = ?",
+                       (reason, time.time(), job_id))
+
+    def set_state(self, job_id: int, state: str, reason: str) -> JobRecord:
         """A runner's state change, only while the job is unfinished: ConflictError when another
         runner (or service) has ended it, so a stale runner never revives a finished job."""
         with self._tx() as db:
@@ -275,14 +291,13 @@ class Store:
                                     "stale and changes nothing")
         return self.job(job_id)
 
-    def finish_step(self, job_id: int, step: str, seconds: float) -> dict:
-        """Mark `step` done, merged into the phases as stored now; returns them."""
+    def finish_step(self, job_id: int, step: str, seconds: float) -> None:
+        """Mark `step` done, merged into the phases as stored now."""
         with self._tx() as db:
             row = db.execute("SELECT phases FROM jobs WHERE id = ?", (job_id,)).fetchone()
             phases = {**json.loads(row["phases"]), step: {"done": True, "seconds": seconds}}
             db.execute("UPDATE jobs SET phases = ?, updated = ? WHERE id = ?",
                        (json.dumps(phases), time.time(), job_id))
-        return phases
 
     # -- measurements ----------------------------------------------------------------------------
     def add_measurement(self, job_id: int, phase: str, idx: int, joints_deg: list,

@@ -2,17 +2,29 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
+from service.document import PerformanceSection
 from service.phases import PERF_PHASES
 
-# (label, key in the phase's section, section, unit)
+
+def _overall(key: str) -> Callable[[PerformanceSection], Any]:
+    return lambda s: (s.overall or {}).get(key)
+
+
+def _straightness(key: str) -> Callable[[PerformanceSection], Any]:
+    return lambda s: (s.straightness or {}).get(key)
+
+
+# (label, unit, the figure in a phase's section: the performance package's keys)
 ROWS = (
-    ("position accuracy AP, mean", "ap_mm_mean", "overall", "mm"),
-    ("position accuracy AP, max", "ap_mm_max", "overall", "mm"),
-    ("position repeatability RP, max", "rp_mm_max", "overall", "mm"),
-    ("orientation accuracy, max |APa,b,c|", "ap_abc_deg_max", "overall", "°"),
-    ("straightness, peak + valley", "peak_to_valley_mm", "straightness", "mm"),
+    ("position accuracy AP, mean", "mm", _overall("ap_mm_mean")),
+    ("position accuracy AP, max", "mm", _overall("ap_mm_max")),
+    ("position repeatability RP, max", "mm", _overall("rp_mm_max")),
+    ("orientation accuracy, max |APa,b,c|", "°", _overall("ap_abc_deg_max")),
+    ("straightness, peak + valley", "mm", _straightness("peak_to_valley_mm")),
 )
 
 
@@ -31,14 +43,15 @@ class SummaryRow:
         return first / last
 
 
-def performance_phases(perf: dict) -> tuple[str, ...]:
+def performance_phases(perf: Mapping[str, PerformanceSection]) -> tuple[str, ...]:
     return tuple(p for p in PERF_PHASES if p in perf)
 
 
-def before_after(perf: dict) -> tuple[tuple[str, ...], list[SummaryRow]]:
+def before_after(perf: Mapping[str, PerformanceSection]
+                 ) -> tuple[tuple[str, ...], list[SummaryRow]]:
     """The phases measured and a row per figure (mean and max AP, RP, orientation,
     straightness)."""
     phases = performance_phases(perf)
-    rows = [SummaryRow(label, unit, tuple(perf[p].get(section, {}).get(key) for p in phases))
-            for label, key, section, unit in ROWS]
+    rows = [SummaryRow(label, unit, tuple(figure(perf[p]) for p in phases))
+            for label, unit, figure in ROWS]
     return phases, [r for r in rows if any(v is not None for v in r.values)]

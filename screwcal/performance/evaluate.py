@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -105,14 +106,24 @@ def read_path_csv(path: str | Path) -> Array:
     return read_numeric_csv(path, ATTAINED_POSITION, min_rows=3).take(ATTAINED_POSITION)
 
 
-def _section(data: PerformanceData, line: Straightness | None) -> dict:
+def performance_section(data: PerformanceData, line: Straightness | None = None
+                        ) -> dict[str, Any]:
+    """One performance test's figures: ISO 9283 per point and overall (when a point has
+    them), and the straightness of `line`. The evaluate command's report and the job service's
+    result hold this section."""
     metrics = point_metrics(data)
-    out = {"file": data.path, "measurement": "full pose" if data.full_pose else "position only",
-           "points": {k: m.to_dict() for k, m in metrics.items()},
-           "overall": summarise(metrics)}
+    out: dict[str, Any] = {
+        "measurement": "full pose" if data.full_pose else "position only",
+        "points": {k: m.to_dict() for k, m in metrics.items()}}
+    if metrics:
+        out["overall"] = summarise(metrics)
     if line is not None:
         out["straightness"] = line.to_dict()
     return out
+
+
+def _section(data: PerformanceData, line: Straightness | None) -> dict[str, Any]:
+    return {"file": data.path, **performance_section(data, line)}
 
 
 def build_report(after: PerformanceData, before: PerformanceData | None = None,

@@ -110,7 +110,7 @@ async def test_a_bad_stored_record_fails_its_job_and_the_service_still_starts(tm
     async with app.router.lifespan_context(app):
         async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
                                      base_url="http://service", headers=AUTH) as http:
-            state = (await http.get(f"/jobs/{job['id']}")).json()
+            state = (await http.get(f"/jobs/{job.id}")).json()
     assert state["state"] == "failed" and "cannot run" in state["reason"]
     assert JobManager  # the manager's start() is what refused it
 
@@ -153,12 +153,16 @@ async def test_reads_need_a_token_too(tmp_path):
 
 
 def test_a_poor_fit_or_a_worse_robot_is_a_warning_not_a_silent_done():
-    from service.analysis import job_warnings as _warnings
+    from service.analysis import job_warnings
+    from service.document import ResultDocument
 
-    result = {"estimation": {"chi2_reduced": 40.0, "warnings": ["poses rejected"]},
-              "performance": {"perf_before": {"overall": {"ap_mm_mean": 2.47}},
-                              "perf_after": {"overall": {"ap_mm_mean": 3.73}}}}
-    warnings = _warnings(result)
+    result = ResultDocument.model_validate({
+        "estimation": {"parameters": [], "rank": 30, "condition_number": 50.0,
+                       "chi2_reduced": 40.0, "converged": True, "warnings": ["poses rejected"],
+                       "residual_before_mm": 2.0, "residual_after_mm": 0.5},
+        "performance": {"perf_before": {"overall": {"ap_mm_mean": 2.47}},
+                        "perf_after": {"overall": {"ap_mm_mean": 3.73}}}})
+    warnings = job_warnings(result)
     assert any("poor fit" in w for w in warnings)
     assert any("got worse" in w and "2.470 -> 3.730" in w for w in warnings)
     assert any("poses rejected" in w for w in warnings)

@@ -158,19 +158,19 @@ def test_disk_full_is_said_as_such_and_loses_nothing_committed(tmp_path):
     robot = store.add_robot("cell", "127.0.0.1", 4012, "loop://", {"name": "x"},
                             [[0, 0, 0], [10, 0, 0], [0, 10, 0]])
     job = store.add_job(robot["id"], "calibration", "AUTO", {})
-    store.add_measurement(job["id"], "cal", 0, [0.0] * 6, [0.0] * 7, [[0.0] * 3] * 3, [0.0] * 6)
+    store.add_measurement(job.id, "cal", 0, [0.0] * 6, [0.0] * 7, [[0.0] * 3] * 3, [0.0] * 6)
     pages = store._db.execute("PRAGMA page_count").fetchone()[0]
     store._db.execute(f"PRAGMA max_page_count = {pages}")  # the disk is full now
     big = [[float(i)] * 3 for i in range(3)]
     with pytest.raises(StoreFullError, match="full"):
         for idx in range(1, 2000):
-            store.add_measurement(job["id"], "cal", idx, [1.0] * 6, [1.0] * 7, big,
+            store.add_measurement(job.id, "cal", idx, [1.0] * 6, [1.0] * 7, big,
                                   ["x" * 200] * 6)
-    committed = len(store.measurements(job["id"]))
+    committed = len(store.measurements(job.id))
     store.close()
     again = Store(tmp_path / "jobs.db")  # restarted with space: everything committed is there
-    assert len(again.measurements(job["id"])) == committed >= 1
-    assert again.job(job["id"])["state"] == "queued"
+    assert len(again.measurements(job.id)) == committed >= 1
+    assert again.job(job.id).state == "queued"
     again.close()
 
 
@@ -186,9 +186,9 @@ async def test_a_full_disk_pauses_the_job_instead_of_failing_it(app_http, rig):
     db = app.state.manager.store._db
     db.execute(f"PRAGMA max_page_count = {db.execute('PRAGMA page_count').fetchone()[0]}")
     async with asyncio.timeout(30):
-        while (job := app.state.manager.store.job(job_id))["state"] == "running":
+        while (job := app.state.manager.store.job(job_id)).state == "running":
             await asyncio.sleep(0.02)
-    assert job["state"] == "paused" and "full" in job["reason"], job
+    assert job.state == "paused" and "full" in job.reason, job
 
 
 async def test_a_deleted_database_stops_the_service_with_the_reason(app_http, tmp_path):
@@ -223,12 +223,14 @@ async def test_last_event_id_outside_the_stream_is_a_400(app_http, rig, seq):
 
 # -- 6. the operator's CLI ----------------------------------------------------------------------
 def test_worse_repeatability_after_a_correction_is_a_warning():
-    from service.analysis import job_warnings as _warnings
+    from service.analysis import job_warnings
+    from service.document import ResultDocument
 
-    result = {"performance": {"perf_before": {"overall": {"ap_mm_mean": 2.4, "rp_mm_mean": 0.045}},
-                              "perf_after": {"overall": {"ap_mm_mean": 0.3, "rp_mm_mean": 0.066}}}}
+    result = ResultDocument.model_validate({"performance": {
+        "perf_before": {"overall": {"ap_mm_mean": 2.4, "rp_mm_mean": 0.045}},
+        "perf_after": {"overall": {"ap_mm_mean": 0.3, "rp_mm_mean": 0.066}}}})
     assert any("repeatability got worse" in w and "0.045 -> 0.066" in w
-               for w in _warnings(result))
+               for w in job_warnings(result))
 
 
 def _operator_on(app):

@@ -1,0 +1,253 @@
+"""A job, its phases and its result document as typed objects (pydantic): what the runner writes,
+the store keeps as JSON, the REST API serves, and the CLI and the report page read.
+
+The result document grows as the job's phases complete: a section (or a field of one) that was
+never set is absent from the JSON, never a null (`Section.document()`: the fields that were set,
+by the runner or in the JSON read back). Every section keeps keys it does not declare (a document
+stored by another version of the service loses nothing).
+
+    ResultDocument
+    ├── estimation, estimation_2    EstimationSummary   the robot's identified parameters
+    ├── calibration, calibration_2  dict                the calibration result document
+    │                                                   (format screwcal-calibration)
+    ├── correction, correction_2    CorrectionPlan      what the route did or will do
+    ├── base                        4x4                 arm frame <- robot base
+    ├── frame_note                  str                 which base frame the accuracy is in
+    ├── performance                 {phase: PerformanceSection}   ISO 9283, straightness
+    ├── home_check                  HomeCheck           thesis Table 14
+    ├── test_conditions             {label: value}      as ISO 9283 asks a report to state
+    ├── arm_readings_discarded      DiscardedReadings
+    └── warnings                    [str]
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from screwcal.performance.iso9283 import PoseMetrics
+from service.phases import Round
+
+SQLITE_MAX_ID = 2**63 - 1  # SQLite's INTEGER: a larger id can name nothing (and must not 500)
+Id = Annotated[int, Field(ge=1, le=SQLITE_MAX_ID)]
+
+
+class Section(BaseModel):
+    """A part of a stored document: extra keys are kept, unset fields are left out."""
+
+    model_config = ConfigDict(extra="allow")
+
+    def document(self) -> dict[str, Any]:
+        """As stored and served: the fields that were set (None included when set so)."""
+        return self.model_dump(exclude_unset=True)
+
+
+# -- a job, its options and its phases ------------------------------------------------------------
+class JobOptions(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model: Literal["thesis", "full", "joints"] = Field(
+        "full", description="error model identified: full (every identifiable parameter, "
+        "frames identified) or the thesis's virtual joints")
+    correction: Literal["compensate", "zero", "zero+compensate"] = Field(
+        "compensate", description="procedure: compensate the later lists' joint targets "
+        "(nothing changes in the controller), ZERO the joint offsets (thesis 4.5), or both")
+    rounds: int = Field(1, ge=1, le=2, description="procedure: 2 adds the thesis's second "
+                                                  "calibration round (4.7)")
+    calibration_poses: int = Field(40, ge=10, le=400)
+    cycles: int = Field(30, ge=2, le=60, description="ISO 9283 cycles (30 by the standard)")
+    cube_edge_mm: float = Field(300.0, gt=0, le=2000)
+    arm_position_mm: tuple[float, float, float] | None = Field(
+        None, description="where the arm stands in the robot frame, to keep the cube in reach")
+    frame_from_job: Id | None = Field(
+        None, description="performance: measure accuracy in the robot base frame that this "
+        "earlier job's calibration identified (default: a frame fitted to the job's own data, "
+        "which hides what such a frame absorbs)")
+
+
+class PhaseRecord(Section):
+    """A step of a job: claimed (`started`), then `done` with the seconds it took."""
+
+    started: bool = False
+    done: bool = False
+    seconds: float = 0.0
+
+
+# -- the estimation ------------------------------------------------------------------------------
+class EstimatedParameter(Section):
+    name: str
+    unit: str
+    value: float
+    std_error: float
+
+
+class MeasuringFrame(Section):
+    """The robot base in the measuring system's frame, mm and degrees."""
+
+    x: float
+    y: float
+    z: float
+    rx: float
+    ry: float
+    rz: float
+    meaning: str
+
+
+class RemovedParameter(Section):
+    name: str
+    reason: str
+
+
+class EstimationSummary(Section):
+    parameters: list[EstimatedParameter]
+    measuring_frame: MeasuringFrame | None = None
+    removed: list[RemovedParameter] = Field(default_factory=list)
+    rank: int
+    condition_number: float
+    chi2_reduced: float
+    converged: bool
+    noise: dict[str, Any] | None = None  # the noise levels estimated (NoiseEstimate.to_dict)
+    warnings: list[str] = Field(default_factory=list)
+    residual_before_mm: float
+    residual_after_mm: float
+
+
+# -- the correction ------------------------------------------------------------------------------
+class LeftInRobot(Section):
+    name: str
+    value: float
+    unit: str
+
+
+class PredictedError(Section):
+    before: float
+    after: float
+    meaning: str
+
+
+class CorrectionPlan(Section):
+    """What a correction route does: ZERO targets (zero routes), compensated lists (compensate
+    routes), what stays in the robot, the accuracy the model predicts."""
+
+    route: str
+    note: str | None = None
+    not_identified: list[str] = Field(default_factory=list)
+    offsets_deg: list[float] | None = None
+    zero_command_deg: list[float] | None = None
+    identified: list[bool] | None = None
+    procedure: str | None = None
+    compensated_lists: list[str] | None = None
+    max_joint_change_deg: float | None = None
+    left_in_robot: list[LeftInRobot] | None = None
+    predicted_position_error_mm: PredictedError | None = None
+    sent: bool | None = None
+
+
+# -- performance, home, conditions ---------------------------------------------------------------
+class PerformanceSection(Section):
+    """One performance list's figures, as the performance package computes them
+    (`screwcal.performance.evaluate.performance_section`): ISO 9283 per point and overall, and
+    the straightness of the line (`Straightness.to_dict`)."""
+
+    measurement: str | None = None
+    points: dict[str, PoseMetrics] = Field(default_factory=dict)
+    overall: dict[str, Any] | None = None
+    straightness: dict[str, Any] | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _older_straightness(cls, data: Any) -> Any:
+        """Documents stored before the service used the package's straightness named the
+        signed deviations `deviation_mm`."""
+        line = data.get("straightness") if isinstance(data, dict) else None
+        if isinstance(line, dict) and "deviation_mm" in line and "deviation_u_mm" not in line:
+            line = {k if k != "deviation_mm" else "deviation_u_mm": v for k, v in line.items()}
+            data = {**data, "straightness": line}
+        return data
+
+
+class HomeMeasurement(Section):
+    measured_mm: list[float]
+    error_mm: list[float]
+    distance_mm: float
+
+
+class HomeCheck(Section):
+    """Thesis Table 14: the flange at home, before and after the correction."""
+
+    before: HomeMeasurement | None = None
+    after: HomeMeasurement | None = None
+    nominal_mm: list[float]
+    note: str
+
+
+class DiscardedReadings(Section):
+    """Arm readings not used as a pose's reading, by reason."""
+
+    duplicate: int
+    stale: int
+    motion: int
+    bad_lines: int
+    meaning: str
+
+
+# -- the result ----------------------------------------------------------------------------------
+class ResultDocument(Section):
+    """What a job found, section by section (see the module docstring)."""
+
+    estimation: EstimationSummary | None = None
+    estimation_2: EstimationSummary | None = None
+    calibration: dict[str, Any] | None = None
+    calibration_2: dict[str, Any] | None = None
+    correction: CorrectionPlan | None = None
+    correction_2: CorrectionPlan | None = None
+    base: list[list[float]] | None = None
+    frame_note: str | None = None
+    performance: dict[str, PerformanceSection] | None = None
+    home_check: HomeCheck | None = None
+    test_conditions: dict[str, str | int | float] | None = None
+    arm_readings_discarded: DiscardedReadings | None = None
+    warnings: list[str] | None = None
+
+    def estimation_of(self, suffix: Round) -> EstimationSummary | None:
+        return self.estimation_2 if suffix else self.estimation
+
+    def calibration_of(self, suffix: Round) -> dict[str, Any] | None:
+        return self.calibration_2 if suffix else self.calibration
+
+    def correction_of(self, suffix: Round) -> CorrectionPlan | None:
+        return self.correction_2 if suffix else self.correction
+
+    def with_round(self, suffix: Round, *, estimation: EstimationSummary | None = None,
+                   calibration: dict[str, Any] | None = None,
+                   correction: CorrectionPlan | None = None) -> ResultDocument:
+        """A copy with the given sections of calibration round `suffix` set."""
+        update: dict[str, Any] = {}
+        for name, value in (("estimation", estimation), ("calibration", calibration),
+                            ("correction", correction)):
+            if value is not None:
+                update[name + suffix] = value
+        return self.model_copy(update=update)
+
+
+class JobRecord(BaseModel):
+    """A job as stored."""
+
+    id: int
+    robot_id: int
+    kind: Literal["performance", "calibration", "procedure"]
+    mode: Literal["AUTO", "STEP"]
+    state: str
+    reason: str
+    options: JobOptions
+    phases: dict[str, PhaseRecord]
+    result: ResultDocument = Field(default_factory=ResultDocument)
+    created: float
+    updated: float
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_result_yet(cls, data: Any) -> Any:
+        if isinstance(data, dict) and data.get("result") is None:
+            data = {k: v for k, v in data.items() if k != "result"}
+        return data
