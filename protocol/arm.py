@@ -194,7 +194,8 @@ class ArmReader:
         self.port.timeout = 0
         try:
             with self._port_errors():
-                return self.port.read(65536)
+                data: bytes = self.port.read(65536)  # pyserial's read is untyped
+                return data
         finally:
             self.port.timeout = old
 

@@ -21,7 +21,6 @@ import socket
 from collections import deque
 from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 from protocol import codec
 from protocol.bounded import Mailbox
@@ -72,7 +71,14 @@ class Timeouts:
 
 MAX_UNSOLICITED = 1000  # frames for no pending request, per connection, before the drop
 ROUTE_LIMIT = 4 * codec.MAX_LIST + 16  # frames queued unread for one request (a whole run fits)
-_LOST = object()
+
+
+class _Lost:
+    """The marker queued for every pending request when the link is lost."""
+
+
+_LOST = _Lost()
+_Routed = Message | PayloadError | _Lost  # what a request's mailbox holds
 
 
 class ControllerClient:
@@ -80,7 +86,7 @@ class ControllerClient:
         self.host, self.port = host, port
         self.timeouts = timeouts or Timeouts()
         self._seq = itertools.count(1)
-        self._routes: dict[int, Mailbox[Any]] = {}
+        self._routes: dict[int, Mailbox[_Routed]] = {}
         self._reader: asyncio.StreamReader | None = None
         self._writer: asyncio.StreamWriter | None = None
         self._reader_task: asyncio.Task[None] | None = None
@@ -98,16 +104,17 @@ class ControllerClient:
         would hold the controller's one session)."""
         await self.close()
         try:
-            self._reader, self._writer = await asyncio.wait_for(
+            reader, writer = await asyncio.wait_for(
                 asyncio.open_connection(self.host, self.port), self.timeouts.connect_s)
         except (TimeoutError, OSError) as err:
             raise LinkLostError(f"cannot connect to the controller at {self.host}:{self.port}: "
                                 f"{err or 'timed out'}") from None
+        self._reader, self._writer = reader, writer
         self._routes.clear()
         self._loaded.clear()
         self.unexpected.clear()
         self.unexpected_count = 0
-        sock = self._writer.get_extra_info("socket")
+        sock = writer.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
         self.lost = None
@@ -250,8 +257,9 @@ class ControllerClient:
         try:
             await self._writer.drain()
         except (ConnectionError, OSError) as err:
-            self._fail(LinkLostError(f"connection lost: {err}"))
-            raise self.lost from None  # type: ignore[misc]
+            lost = LinkLostError(f"connection lost: {err}")
+            self._fail(lost)
+            raise (self.lost or lost) from None
 
     async def _get(self, seq: int, timeout_s: float, what: str) -> Message:
         queue = self._routes[seq]
@@ -259,7 +267,7 @@ class ControllerClient:
             item = await asyncio.wait_for(queue.get(), timeout_s)
         except TimeoutError:
             raise LinkTimeoutError(f"no {what} for request {seq} within {timeout_s:g} s") from None
-        if item is _LOST:
+        if isinstance(item, _Lost):
             raise self.lost or LinkLostError("link lost")
         if isinstance(item, PayloadError):
             raise PayloadError(f"malformed reply to request {seq} (waiting for {what}): {item}",
@@ -327,15 +335,17 @@ class ControllerClient:
                    poses: Sequence[Sequence[float]] | None = None) -> None:
         """Replace a list with joint targets (`j` packets) or task-space targets (`p`). The
         client remembers its length: `run` holds the controller to it."""
-        if (joints_deg is None) == (poses is None):
+        targets = joints_deg if joints_deg is not None else poses
+        if targets is None or (joints_deg is not None and poses is not None):
             raise ValueError("give either joint targets or task-space poses")
-        items = list(joints_deg if joints_deg is not None else poses)  # type: ignore[arg-type]
-        kind = Joints if joints_deg is not None else Pose
+        joints = joints_deg is not None
+        items = list(targets)
         n = len(items)
         if not 1 <= n <= codec.MAX_LIST:
             raise ValueError(f"a list holds 1..{codec.MAX_LIST} poses, got {n}")
         seq = self._next_seq()
-        packets = [kind(seq, codec.flag_of(k, n), k, tuple(float(v) for v in item))  # type: ignore[arg-type]
+        packets = [(Joints if joints else Pose)(seq, codec.flag_of(k, n), k,
+                                                codec.six_of(item, f"target {k}"))
                    for k, item in enumerate(items)]
         self._loaded.pop(list_name, None)  # unknown until the ACK
         self._open_route(seq)
@@ -407,7 +417,8 @@ class ControllerClient:
             self._routes.pop(seq, None)
 
     async def movj(self, joints_deg: Sequence[float]) -> MeasuredPose:
-        result = await self._motion(MovJ(self._next_seq(), tuple(joints_deg)), "MOVJ")  # type: ignore[arg-type]
+        target = codec.six_of(joints_deg, "the MOVJ target")
+        result = await self._motion(MovJ(self._next_seq(), target), "MOVJ")
         assert result is not None  # _motion checked it
         return result
 
@@ -419,7 +430,8 @@ class ControllerClient:
     async def zero(self, joints_deg: Sequence[float],
                    on_wait: Callable[[int], Awaitable[None]] | None = None) -> None:
         """The correction: move there and make it the joints' new zero (thesis 4.5)."""
-        await self._motion(Zero(self._next_seq(), tuple(joints_deg)), "ZERO", on_wait)  # type: ignore[arg-type]
+        target = codec.six_of(joints_deg, "the ZERO target")
+        await self._motion(Zero(self._next_seq(), target), "ZERO", on_wait)
 
     async def abort(self) -> None:
         seq = self._next_seq()

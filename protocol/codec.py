@@ -14,8 +14,9 @@ next `feed`. Nothing else is ever raised.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Literal, Union
+from typing import Literal, TypeVar, Union
 
 from protocol.errors import FramingError, PayloadError
 
@@ -26,6 +27,11 @@ PROTOCOL_VERSION = 1
 Lists = Literal["CAL", "PERF"]
 Modes = Literal["AUTO", "STEP"]
 States = Literal["IDLE", "MOVING", "WAITING", "FAULT"]
+Loaded = Literal["CAL", "PERF", "NONE"]  # the list a STAT reply names: none loaded yet
+LISTS: tuple[Lists, ...] = ("CAL", "PERF")
+MODES: tuple[Modes, ...] = ("AUTO", "STEP")
+STATES: tuple[States, ...] = ("IDLE", "MOVING", "WAITING", "FAULT")
+LOADED: tuple[Loaded, ...] = ("CAL", "PERF", "NONE")
 FIRST, MIDDLE, LAST = 0, 1, 2
 
 
@@ -42,6 +48,16 @@ BUSY = 16  # another client owns the controller: sent with SEQ 0, then the conne
 OUT_OF_LIMITS, MOTION_ERROR, ABORTED, NOT_ALLOWED = 20, 21, 22, 23
 
 Six = tuple[float, float, float, float, float, float]
+
+
+def six_of(values: Iterable[float], what: str = "a target") -> Six:
+    """Six numbers as a message carries them (a joint target or a pose); ValueError naming
+    `what` when there are not six."""
+    numbers = tuple(float(v) for v in values)
+    if len(numbers) != 6:
+        raise ValueError(f"{what} has 6 values, got {len(numbers)}")
+    a, b, c, d, e, f = numbers
+    return (a, b, c, d, e, f)
 
 
 # -- messages ------------------------------------------------------------------------------------
@@ -146,7 +162,7 @@ class StatReply:
     seq: int
     state: States
     mode: Modes
-    list: Literal["CAL", "PERF", "NONE"]
+    list: Loaded
     idx: int
     count: int
     last_seq: int
@@ -297,11 +313,16 @@ _JOINT_BOUNDS = (MAX_JOINT_DEG,) * 6
 _POSE_BOUNDS = (MAX_POSITION_MM,) * 3 + (MAX_ANGLE_DEG,) * 3
 
 
-def _choice(tok: str, options: tuple[str, ...], seq: int, what: str) -> str:
-    if tok not in options:
-        raise PayloadError(f"{what} must be one of {', '.join(options)}, got '{tok}'",
-                           BAD_ARGUMENTS, seq)
-    return tok
+_Word = TypeVar("_Word", bound=str)
+
+
+def _choice(tok: str, options: tuple[_Word, ...], seq: int, what: str) -> _Word:
+    """`tok` as the option it spells (typed as the options are), or PayloadError."""
+    for option in options:
+        if tok == option:
+            return option
+    raise PayloadError(f"{what} must be one of {', '.join(options)}, got '{tok}'",
+                       BAD_ARGUMENTS, seq)
 
 
 def parse_payload(payload: str) -> Message:
@@ -338,24 +359,23 @@ def parse_payload(payload: str) -> Message:
             return Stat(seq)
         case "STAT":
             need(6)
-            return StatReply(seq, _choice(args[0], ("IDLE", "MOVING", "WAITING", "FAULT"), seq,
-                                          "STATE"),  # type: ignore[arg-type]
-                             _choice(args[1], ("AUTO", "STEP"), seq, "MODE"),  # type: ignore[arg-type]
-                             _choice(args[2], ("CAL", "PERF", "NONE"), seq, "LIST"),  # type: ignore[arg-type]
+            return StatReply(seq, _choice(args[0], STATES, seq, "STATE"),
+                             _choice(args[1], MODES, seq, "MODE"),
+                             _choice(args[2], LOADED, seq, "LIST"),
                              _integer(args[3], seq, "IDX", 0, MAX_LIST),
                              _integer(args[4], seq, "COUNT", 0, MAX_LIST),
                              _integer(args[5], seq, "LASTSEQ", 0, MAX_SEQ))
         case "LOAD":
             need(2)
-            name = _choice(args[0], ("CAL", "PERF"), seq, "list")
+            name = _choice(args[0], LISTS, seq, "list")
             if _INT.match(args[1]) and int(args[1]) > MAX_LIST:  # any length of digits
                 raise PayloadError(f"a list holds at most {MAX_LIST} poses, not {args[1]}",
                                    LIST_TOO_LONG, seq)
-            return Load(seq, name, _integer(args[1], seq, "N", 0, MAX_LIST))  # type: ignore[arg-type]
+            return Load(seq, name, _integer(args[1], seq, "N", 0, MAX_LIST))
         case "RUN":
             need(2)
-            return Run(seq, _choice(args[0], ("CAL", "PERF"), seq, "list"),  # type: ignore[arg-type]
-                       _choice(args[1], ("AUTO", "STEP"), seq, "mode"))  # type: ignore[arg-type]
+            return Run(seq, _choice(args[0], LISTS, seq, "list"),
+                       _choice(args[1], MODES, seq, "mode"))
         case "GO":
             need(1)
             return Go(seq, _integer(args[0], seq, "IDX", 0, MAX_LIST - 1))
@@ -364,7 +384,7 @@ def parse_payload(payload: str) -> Message:
             return MovJ(seq, values) if verb == "MOVJ" else Zero(seq, values)
         case "HOME" | "ABRT" | "BYE":
             need(0)
-            return {"HOME": Home, "ABRT": Abrt, "BYE": Bye}[verb](seq)
+            return Home(seq) if verb == "HOME" else Abrt(seq) if verb == "ABRT" else Bye(seq)
         case "ACK":
             if not args:
                 raise PayloadError("ACK names the verb it acknowledges", BAD_ARGUMENTS, seq)
