@@ -85,4 +85,5 @@ def payload_mass(payload: Payload, home_flange: Array, n_joints: int) -> tuple[L
     if payload.kg <= 0.0:
         return ()
     home = home_flange[:3, :3] @ np.asarray(payload.cog_mm, float) + home_flange[:3, 3]
-    return (LumpedMass(n_joints - 1, payload.kg, tuple(float(v) for v in home)),)  # type: ignore[arg-type]
+    x, y, z = (float(v) for v in home)
+    return (LumpedMass(n_joints - 1, payload.kg, (x, y, z)),)

@@ -12,7 +12,7 @@ heading, and against the lower arm (axis 2 to axis 3) in the arm's plane.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from screwcal.errors import UnreachableError
 from screwcal.kinematics.forward import spatial_jacobian
@@ -38,10 +38,11 @@ def _meeting_point(p1: Array, d1: Array, p2: Array, d2: Array) -> Array:
     nn = np.sum(n * n, axis=-1)
     t1 = np.sum(cross(p2 - p1, d2) * n, axis=-1) / nn
     t2 = np.sum(cross(p2 - p1, d1) * n, axis=-1) / nn
-    return 0.5 * (p1 + t1[:, None] * d1 + p2 + t2[:, None] * d2)
+    midpoint: Array = 0.5 * (p1 + t1[:, None] * d1 + p2 + t2[:, None] * d2)
+    return midpoint
 
 
-def _arm_bits(model: SerialModel, q: Array) -> Array:
+def _arm_bits(model: SerialModel, q: Array) -> NDArray[np.int_]:
     """4 x (wrist centre behind axis 1) + 2 x (wrist centre behind the lower arm), (N,)."""
     w, p = _axis_points(spatial_jacobian(model, q))
     wrist = _meeting_point(p[:, 3], w[:, 3], p[:, 4], w[:, 4])
@@ -57,7 +58,8 @@ def _arm_bits(model: SerialModel, q: Array) -> Array:
     lr, lz = plane(p[:, 2] - p[:, 1])
     wr, wz = plane(wrist - p[:, 1])
     behind_lower_arm = lr * wz - lz * wr > 0.0  # in front (home): the wrist ahead of the arm
-    return 4 * behind_axis1 + 2 * behind_lower_arm
+    bits: NDArray[np.int_] = 4 * behind_axis1 + 2 * behind_lower_arm
+    return bits
 
 
 def _quadrants(q: Array) -> Array:

@@ -141,11 +141,13 @@ def model_from_dh(table: DHTable, name: str, limits: ArrayLike, joint_zero: Arra
         dirs[i] = axis_frame[:3, 2]
         points[i] = axis_frame[:3, 3]
     M = F @ table.dh_flange
+    zero = np.zeros(n) if joint_zero is None else np.asarray(joint_zero, float)
     return SerialModel(name=name, joint_types=tuple(r.joint_type for r in table.rows),
                        axis_dirs=dirs, axis_points_mm=points, home_flange=M,
-                       limits=np.asarray(limits, float), joint_zero=joint_zero,
-                       base=np.eye(4) if base is None else base,
-                       tool=np.eye(4) if tool is None else tool)
+                       limits=np.asarray(limits, float),
+                       joint_zero=zero,
+                       base=np.eye(4) if base is None else np.asarray(base, float),
+                       tool=np.eye(4) if tool is None else np.asarray(tool, float))
 
 
 def _unit(v: Array) -> Array:
@@ -164,7 +166,8 @@ def _common_normal(p1: Array, d1: Array, p2: Array, d2: Array) -> tuple[Array, A
 
 def _foot(point: Array, p: Array, d: Array) -> Array:
     """Foot of the perpendicular from `point` onto the line (p, d)."""
-    return p + np.dot(point - p, d) * d
+    foot: Array = p + np.dot(point - p, d) * d
+    return foot
 
 
 def _perp_unit(v: Array, z: Array, fallback: Array) -> Array:
@@ -265,16 +268,17 @@ def _mdh_frames(model: SerialModel, frames: list[Array], rows: list[DHRow]) -> N
         next_hayati = False
         if i < n - 1:
             zn, pn = w[i + 1], p[i + 1]
-            if np.linalg.norm(np.cross(z, zn)) < near:
+            feet = None if np.linalg.norm(np.cross(z, zn)) < near else \
+                _common_normal(p[i], z, pn, zn)
+            if feet is None:  # parallel (or nearly: Hayati's case)
                 o = h
                 cross_pt = pn + np.dot(o - pn, z) / np.dot(zn, z) * zn
                 x = _unit(cross_pt - o) if np.linalg.norm(cross_pt - o) > _DIST_TOL else \
                     _perp_unit(xp, z, xp)
                 next_hayati = True
             else:
-                feet = _common_normal(p[i], z, pn, zn)
-                o, cross_pt = feet[0], feet[1]  # type: ignore[index]
-                x = _normal_direction(feet[0], feet[1], z, zn, xp)  # type: ignore[index]
+                o, cross_pt = feet
+                x = _normal_direction(o, cross_pt, z, zn, xp)
         else:
             o, x = h, _perp_unit(xp, z, xp)
         frames.append(_frame(x, z, o))

@@ -65,7 +65,8 @@ def _chain(model: SerialModel, q: Array, keep: bool) -> tuple[Array, list[Array]
 def joint_torques(model: SerialModel, q: ArrayLike) -> Array:
     """(N, n) gravity torques (N m) about the joints at configurations q (N, n), from the
     model's lumped masses and payload (`compliance`)."""
-    return joint_torques_by_mass(model, q).sum(axis=2)
+    torques: Array = joint_torques_by_mass(model, q).sum(axis=2)
+    return torques
 
 
 def joint_torques_by_mass(model: SerialModel, q: ArrayLike) -> Array:
@@ -81,12 +82,15 @@ def joint_bend(model: SerialModel, q: Array) -> Array:
     """(N, n) how far gravity turns each joint (rad): c_j tau_j, or with per-mass coefficients
     sum_k C_jk tau_jk (the payload with its joint's last arm-mass coefficient)."""
     tau = joint_torques_by_mass(model, q)
+    bend: Array
     if model.compliance_by_mass is None:
-        return model.compliance * tau.sum(axis=2)
+        bend = model.compliance * tau.sum(axis=2)
+        return bend
     C = model.compliance_by_mass
     if tau.shape[2] > C.shape[1]:  # the payload
         C = np.concatenate([C, C[:, -1:]], axis=1)
-    return np.einsum("nk,Nnk->Nn", C, tau)
+    bend = np.einsum("nk,Nnk->Nn", C, tau)
+    return bend
 
 
 def _chain_theta(model: SerialModel, theta: Array, keep: bool) -> tuple[Array, list[Array]]:
@@ -146,7 +150,8 @@ def _few_poses(model: SerialModel, q: Array) -> Array:
         rev = model.is_revolute
         sc[:, :, 1] = np.where(rev, np.sin(q), q)
         sc[:, :, 2] = np.where(rev, np.cos(q), 0.0)
-    E = sc.reshape(N, 3 * n).dot(B)  # (N, 16 n): each joint's exponential, row-major
+    E: Array = sc.reshape(N, 3 * n).dot(B)  # (N, 16 n): each joint's exponential, row-major
+    T: Array
     if N == 1:
         E = E.reshape(n, 4, 4)
         T = E[0]
@@ -156,7 +161,8 @@ def _few_poses(model: SerialModel, q: Array) -> Array:
     if n == 6:  # pairwise: (E1 E2)(E3 E4)(E5 E6) in one call, then two
         E = E.reshape(N, 3, 2, 4, 4)
         P = E[:, :, 0] @ E[:, :, 1]
-        return P[:, 0] @ P[:, 1] @ P[:, 2]
+        T = P[:, 0] @ P[:, 1] @ P[:, 2]
+        return T
     E = E.reshape(N, n, 4, 4)
     T = E[:, -1]
     for k in range(n - 2, -1, -1):

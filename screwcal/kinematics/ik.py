@@ -30,7 +30,7 @@ from screwcal.kinematics.ik_solutions import (
     solutions_of,
 )
 from screwcal.kinematics.model import SerialModel, once_per_object
-from screwcal.kinematics.se3 import Array, rotvec_from_rotation
+from screwcal.kinematics.se3 import Array, Mask, rotvec_from_rotation
 from screwcal.kinematics.wrist_partitioned import (
     IDEAL_AXES,
     WristPartitionedGeometry,
@@ -76,7 +76,7 @@ def _pose_error(T_target: Array, T: Array) -> Array:
 
 
 def _refine(model: SerialModel, targets: Array, q0: Array, tol_mm: float, tol_rad: float,
-            max_iter: int, damping: float) -> tuple[Array, Array]:
+            max_iter: int, damping: float) -> tuple[Array, Mask]:
     """Damped Gauss-Newton from the joint readings q0 (M, 6) toward targets (M, 4, 4) (world
     tool poses); returns the readings and which converged."""
     q = q0.copy()
@@ -109,7 +109,7 @@ def _refine(model: SerialModel, targets: Array, q0: Array, tol_mm: float, tol_ra
 
 def local_ik(model: SerialModel, T_world_tool: ArrayLike, q_seed: ArrayLike, *,
              tol_mm: float = 1e-9, tol_rad: float = 1e-11, max_iter: int = 30,
-             damping: float = 1e-9) -> tuple[Array, Array]:
+             damping: float = 1e-9) -> tuple[Array, Mask]:
     """The joint readings (N, 6) that reach each target, found from a nearby seed (N, 6) by
     damped Gauss-Newton: the same branch and turn as the seed, well defined near the wrist
     singularity where branches meet. For small changes of a known solution (compensation).

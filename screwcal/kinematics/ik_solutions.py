@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike
 from screwcal.errors import UnreachableError
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.model import SerialModel, once_per_object
-from screwcal.kinematics.se3 import Array
+from screwcal.kinematics.se3 import Array, Mask
 
 BRANCHES = tuple((s, e, w) for s in ("front", "back") for e in ("up", "down")
                  for w in ("noflip", "flip"))
@@ -32,14 +32,14 @@ class IKSolutions:
     """
 
     q: Array
-    reachable: Array
-    within_limits: Array
+    reachable: Mask
+    within_limits: Mask
     residual_mm: Array
     branches: tuple[tuple[str, str, str], ...] = BRANCHES
     limits: Array | None = None  # (6, 2) rad, for choosing among 2 pi-equivalent turns
 
     @property
-    def valid(self) -> Array:
+    def valid(self) -> Mask:
         return self.reachable & self.within_limits
 
     def toward(self, q_ref: ArrayLike) -> Array:
@@ -57,14 +57,15 @@ class IKSolutions:
         q_ref = np.broadcast_to(np.asarray(q_ref, float), (self.q.shape[0], self.q.shape[2]))
         q = self.toward(q_ref)
         dist = np.where(self.valid, np.linalg.norm(q - q_ref[:, None, :], axis=-1), np.inf)
-        none = ~np.isfinite(dist).any(axis=1)
+        none: Mask = ~np.any(np.isfinite(dist), axis=1)
         if none.any():
             k = int(np.flatnonzero(none)[0])
             why = "outside the joint limits on every branch" if self.reachable[k].any() \
                 else "out of reach"
             raise UnreachableError(f"target {k} is {why} ({int(none.sum())} of "
                                    f"{len(none)} targets have no valid solution)", index=k)
-        return q[np.arange(len(dist)), np.argmin(dist, axis=1)]
+        nearest: Array = q[np.arange(len(dist)), np.argmin(dist, axis=1)]
+        return nearest
 
 
 def _turns_toward(q: Array, q_ref: Array, limits: Array) -> Array:
@@ -78,7 +79,7 @@ def _turns_toward(q: Array, q_ref: Array, limits: Array) -> Array:
         best = np.where(better, moved, best)
     return best
 
-def controller_readings(model: SerialModel, theta: Array) -> tuple[Array, Array]:
+def controller_readings(model: SerialModel, theta: Array) -> tuple[Array, Mask]:
     """Joint angles (N, 8, 6), NaN where out of reach -> controller readings: the joint zero
     removed, wrapped to [-pi, pi), then moved by a turn where that brings a reading outside the
     limits inside them; and whether each branch is within the limits (N, 8).
@@ -92,7 +93,8 @@ def controller_readings(model: SerialModel, theta: Array) -> tuple[Array, Array]
     if sign is not None:
         q *= sign
     q += start
-    return q, ((q >= lo) & (q <= hi)).all(axis=-1)  # NaN compares False: out of reach is out
+    within: Mask = np.all((q >= lo) & (q <= hi), axis=-1)  # NaN compares False: out of reach
+    return q, within
 
 
 _TAU = 2.0 * np.pi
@@ -125,8 +127,8 @@ def _reading_tables(model: SerialModel) -> tuple[Array | None, Array, Array, Arr
     return (sign if down.any() else None), shift, start, lo, hi
 
 
-def solutions_of(model: SerialModel, q: Array, reach: Array, within: Array, T_world: Array,
-               check: bool = True) -> IKSolutions:
+def solutions_of(model: SerialModel, q: Array, reach: Mask, within: Mask, T_world: Array,
+                 check: bool = True) -> IKSolutions:
     if check:  # the FK of every branch against the target (NaN where out of reach)
         N = q.shape[0]
         T = forward_kinematics(model, q.reshape(-1, 6)).reshape(N, 8, 4, 4)
@@ -137,10 +139,10 @@ def solutions_of(model: SerialModel, q: Array, reach: Array, within: Array, T_wo
                        limits=model.limits)
 
 
-def require_reachable(reach: Array) -> None:
+def require_reachable(reach: Mask) -> None:
     if len(reach) == 1 and reach.any():  # one target: a single reduction decides
         return
-    some = reach.any(axis=1)
+    some: Mask = np.any(reach, axis=1)
     if some.all():
         return
     none = ~some

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 
 from screwcal.errors import JointLimitError, ModelError
 from screwcal.kinematics.compliance import LumpedMass, Payload, payload_mass
-from screwcal.kinematics.se3 import Array
+from screwcal.kinematics.se3 import Array, Mask
 
 _K = TypeVar("_K")
 _V = TypeVar("_V")
@@ -65,6 +65,9 @@ def _frozen(a: ArrayLike, shape: tuple[int, ...], what: str) -> Array:
 
 
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+# The default of `joint_zero` and `compliance`: zeros of the model's length, set by
+# __post_init__ (which knows the length); this one object marks "not given".
+_ZEROS: Array = np.zeros(0)
 
 
 def _check_rigid(T: Array, what: str) -> None:
@@ -98,10 +101,10 @@ class SerialModel:
     axis_points_mm: Array
     home_flange: Array
     limits: Array
-    joint_zero: Array = field(default=None)  # type: ignore[assignment]
+    joint_zero: Array = field(default_factory=lambda: _ZEROS)
     base: Array = field(default_factory=lambda: np.eye(4))
     tool: Array = field(default_factory=lambda: np.eye(4))
-    compliance: Array = field(default=None)  # type: ignore[assignment]  # rad/(N m), (n,)
+    compliance: Array = field(default_factory=lambda: _ZEROS)  # rad/(N m), (n,)
     masses: tuple[LumpedMass, ...] = ()
     # (n, len(masses)) rad/(N m): per joint and arm mass, replacing `compliance` when given
     compliance_by_mass: Array | None = None
@@ -115,14 +118,14 @@ class SerialModel:
         if bad:
             raise ModelError(f"model '{self.name}': joint types are 'R' or 'P', got {bad}")
         object.__setattr__(self, "joint_types", tuple(self.joint_types))
-        zero = np.zeros(n) if self.joint_zero is None else self.joint_zero
+        zero = np.zeros(n) if self.joint_zero is _ZEROS else self.joint_zero
         for name, value, shape in (
             ("axis_dirs", self.axis_dirs, (n, 3)),
             ("axis_points_mm", self.axis_points_mm, (n, 3)),
             ("home_flange", self.home_flange, (4, 4)),
             ("limits", self.limits, (n, 2)),
             ("joint_zero", zero, (n,)),
-            ("compliance", np.zeros(n) if self.compliance is None else self.compliance, (n,)),
+            ("compliance", np.zeros(n) if self.compliance is _ZEROS else self.compliance, (n,)),
             ("base", self.base, (4, 4)),
             ("tool", self.tool, (4, 4)),
         ):
@@ -173,7 +176,7 @@ class SerialModel:
         return len(self.joint_types)
 
     @property
-    def is_revolute(self) -> Array:
+    def is_revolute(self) -> Mask:
         """Boolean mask, shape (n,)."""
         return np.array([t == REVOLUTE for t in self.joint_types])
 
@@ -192,11 +195,12 @@ class SerialModel:
         q = np.asarray(q, dtype=float)
         return np.where(self.is_revolute, np.degrees(q), q)
 
-    def within_limits(self, q: ArrayLike, margin: float = 0.0) -> Array:
+    def within_limits(self, q: ArrayLike, margin: float = 0.0) -> Mask:
         """Mask of configurations (..., n) inside the limits shrunk by `margin` (rad/mm)."""
         q = np.asarray(q, dtype=float)
         inside = (q >= self.limits[:, 0] + margin) & (q <= self.limits[:, 1] - margin)
-        return np.all(inside, axis=-1)
+        within: Mask = np.all(inside, axis=-1)
+        return within
 
     def check_limits(self, q: ArrayLike, what: str = "configuration") -> None:
         """Raise JointLimitError naming the first configuration and joint outside the limits."""

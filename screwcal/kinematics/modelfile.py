@@ -45,7 +45,7 @@ def pose_document(T: np.ndarray) -> dict[str, float]:
                     strict=True))
 
 
-def gravity_document(model: SerialModel) -> dict | None:
+def gravity_document(model: SerialModel) -> dict[str, object] | None:
     """The `gravity` section: compliance (deg per kN m), masses, payload; None without any
     (a robot's masses alone are kept: an imported robot calibrates its compliance with them)."""
     if not model.has_compliance and model.payload.kg == 0.0 and not model.masses:
@@ -60,7 +60,8 @@ def gravity_document(model: SerialModel) -> dict | None:
                         "cog_mm": np.asarray(model.payload.cog_mm, float).tolist()}}
 
 
-def model_document(model: SerialModel, representation: Representation = "screws") -> dict:
+def model_document(model: SerialModel, representation: Representation = "screws"
+                   ) -> dict[str, object]:
     """The file document of a model, in the chosen representation (JSON-ready)."""
     limits = model.limits_deg
     zero = model.joints_to_deg(model.joint_zero).tolist()
@@ -86,7 +87,7 @@ def model_document(model: SerialModel, representation: Representation = "screws"
     return doc
 
 
-def parse_model(data: dict, source: str = "model") -> SerialModel:
+def parse_model(data: object, source: str = "model") -> SerialModel:
     """A serial model from a decoded JSON object, validated field by field (`modelschema`). A
     calibration result (with a `model` member) is accepted as well."""
     from pydantic import ValidationError

@@ -98,7 +98,9 @@ class GravityIn(BaseModel):
     masses: list[MassIn] = []
     payload: PayloadIn = PayloadIn()
 
-    def fields(self, n: int) -> dict:
+    def applied_to(self, model: SerialModel) -> SerialModel:
+        """The model with this gravity section's compliance, masses and payload."""
+        n = model.n_joints
         if len(self.compliance_deg_per_knm) != n:
             raise ModelError(f"gravity.compliance_deg_per_knm has "
                              f"{len(self.compliance_deg_per_knm)} values for {n} joints")
@@ -109,11 +111,12 @@ class GravityIn(BaseModel):
         if by_mass is not None and np.shape(by_mass) != (n, len(self.masses)):
             raise ModelError(f"gravity.compliance_by_mass_deg_per_knm must be {n} rows of "
                              f"{len(self.masses)} (one per mass), got {np.shape(by_mass)}")
-        return dict(compliance=np.radians(self.compliance_deg_per_knm) / 1000.0,
-                    compliance_by_mass=None if by_mass is None else
-                    np.radians(np.array(by_mass, float)) / 1000.0,
-                    masses=tuple(LumpedMass(m.joint - 1, m.kg, m.home_mm) for m in self.masses),
-                    payload=Payload(self.payload.kg, self.payload.cog_mm))
+        return replace(model, compliance=np.radians(self.compliance_deg_per_knm) / 1000.0,
+                       compliance_by_mass=None if by_mass is None else
+                       np.radians(np.array(by_mass, float)) / 1000.0,
+                       masses=tuple(LumpedMass(m.joint - 1, m.kg, m.home_mm)
+                                    for m in self.masses),
+                       payload=Payload(self.payload.kg, self.payload.cog_mm))
 
 
 class _FileCommon(BaseModel):
@@ -130,7 +133,7 @@ class _FileCommon(BaseModel):
     def _with_gravity(self, model: SerialModel) -> SerialModel:
         if self.gravity is None:
             return model
-        return replace(model, **self.gravity.fields(model.n_joints))
+        return self.gravity.applied_to(model)
 
     def _numeric(self, joints: list[ScrewJoint] | list[DHJoint]) -> tuple[np.ndarray, np.ndarray]:
         """Limits (n, 2) and zeros (n,) in numeric units (rad for R, mm for P)."""
@@ -152,8 +155,8 @@ class ScrewsFile(_FileCommon):
         limits, zero = self._numeric(self.joints)
         return self._with_gravity(SerialModel(
             name=self.name, joint_types=tuple(j.type for j in self.joints),
-            axis_dirs=[j.direction for j in self.joints],
-            axis_points_mm=[j.point_mm for j in self.joints],
+            axis_dirs=np.array([j.direction for j in self.joints], float),
+            axis_points_mm=np.array([j.point_mm for j in self.joints], float),
             home_flange=self.home_flange.transform(), limits=limits, joint_zero=zero,
             base=self.base.transform(), tool=self.tool.transform()))
 

@@ -43,7 +43,8 @@ def euler_zyx_deg_from_rotation(R: ArrayLike) -> Array:
     rx = np.where(lock, 0.0, np.arctan2(R[..., 2, 1], R[..., 2, 2]))
     rz = np.where(lock, np.arctan2(-R[..., 0, 1], R[..., 1, 1]),
                   np.arctan2(R[..., 1, 0], R[..., 0, 0]))
-    return np.degrees(np.stack([rx, ry, rz], axis=-1))
+    angles_deg: Array = np.degrees(np.stack([rx, ry, rz], axis=-1))
+    return angles_deg
 
 
 def euler_zyx_deg_near(R: ArrayLike, reference_deg: ArrayLike) -> Array:
@@ -59,7 +60,8 @@ def euler_zyx_deg_near(R: ArrayLike, reference_deg: ArrayLike) -> Array:
     b[..., 1] = 180.0 - a[..., 1]
 
     def near(t: Array) -> Array:
-        return ref + (t - ref + 180.0) % 360.0 - 180.0
+        wrapped: Array = ref + (t - ref + 180.0) % 360.0 - 180.0
+        return wrapped
 
     a, b = near(a), near(b)
     pick_b = np.sum(np.abs(b - ref), axis=-1) < np.sum(np.abs(a - ref), axis=-1)
@@ -133,4 +135,5 @@ def rotation_from_quaternion_wxyz(q_wxyz: ArrayLike) -> Array:
 def rotation_angle_deg(R_a: ArrayLike, R_b: ArrayLike) -> Array:
     """Angle in degrees of the relative rotation R_a^T R_b, shape (...)."""
     R_rel = np.swapaxes(np.asarray(R_a, float), -1, -2) @ np.asarray(R_b, float)
-    return np.degrees(np.linalg.norm(rotvec_from_rotation(R_rel), axis=-1))
+    angle_deg: Array = np.degrees(np.linalg.norm(rotvec_from_rotation(R_rel), axis=-1))
+    return angle_deg

@@ -31,9 +31,13 @@ from screwcal.kinematics.pose import transform_from_pose
 
 _X, _Y, _Z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 _NX, _NY, _NZ = (-1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0)
-ABB_AXES = (_Z, _Y, _Y, _X, _Y, _X)
-KUKA_AXES = (_NZ, _Y, _Y, _NX, _Y, _NX)  # A1, A4, A6 turn clockwise seen from outside
-FANUC_AXES = (_Z, _Y, _NY, _NX, _NY, _NX)  # the M-20iA; the LR Mate 200iD's J6 turns about +x
+Axes = tuple[tuple[float, float, float], ...]  # unit joint directions at home, per joint
+# A drawing's six lengths (mm): base, shoulder, upper arm, forearm offset, forearm, flange.
+Dims = tuple[float, float, float, float, float, float]
+Limits = list[list[float]]  # per joint [min, max] deg
+ABB_AXES: Axes = (_Z, _Y, _Y, _X, _Y, _X)
+KUKA_AXES: Axes = (_NZ, _Y, _Y, _NX, _Y, _NX)  # A1, A4, A6 turn clockwise seen from outside
+FANUC_AXES: Axes = (_Z, _Y, _NY, _NX, _NY, _NX)  # the M-20iA; the LR Mate 200iD's J6 turns about +x
 LRMATE_AXES = (_Z, _Y, _NY, _NX, _NY, _X)
 ABB_TOOL0 = (0.0, 90.0, 0.0)  # (rx, ry, rz) deg of tool0 at home: z out along +x, x down
 FANUC_TOOL0 = (180.0, -90.0, 0.0)  # z out along +x, x up
@@ -77,7 +81,7 @@ def _lumped(total_kg: float, shoulder: np.ndarray, elbow: np.ndarray, wrist: np.
 
 def wrist_arm(name: str, *, base_mm: float, shoulder_mm: float, upper_arm_mm: float,
               forearm_offset_mm: float, forearm_mm: float, flange_mm: float,
-              limits_deg: list[list[float]], axes: tuple = ABB_AXES, upright: bool = True,
+              limits_deg: Limits, axes: Axes = ABB_AXES, upright: bool = True,
               total_kg: float | None = None, masses: tuple[LumpedMass, ...] | None = None,
               tool0_rxyz_deg: tuple[float, float, float] = ABB_TOOL0) -> SerialModel:
     """A wrist-partitioned 6R arm from its dimension drawing (mm): axis 2 at (shoulder, 0,
@@ -127,7 +131,7 @@ def irb120() -> SerialModel:
                                  [-400, 400]], masses=ROBOT_MASSES["irb120"])
 
 
-def _other(name: str, kg: float, dims: tuple, limits: list, axes: tuple, upright: bool,
+def _other(name: str, kg: float, dims: Dims, limits: Limits, axes: Axes, upright: bool,
            tool0: tuple[float, float, float] = ABB_TOOL0) -> Callable[[], SerialModel]:
     h, s, u, fo, f, t = dims
     return lambda: wrist_arm(name, base_mm=h, shoulder_mm=s, upper_arm_mm=u,
@@ -135,7 +139,7 @@ def _other(name: str, kg: float, dims: tuple, limits: list, axes: tuple, upright
                              axes=axes, upright=upright, total_kg=kg, tool0_rxyz_deg=tool0)
 
 
-def _abb(name: str, kg: float, dims: tuple, limits: list) -> Callable[[], SerialModel]:
+def _abb(name: str, kg: float, dims: Dims, limits: Limits) -> Callable[[], SerialModel]:
     return _other(name, kg, dims, limits, ABB_AXES, True)
 
 
@@ -144,7 +148,7 @@ def _reach(mm: float, source: str, tol: float = 0.005) -> DatasheetCheck:
 
 
 _ABB_PS = "ABB product specification"
-_KR_AGILUS = [[-170, 170], [-190, 45], [-120, 156], [-185, 185], [-120, 120], [-350, 350]]
+_KR_AGILUS: Limits = [[-170, 170], [-190, 45], [-120, 156], [-185, 185], [-120, 120], [-350, 350]]
 ENTRIES: tuple[RobotEntry, ...] = (
     RobotEntry("irb120", "ABB IRB 120-3/0.6", "ABB", 25.0,
                f"{_ABB_PS} IRB 120 (dimension drawing, axis ranges, mass 25 kg)",

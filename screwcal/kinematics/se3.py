@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 Array = NDArray[np.float64]
+Mask = NDArray[np.bool_]  # a boolean mask, e.g. which targets are reachable
 
 
 def skew(w: ArrayLike) -> Array:
@@ -46,7 +47,8 @@ def rotation_from_rotvec(phi: ArrayLike) -> Array:
     A = np.where(small, 1.0 - theta**2 / 6.0, np.sin(th) / th)
     B = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(th)) / th**2)
     K = skew(phi)
-    return np.eye(3) + A[..., None, None] * K + B[..., None, None] * (K @ K)
+    R: Array = np.eye(3) + A[..., None, None] * K + B[..., None, None] * (K @ K)
+    return R
 
 
 def rotvec_from_rotation(R: ArrayLike) -> Array:
@@ -60,7 +62,7 @@ def rotvec_from_rotation(R: ArrayLike) -> Array:
     sin = np.sin(theta)
     small = theta < 1e-6
     scale = np.where(small, 0.5 + theta**2 / 12.0, theta / (2.0 * np.where(small, 1.0, sin)))
-    out = v * scale[..., None]
+    out: Array = v * scale[..., None]
     near_pi = theta > np.pi - 0.1
     if np.any(near_pi):
         from scipy.spatial.transform import Rotation
@@ -84,7 +86,8 @@ def transform_from_rotation_translation(R: ArrayLike, t: ArrayLike) -> Array:
 def transform_points(T: ArrayLike, points: ArrayLike) -> Array:
     """Points (..., 3) expressed in the frame T (4, 4) maps them into: R p + t."""
     T = np.asarray(T, dtype=float)
-    return np.asarray(points, dtype=float) @ T[:3, :3].T + T[:3, 3]
+    mapped: Array = np.asarray(points, dtype=float) @ T[:3, :3].T + T[:3, 3]
+    return mapped
 
 
 def invert_transform(T: ArrayLike) -> Array:

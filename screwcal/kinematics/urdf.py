@@ -148,39 +148,43 @@ def model_from_urdf(text: str, source: str = "URDF", name: str | None = None
         raise ModelError(f"{source}: not a URDF (XML error: {err})") from None
     if root.tag != "robot":
         raise ModelError(f"{source}: not a URDF (root element <{root.tag}>, not <robot>)")
-    links = {e.get("name"): e for e in root.findall("link")}
-    by_child: dict[str, ET.Element] = {}
+    links = {e.get("name", ""): e for e in root.findall("link")}
+    by_child: dict[str, ET.Element] = {}  # child link -> its joint
+    parent_of: dict[str, str] = {}  # child link -> parent link
     for j in root.findall("joint"):
-        child = j.find("child")
-        if child is None or j.find("parent") is None:
+        child, parent = j.find("child"), j.find("parent")
+        if child is None or parent is None:
             raise ModelError(f"{source}: joint '{j.get('name')}' without parent or child")
         by_child[child.get("link", "")] = j
-    children = {j.find("parent").get("link") for j in by_child.values()}  # type: ignore[union-attr]
+        parent_of[child.get("link", "")] = parent.get("link", "")
+    children = set(parent_of.values())
     roots = [n for n in links if n not in by_child]
     start = "base_link" if "base_link" in links else (roots[0] if roots else None)
     if start is None:
         raise ModelError(f"{source}: no root link")
-    tip = next((t for t in ("tool0", "flange") if t in links), None)
+    tip: str | None = next((t for t in ("tool0", "flange") if t in links), None)
     notes = []
     if tip is None:
         leaves = [n for n in links if n not in children]
-        tip = max(leaves, key=lambda n: len(_path(by_child, n, start) or []))
+        tip = max(leaves, key=lambda n: len(_path(parent_of, n, start) or []))
         notes.append(f"no tool0 or flange link: the flange is link '{tip}'")
-    path = _path(by_child, tip, start)
+    path = _path(parent_of, tip, start)
     if path is None:
         raise ModelError(f"{source}: link '{tip}' does not hang from '{start}'")
     T = np.eye(4)
     dirs, points, types, limits = [], [], [], []
     masses = []
-    for joint in path:
+    for child_link in path:
+        joint = by_child[child_link]
         jname = joint.get("name")
         kind = joint.get("type")
         if joint.find("mimic") is not None:
             raise ModelError(f"{source}: joint '{jname}' mimics another: not a serial arm")
         T = T @ _transform(joint.find("origin"), f"{source}: joint '{jname}'")
         if kind in ("revolute", "continuous", "prismatic"):
-            axis = _floats(joint.find("axis").get("xyz") if joint.find("axis") is not None
-                           else "1 0 0", 3, f"{source}: joint '{jname}' axis")
+            axis_element = joint.find("axis")
+            axis = _floats("1 0 0" if axis_element is None else axis_element.get("xyz"), 3,
+                           f"{source}: joint '{jname}' axis")
             if np.linalg.norm(axis) == 0:
                 raise ModelError(f"{source}: joint '{jname}': zero axis")
             dirs.append(T[:3, :3] @ (axis / np.linalg.norm(axis)))
@@ -195,9 +199,10 @@ def model_from_urdf(text: str, source: str = "URDF", name: str | None = None
                 limits.append([lo * 1000.0, hi * 1000.0] if kind == "prismatic" else [lo, hi])
         elif kind != "fixed":
             raise ModelError(f"{source}: joint '{jname}' of type '{kind}': not a serial arm")
-        inertial = links[joint.find("child").get("link")].find("inertial")  # type: ignore
-        if inertial is not None and types and inertial.find("mass") is not None:
-            kg = float(inertial.find("mass").get("value", "0"))  # type: ignore[union-attr]
+        inertial = links[child_link].find("inertial")
+        mass = None if inertial is None else inertial.find("mass")
+        if inertial is not None and types and mass is not None:
+            kg = float(mass.get("value", "0"))
             if kg > 0:
                 com = (T @ _transform(inertial.find("origin"), f"{source}: inertial"))[:3, 3]
                 masses.append(LumpedMass(len(types) - 1, kg, tuple(com.tolist())))
@@ -217,14 +222,15 @@ def model_from_urdf(text: str, source: str = "URDF", name: str | None = None
     return model, notes
 
 
-def _path(by_child: dict[str, ET.Element], tip: str, start: str) -> list[ET.Element] | None:
-    """The joints from `start` down to `tip`, or None when `tip` does not hang from it."""
+def _path(parent_of: dict[str, str], tip: str, start: str) -> list[str] | None:
+    """The links from `start` down to `tip` (each named by the child link of its joint, `start`
+    itself left out), or None when `tip` does not hang from `start`."""
     path = []
     link = tip
     while link != start:
-        joint = by_child.get(link)
-        if joint is None:
+        parent = parent_of.get(link)
+        if parent is None:
             return None
-        path.append(joint)
-        link = joint.find("parent").get("link")  # type: ignore[union-attr]
+        path.append(link)
+        link = parent
     return path[::-1]

@@ -20,7 +20,7 @@ import numpy as np
 
 from screwcal.errors import ModelError
 from screwcal.kinematics.model import SerialModel, once_per_object
-from screwcal.kinematics.se3 import Array
+from screwcal.kinematics.se3 import Array, Mask
 
 IDEAL_AXES = np.array([[0, 0, 1], [0, 1, 0], [0, 1, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0]], float)
 
@@ -93,7 +93,7 @@ def _euler_xyx(W: Array) -> Array:
     return np.stack([a, b, c], axis=-1)
 
 
-def closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Array]:
+def closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Mask]:
     """`closed_form_theta` for one flange target (4, 4) in scalar arithmetic: the same
     formulas, a fraction of the array calls' overhead (a test holds the two equal). Returns
     theta (1, 8, 6) and reach (1, 8)."""
@@ -164,7 +164,7 @@ def _one_target_tables(geo: WristPartitionedGeometry
 
 
 def closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = _SLACK,
-                       elbow_floor: float = 0.0) -> tuple[Array, Array]:
+                      elbow_floor: float = 0.0) -> tuple[Array, Mask]:
     """Joint angles (N, 8, 6) of the ideal geometry and the reachable mask (N, 8).
 
     For seeding a calibrated model: `slack` accepts targets slightly beyond full extension, and
@@ -195,7 +195,7 @@ def closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: flo
     R123[..., 2, 0], R123[..., 2, 1], R123[..., 2, 2] = -s23, 0.0, c23
     W = np.swapaxes(R123, -1, -2) @ (R @ R_M.T)[:, None]
     t456 = _euler_xyx(W.reshape(-1, 3, 3)).reshape(N, 4, 3)
-    theta = np.empty((N, 4, 2, 6))
+    theta: Array = np.empty((N, 4, 2, 6))
     theta[..., :3] = np.stack([t1, t2, t3], axis=-1)[:, :, None]
     theta[:, :, 0, 3:] = t456
     theta[:, :, 1, 3:] = t456 * (1.0, -1.0, 1.0) + (np.pi, 0.0, np.pi)  # the wrist flipped
