@@ -73,9 +73,9 @@ class Finding:
         return f"{self.path}:{self.line}:{self.col}: {self.kind}: {self.reason}"
 
 
-def _children(node: object) -> Iterator[Node]:
+def _children(node: Node) -> Iterator[Node]:
     """Every node below `node`, depth first, in source order."""
-    for f in fields(node):  # type: ignore[arg-type]
+    for f in fields(node):
         value = getattr(node, f.name)
         stack = [value]
         while stack:

@@ -174,7 +174,6 @@ class ExpressionParser(Scanner):
                 self.expect("(", " after a late-bound function")
                 return Call(*self.loc(start), "", self.arguments(")"), late)
         self.fail(f"expected a value, found {self.shown()}")
-        raise AssertionError  # fail raises
 
     def name_expr(self) -> Expr:
         start, name = self.start, self.ident("a name")
@@ -228,8 +227,9 @@ class ExpressionParser(Scanner):
         start, text = self.start, self.text
         flat = _FLAT.match(text, start)
         nested = None if flat else _NESTED.match(text, start)
-        if flat or nested:  # plain numbers on one line: read in one match
-            end = (flat or nested).end()
+        whole = flat or nested
+        if whole:  # plain numbers on one line: read in one match
+            end = whole.end()
             line = bisect_right(self.starts, start)
             base = self.starts[line - 1] - 1
             value: Expr

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import re
 from bisect import bisect_right
+from typing import NoReturn
 
 from screwcal.rapid.ast import Comment
 
@@ -63,9 +64,9 @@ class Scanner:
         text, pos = self.text, self.pos
         m = _SKIP_TOKEN.match(text, pos)  # blanks and comments, then one token
         if m is None:  # the end of the text, or a character no token begins with
-            skip = _SKIP.match(text, pos)
-            self.collect_comments(pos, skip.end())
-            p = skip.end()
+            skip = _SKIP.match(text, pos)  # always matches (perhaps nothing)
+            p = pos if skip is None else skip.end()
+            self.collect_comments(pos, p)
             self.start = p
             if p >= len(text):
                 self.kind, self.value, self.end = "eof", "", p
@@ -74,6 +75,7 @@ class Scanner:
             self.fail("a string that never closes (missing '\"' on its line)"
                       if text[p] == '"' else f"unexpected character {text[p]!r}")
         kind = m.lastgroup
+        assert kind is not None  # a token matched: one of the named alternatives
         p = m.start(kind)
         if p > pos and text.find("!", pos, p) >= 0:
             self.collect_comments(pos, p)
@@ -88,7 +90,7 @@ class Scanner:
             line, col = self.where(c.start())
             self.comments.append(Comment(line, col, c.start(), c.end(), c.group()))
 
-    def fail(self, reason: str, offset: int | None = None) -> None:
+    def fail(self, reason: str, offset: int | None = None) -> NoReturn:
         line, col = self.where(self.start if offset is None else offset)
         raise RapidSyntaxError(self.path, line, col, reason)
 

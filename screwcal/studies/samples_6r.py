@@ -10,11 +10,12 @@ import functools
 import time
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import Literal
 
 import numpy as np
 
 from screwcal.calibration.design import d_optimal, log_det
-from screwcal.calibration.identify import NoiseModel, identify
+from screwcal.calibration.identify import CalibrationResult, NoiseModel, identify
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.posesets import cube_set, quadrant_variants, random_set
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
@@ -43,11 +44,11 @@ def joints_only(nominal: SerialModel, fitted: SerialModel) -> SerialModel:
     return replace(nominal, joint_zero=fitted.joint_zero)
 
 
-def calibrate_6r(q: Array, rng: np.random.Generator, **kw: object) -> tuple:
+def calibrate_6r(q: Array, rng: np.random.Generator) -> tuple[SerialModel, CalibrationResult]:
+    """The true 6R and its thesis-model calibration from simulated measurements at q."""
     truth = truth_6r()
     data = simulate_measurements(truth, q, rng)
-    r = identify(irb1600(), data, kind="thesis", frames="known", noise=NOISE, **kw)  # type: ignore[arg-type]
-    return truth, r
+    return truth, identify(irb1600(), data, kind="thesis", frames="known", noise=NOISE)
 
 
 @functools.cache
@@ -108,7 +109,8 @@ def sample_solvers(seed: int) -> list[Row]:
     rows = []
     for name, q in sets.items():
         data = simulate_measurements(truth, q, rng)
-        runs = [("LM", "lm", True), ("DE", "de", False)]
+        runs: list[tuple[str, Literal["lm", "de"], bool]] = [("LM", "lm", True),
+                                                             ("DE", "de", False)]
         if name == "Klimchik":
             runs.append(("DE+LM", "de", True))
         for label, solver, polish in runs:
@@ -127,6 +129,8 @@ def sample_solvers(seed: int) -> list[Row]:
 def residual_spread(truth: SerialModel, data: MeasurementSet) -> tuple[float, float]:
     """Standard deviations of the measured poses about the truth at the reported joints:
     position (mm, per axis) and rotation (deg, per axis). The random joint error sets both."""
+    if data.rotations is None:
+        raise ValueError("residual_spread needs full-pose measurements (rotations)")
     T = forward_kinematics(truth, data.q)
     dp = data.positions_mm - T[:, :3, 3]
     dr = rotvec_from_rotation(data.rotations @ np.swapaxes(T[:, :3, :3], 1, 2))

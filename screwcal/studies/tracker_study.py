@@ -16,9 +16,11 @@ The tracker's noise is taken as 0.05 mm (a laser tracker at 2.5 m); the joint re
 from __future__ import annotations
 
 import argparse
+from typing import Literal
 
 import numpy as np
 
+from screwcal.calibration.error_parameters import ModelKind
 from screwcal.calibration.identify import CalibrationResult, identify
 from screwcal.calibration.lag import correct_lag
 from screwcal.calibration.measurements import MeasurementSet
@@ -33,10 +35,11 @@ from screwcal.studies.tracker_dataset import (
     read_tracker_dataset,
 )
 
-# label -> (model kind, compliance, lag)
-MODELS = {"frames": ("frames", "none", "none"), "thesis": ("thesis", "none", "none"),
-          "full": ("full", "none", "none"), "full+c": ("full", "auto", "none"),
-          "full+c+lag": ("full", "auto", "auto")}
+# label -> (model kind, compliance, lag) of the identification
+MODELS: dict[str, tuple[ModelKind, str, Literal["none", "auto"]]] = {
+    "frames": ("frames", "none", "none"), "thesis": ("thesis", "none", "none"),
+    "full": ("full", "none", "none"), "full+c": ("full", "auto", "none"),
+    "full+c+lag": ("full", "auto", "auto")}
 
 
 def position_errors(result: CalibrationResult, data: MeasurementSet) -> Array:
@@ -56,8 +59,8 @@ def run_study(dataset: TrackerData, seed: int = 0, full_pose: bool = True) -> di
     out: dict = {"poses": len(data), "calibration": len(cal), "validation": len(val),
                  "rejected_rows": len(dataset.rejected), "models": {}}
     for label, (kind, compliance, lag) in MODELS.items():
-        result = identify(irb120(), cal, kind=kind,  # type: ignore[arg-type]
-                          compliance=compliance, lag=lag)  # noise levels from the data
+        # noise levels from the data
+        result = identify(irb120(), cal, kind=kind, compliance=compliance, lag=lag)
         seen = val if result.reading_lag is None else correct_lag(val, result.reading_lag)
         e = position_errors(result, seen)  # held-out readings corrected as the fit's were
         noise = result.noise
