@@ -209,17 +209,25 @@ def model_from_urdf(text: str, source: str = "URDF", name: str | None = None
     if not types:
         raise ModelError(f"{source}: no moving joint between '{start}' and '{tip}'")
     home = T @ (_RY90 if tip == "flange" else np.eye(4))
+    base, tool = _measuring_frames(links, by_child, source)
+    model = SerialModel(name=name or root.get("name") or Path(source).stem,
+                        joint_types=tuple(types), axis_dirs=np.array(dirs),
+                        axis_points_mm=np.array(points), home_flange=home,
+                        limits=np.array(limits), base=base, tool=tool, masses=tuple(masses))
+    return model, notes
+
+
+def _measuring_frames(links: dict[str, ET.Element], by_child: dict[str, ET.Element],
+                      source: str) -> tuple[Array, Array]:
+    """Base (world from robot base) and tool (flange to measured point) from the links
+    `measuring_frame` and `measured_point` where the file has them; identity otherwise."""
     base, tool = np.eye(4), np.eye(4)
     if "measuring_frame" in links and by_child.get("measuring_frame") is not None:
         j = by_child["measuring_frame"]
         base = invert_transform(_transform(j.find("origin"), f"{source}: measuring_frame"))
     if "measured_point" in links and by_child.get("measured_point") is not None:
         tool = _transform(by_child["measured_point"].find("origin"), f"{source}: measured_point")
-    model = SerialModel(name=name or root.get("name") or Path(source).stem,
-                        joint_types=tuple(types), axis_dirs=np.array(dirs),
-                        axis_points_mm=np.array(points), home_flange=home,
-                        limits=np.array(limits), base=base, tool=tool, masses=tuple(masses))
-    return model, notes
+    return base, tool
 
 
 def _path(parent_of: dict[str, str], tip: str, start: str) -> list[str] | None:
