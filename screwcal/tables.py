@@ -84,7 +84,9 @@ def read_numeric_csv(path: str | Path, required: Sequence[str],
         columns += present
     index = {c: header.index(c) for c in columns}
     id_index = header.index("id") if "id" in header else None
-    values, ids, lines = [], [], []
+    values: list[list[float]] = []
+    ids: list[str] = []
+    lines: list[int] = []
     texts: dict[str, list[str]] = {c: [] for c in text_columns}
     for lineno, row in enumerate(rows[1:], start=2):
         if not any(cell.strip() for cell in row):

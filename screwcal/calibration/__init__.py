@@ -115,7 +115,6 @@ _EXPORTS = {
     "rigid_motion": "initial_frames",
     "select_identifiable": "identifiability",
     "structural_rank": "identifiability",
-    "svd": "identifiability",
     "whitened_blocks": "design",
 }
 __all__ = sorted(_EXPORTS)

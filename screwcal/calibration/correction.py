@@ -135,18 +135,19 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
     # the solution next to the reference: its branch and turn, even near singularities
     q, reached = local_ik(robot, T, ref)
     change = calibrated.joints_to_deg(q - ref)
-    inside = calibrated.within_limits(q)
+    reached, inside = reached.astype(bool), calibrated.within_limits(q).astype(bool)
     plausible = np.abs(change).max(axis=1, initial=0.0) <= bound_deg
     wrist = _wrist_singular(nominal, ref) & ~(reached & inside & plausible)
     if wrist.any():  # joints 4 and 6 trade freely there: solve on every branch instead
-        k = np.flatnonzero(wrist)
-        q_w, ok_w, measure = _wrist_solutions(robot, T[k], ref[k])
-        ok_w &= measure <= bound_deg
-        k, q_w = k[ok_w], q_w[ok_w]
-        q[k], reached[k], inside[k], plausible[k] = q_w, True, True, True
-        change[k] = calibrated.joints_to_deg(q_w - ref[k])
+        at = np.flatnonzero(wrist)
+        q_w, ok_w, measure = _wrist_solutions(robot, T[at], ref[at])
+        usable = ok_w.astype(bool) & (measure <= bound_deg)
+        at, q_w = at[usable], q_w[usable]
+        q[at], reached[at], inside[at], plausible[at] = q_w, True, True, True
+        change[at] = calibrated.joints_to_deg(q_w - ref[at])
     refused = []
-    for k in np.flatnonzero(~(reached & inside & plausible)):
+    error: type[TargetRefusedError]
+    for k in np.flatnonzero(~(reached & inside & plausible)).tolist():
         if not reached[k]:
             why, error = "the calibrated robot cannot reach it near the nominal solution", \
                 UnreachableError

@@ -9,8 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
-from screwcal.calibration.error_parameters import ErrorModel, candidate_params
+from screwcal.calibration.error_parameters import ErrorModel, ModelKind, candidate_params
 from screwcal.instrument import ORIENTATION_NOISE_RAD, POSITION_NOISE_MM
 from screwcal.kinematics.forward import point_jacobian
 from screwcal.kinematics.model import SerialModel
@@ -25,10 +26,10 @@ class Design:
 
 
 def whitened_blocks(model: SerialModel, q_rad: Array, sigma_mm: float = POSITION_NOISE_MM,
-                    sigma_rad: float = ORIENTATION_NOISE_RAD, kind: str = "thesis"
+                    sigma_rad: float = ORIENTATION_NOISE_RAD, kind: ModelKind = "thesis"
                     ) -> Array:
     """Per configuration, the (6, p) Jacobian of the error model, each row over its sigma."""
-    errors = ErrorModel(model, tuple(candidate_params(model, kind, base=False,  # type: ignore[arg-type]
+    errors = ErrorModel(model, tuple(candidate_params(model, kind, base=False,
                                                       tool_rotation=False,
                                                       tool_position=False)))
     T, J = errors.jacobian(np.zeros(len(errors.params)), q_rad)
@@ -36,13 +37,13 @@ def whitened_blocks(model: SerialModel, q_rad: Array, sigma_mm: float = POSITION
     return J / np.r_[[sigma_mm] * 3, [sigma_rad] * 3][None, :, None]
 
 
-def _gains(blocks: Array, A_inv: Array) -> Array:
+def _gains(blocks: Array, A_inv: NDArray[np.floating]) -> Array:
     M = np.einsum("kip,pq,kjq->kij", blocks, A_inv, blocks)
     return np.linalg.slogdet(np.eye(blocks.shape[1]) + M)[1]
 
 
 def d_optimal(model: SerialModel, pool_rad: Array, n: int, *, exchange_passes: int = 2,
-              kind: str = "thesis") -> Design:
+              kind: ModelKind = "thesis") -> Design:
     """N configurations of the pool for the largest log det of the information matrix."""
     blocks = whitened_blocks(model, pool_rad, kind=kind)
     p = blocks.shape[2]
@@ -74,7 +75,7 @@ def d_optimal(model: SerialModel, pool_rad: Array, n: int, *, exchange_passes: i
     return Design(pool_rad[chosen], float(np.linalg.slogdet(A)[1]), exchanges)
 
 
-def log_det(model: SerialModel, q_rad: Array, kind: str = "thesis") -> float:
+def log_det(model: SerialModel, q_rad: Array, kind: ModelKind = "thesis") -> float:
     blocks = whitened_blocks(model, q_rad, kind=kind)
     A = np.einsum("kip,kiq->pq", blocks, blocks) + 1e-6 * np.eye(blocks.shape[2])
     return float(np.linalg.slogdet(A)[1])

@@ -12,9 +12,11 @@ it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.linalg
+from numpy.typing import NDArray
 from scipy.special import chdtri, stdtr  # chi-square quantile, Student's t (not scipy.stats:
 
 # a tenth of its import time, and this runs with every calibration)
@@ -75,15 +77,16 @@ def _ranks(x: Array) -> Array:
     return out
 
 
-def acquisition_order(ids: tuple[str, ...], lines: tuple[int, ...]) -> Array:
+def acquisition_order(ids: tuple[str, ...], lines: tuple[int, ...]) -> NDArray[np.bool_]:
     """(N,) True where a pose directly follows the one before it in the acquisition (its file
     line, or a numeric id, one more): a subset of the poses (a calibration half) keeps only
     those pairs, so that "the previous move" is the move the robot made."""
-    keys = list(lines) if lines else [int(i) if str(i).isdigit() else None for i in ids]
+    keys: list[int | None] = list(lines) if lines else [int(i) if str(i).isdigit() else None
+                                                         for i in ids]
     follows = np.zeros(len(keys), bool)
     for k in range(1, len(keys)):
-        follows[k] = keys[k] is not None and keys[k - 1] is not None and \
-            keys[k] - keys[k - 1] == 1
+        now, before = keys[k], keys[k - 1]
+        follows[k] = now is not None and before is not None and now - before == 1
     return follows
 
 
@@ -95,14 +98,14 @@ def explaining_joint_errors(e: Array, Jq: Array) -> Array:
 
 def data_quality(e: Array, Jq: Array, q_deg: Array, test: PoseTest, ids: tuple[str, ...],
                  position_noise_mm: float | None, stated_noise_mm: float,
-                 follows: Array | None = None) -> dict:
+                 follows: NDArray[np.bool_] | None = None) -> dict[str, Any]:
     """The diagnostics a user sees: each with a `warning` (a sentence, or None) and its figures.
 
     e (N, k) residuals in acquisition order, Jq (N, k, n) their joint Jacobian, q_deg (N, n) the
     joint readings, the pose tests, the estimated position noise (None when fixed), the
     instrument's stated noise, and which poses directly follow the previous one (default: all).
     """
-    out: dict = {}
+    out: dict[str, Any] = {}
     # Joint readings that lag the motion: the joint error that would explain each residual,
     # against the previous move of that joint.
     dq = np.degrees(explaining_joint_errors(e, Jq))

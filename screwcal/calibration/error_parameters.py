@@ -31,7 +31,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -194,10 +194,10 @@ class ErrorModel:
         return np.where([p.is_angle for p in self.params], np.radians(v), v)
 
     # -- applying x ------------------------------------------------------------------------
-    def _collect(self, x: Array) -> dict:
+    def _collect(self, x: Array) -> dict[str, Any]:
         m = self.reference
         n = m.n_joints
-        out = {"zero": np.zeros(n), "compliance": np.zeros(n),
+        out: dict[str, Any] = {"zero": np.zeros(n), "compliance": np.zeros(n),
                "compliance_mass": np.zeros((n, len(m.masses))), "link": {},
                "dir": np.zeros((n, 2)), "point": np.zeros((n, 2)),
                "home_rot": np.zeros(3), "home_pos": np.zeros(3), "base_rot": np.zeros(3),

@@ -59,7 +59,7 @@ def check_holes(points: ArrayLike, nominal_distances_mm: ArrayLike | None = None
                 raise FlangeError(f"pose {k}: P{a + 1} and P{b + 1} are {dist:.3f} mm apart: "
                                   "the same hole was probed twice")
         u, v = p[k, 1] - p[k, 0], p[k, 2] - p[k, 0]
-        sin = np.linalg.norm(np.cross(u, v)) / (np.linalg.norm(u) * np.linalg.norm(v))
+        sin = float(np.linalg.norm(np.cross(u, v)) / (np.linalg.norm(u) * np.linalg.norm(v)))
         if sin < np.sin(np.radians(MIN_ANGLE_DEG)):
             raise FlangeError(f"pose {k}: the holes are collinear (angle at P1 "
                               f"{np.degrees(np.arcsin(min(sin, 1.0))):.2f} deg): no frame")

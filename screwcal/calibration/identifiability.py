@@ -9,23 +9,33 @@ from typing import Literal
 
 import numpy as np
 import scipy.linalg
+from numpy.typing import NDArray
 
 from screwcal.calibration.error_parameters import ErrorModel
 from screwcal.kinematics.forward import point_jacobian
 from screwcal.kinematics.se3 import Array
 
+Index = NDArray[np.intp]
 Residual = Literal["pose", "position", "distance"]
 
 RANK_TOL = 1e-7  # relative to the largest singular value of the column-scaled Jacobian
 
 
-def svd(a: Array, compute_uv: bool = True) -> tuple[Array, Array, Array] | Array:
-    """SVD by LAPACK's gesvd: numpy's default (gesdd) took 100+ ms, instead of 1, on the
-    exactly rank-deficient identification Jacobians."""
-    return scipy.linalg.svd(a, full_matrices=False, compute_uv=compute_uv, lapack_driver="gesvd")
+def svd(a: Array) -> tuple[Array, Array, Array]:
+    """Thin SVD (U, s, Vt) by LAPACK's gesvd: numpy's default (gesdd) took 100+ ms, instead of
+    1, on the exactly rank-deficient identification Jacobians."""
+    U, s, Vt = scipy.linalg.svd(a, full_matrices=False, lapack_driver="gesvd")
+    return U, s, Vt
 
 
-def pairs(n: int) -> tuple[Array, Array]:
+def singular_values(a: Array) -> Array:
+    """The singular values of `a`, largest first (gesvd, as `svd`)."""
+    s: Array = scipy.linalg.svd(a, full_matrices=False, compute_uv=False, lapack_driver="gesvd")
+    return s
+
+
+def pairs(n: int) -> tuple[Index, Index]:
+    """The index pairs (i < j) of n points, i and j (n (n - 1) / 2,)."""
     i, j = np.triu_indices(n, k=1)
     return i, j
 
@@ -85,7 +95,7 @@ def _structural_rank(errors: ErrorModel, residual: Residual, samples: int) -> in
     else:
         rows = J[:, : (6 if residual == "pose" else 3)].reshape(-1, J.shape[-1])
     norms = np.linalg.norm(rows, axis=0)
-    s = svd(rows / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    s = singular_values(rows / np.where(norms > 0, norms, 1.0))
     return int(np.sum(s > RANK_TOL * s[0]))
 
 
@@ -93,7 +103,8 @@ def explain_removed(J: Array, keep: Array, removed: Array, names: list[str], nor
                  ) -> list[tuple[str, str]]:
     out = []
     Js = J / np.where(norms > 0, norms, 1.0)
-    coefs = np.linalg.lstsq(Js[:, keep], Js[:, removed], rcond=None)[0] if len(removed) else None
+    coefs = np.linalg.lstsq(Js[:, keep], Js[:, removed], rcond=None)[0] if len(removed) else \
+        np.zeros((len(keep), 0))
     for k, r in enumerate(removed):
         if norms[r] <= 1e-12 * max(norms.max(), 1e-300):
             out.append((names[r], "has no effect on these measurements"))

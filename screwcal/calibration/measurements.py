@@ -106,7 +106,7 @@ def read_measurements_csv(path: str | Path, model: SerialModel, *, joint_unit: s
     positions = table.take(["x", "y", "z"]) * LENGTH_UNITS_MM[length_unit]
     check_units(table.path, model, q_deg, positions, joint_unit, length_unit)
     q = model.joints_from_deg(q_deg)
-    outside = ~model.within_limits(q)
+    outside = np.logical_not(model.within_limits(q))
     if outside.any():
         k = int(np.flatnonzero(outside)[0])
         raise DataFileError(table.path, f"joint values outside the limits of model "

@@ -20,6 +20,7 @@ import numpy as np
 import scipy.linalg
 
 from screwcal.calibration.diagnostics import loo_position_error
+from screwcal.calibration.identifiability import Index
 from screwcal.calibration.identify_result import NoiseEstimate
 from screwcal.calibration.identify_settings import (
     PRIOR_NOISE,
@@ -151,7 +152,7 @@ def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve:
                                                  iteration, converged))
 
 
-def _estimate(theta: Array, idx: Array, information: Array, rows: int, iterations: int,
+def _estimate(theta: Array, idx: Index, information: Array, rows: int, iterations: int,
               converged: bool) -> NoiseEstimate:
     """The levels of the variance components with the standard deviations of the free ones."""
     levels = levels_from_variance(theta)

@@ -14,7 +14,7 @@ singularity. C1 and C2 are plain random draws in their own cubes. Every set is d
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from screwcal.errors import InputError, ScrewcalError
 from screwcal.kinematics.forward import flange_kinematics
@@ -41,7 +41,8 @@ CUBES_MM = {"Klimchik": (850.0, -350.0, 700.0), "C1": (850.0, 350.0, 400.0),
 _WRIST_MARGIN_DEG = 10.0
 
 
-def _in_cube(model: SerialModel, q_rad: Array, centre: ArrayLike, edge: float) -> Array:
+def _in_cube(model: SerialModel, q_rad: Array, centre: ArrayLike, edge: float
+             ) -> NDArray[np.bool_]:
     p = flange_kinematics(model, q_rad)[:, :3, 3]
     return np.all(np.abs(p - np.asarray(centre)) <= edge / 2, axis=1)
 

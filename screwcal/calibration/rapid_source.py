@@ -105,8 +105,9 @@ def _value(node: rapid.Expr, text: str) -> Aggregate | Token:
                                     map(add, node.starts, map(len, node.texts)), strict=True)))
     if type(node) is rapid.Aggregate:
         items = node.items
+        rows = [i for i in items[:3] if isinstance(i, rapid.NumberRow)]
         if len(items) == 4 and all(type(i) is rapid.NumberRow for i in items) and \
-                [len(i.texts) for i in items[:3]] == [3, 4, 4]:
+                [len(i.texts) for i in rows] == [3, 4, 4]:
             # a robtarget: its external axes are never rewritten, not tokenised
             return [_value(items[0], text), _value(items[1], text), _value(items[2], text), []]
         return [_value(i, text) for i in items]

@@ -35,9 +35,10 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
                        "after": result.residuals_after.tolist(),
                        "summary_before": _summary(result.residuals_before),
                        "summary_after": _summary(result.residuals_after)}
-    if result.rotation_after_deg is not None:
-        residuals |= {"rotation_before_deg": result.rotation_before_deg.tolist(),
-                      "rotation_after_deg": result.rotation_after_deg.tolist()}
+    before_deg, after_deg = result.rotation_before_deg, result.rotation_after_deg
+    if before_deg is not None and after_deg is not None:
+        residuals |= {"rotation_before_deg": before_deg.tolist(),
+                      "rotation_after_deg": after_deg.tolist()}
     try:
         correction = joint_correction(result.params, result.values, result.std_errors,
                                       result.model.n_joints).to_dict()

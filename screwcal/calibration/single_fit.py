@@ -23,8 +23,8 @@ from screwcal.calibration.identifiability import (
     Residual,
     explain_removed,
     select_identifiable,
+    singular_values,
     structural_rank,
-    svd,
 )
 from screwcal.calibration.identify_result import CalibrationResult, NoiseEstimate
 from screwcal.calibration.identify_settings import IdentifySettings, resolved_residual
@@ -215,7 +215,7 @@ def _result(chosen: Selection, data: MeasurementSet, residual: Residual,
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     corr = cov / np.outer(np.where(std > 0, std, 1), np.where(std > 0, std, 1))
     col = np.linalg.norm(Jw, axis=0)
-    s = svd(Jw / np.where(col > 0, col, 1), compute_uv=False)
+    s = singular_values(Jw / np.where(col > 0, col, 1))
     to_if = errors.to_interface
     calibrated = errors.apply(x)
     before = pose_errors(chosen.start, data, residual)

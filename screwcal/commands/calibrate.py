@@ -20,7 +20,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 from screwcal.commands.options import (
     check_outputs,
@@ -30,6 +30,7 @@ from screwcal.commands.options import (
 )
 
 if TYPE_CHECKING:
+    from screwcal.calibration.plausible import PlausibleRanges
     from screwcal.kinematics.model import SerialModel
 
 PARTIAL_EXIT = 3  # compensate: some targets refused (listed), the others written
@@ -138,7 +139,7 @@ RANGE_KEYS = {"zero": "zero_deg", "tilt": "tilt_deg", "length": "length_mm",
               "compliance": "compliance_deg_per_knm"}
 
 
-def plausible_ranges(text: str) -> object:
+def plausible_ranges(text: str) -> PlausibleRanges:
     """--plausible zero=5,tilt=1: PlausibleRanges with those fields changed."""
     from screwcal.calibration.plausible import PlausibleRanges
 
@@ -209,7 +210,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     _refuse_position_only(document, args.model)
     if args.rapid:
         return _compensate_rapid(args, calibrated, nominal)
-    frame = "base" if args.targets else "measuring"
+    frame: Literal["base", "measuring"] = "base" if args.targets else "measuring"
     table = read_numeric_csv(source, ["x", "y", "z", "rx", "ry", "rz"])
     T = transform_from_pose(table.take(["x", "y", "z", "rx", "ry", "rz"]))
     comp = compensate_each(calibrated, nominal, T, frame=frame)
@@ -309,11 +310,11 @@ def run_align(args: argparse.Namespace) -> int:
     j1, j2, q1 = read_sweeps_csv(args.sweeps)
     base = base_from_sweeps(nominal, j1, j2, q1)
     c1, c2 = fit_circle(j1), fit_circle(j2)
-    doc = {"robot": nominal.name, "base": pose_document(base),
+    b = pose_document(base)
+    doc = {"robot": nominal.name, "base": b,
            "meaning": "pose of the robot base frame in the measuring system's frame (mm, deg)",
            "j1_circle_rms_mm": c1.rms_mm, "j2_circle_rms_mm": c2.rms_mm}
     write_json_atomic(args.out, doc)
-    b = doc["base"]
     print(f"robot base in the measuring frame: x {b['x']:.3f} y {b['y']:.3f} z {b['z']:.3f} mm, "
           f"rx {b['rx']:.4f} ry {b['ry']:.4f} rz {b['rz']:.4f} deg; circle fits RMS "
           f"{c1.rms_mm:.3f} / {c2.rms_mm:.3f} mm -> {args.out}")

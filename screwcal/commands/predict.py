@@ -28,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
     model = with_payload(resolve_model(args.model), args)
     table = read_numeric_csv(args.joints, joint_columns(model.n_joints))
     q_deg = table.values
-    outside = ~model.within_limits(model.joints_from_deg(q_deg))
+    outside = np.logical_not(model.within_limits(model.joints_from_deg(q_deg)))
     for k in np.flatnonzero(outside)[:5]:
         print(f"warning: {table.path}, line {table.lines[k]}: joints outside the limits of model "
               f"'{model.name}' (predicted anyway)", file=sys.stderr)

@@ -55,7 +55,7 @@ def read_performance_csv(path: str | Path) -> PerformanceData:
     for label in dict.fromkeys(labels):  # first-seen order
         rows = np.flatnonzero(np.array(labels) == label)
         seen: dict[float, int] = {}
-        for r in rows:
+        for r in rows.tolist():
             if cycles[r] in seen:
                 raise DataFileError(table.path, f"point {label} has cycle {cycles[r]:g} twice "
                                     f"(also line {table.lines[seen[cycles[r]]]})",

@@ -64,6 +64,12 @@ def wrap_deg(angle_deg: ArrayLike) -> Array:
     return 180.0 - np.mod(180.0 - a, 360.0)
 
 
+def _triple(v: Array) -> tuple[float, float, float]:
+    """A (3,) array as three floats."""
+    a, b, c = (float(x) for x in v)
+    return a, b, c
+
+
 def pose_metrics(p_cmd_mm: ArrayLike, p_mm: ArrayLike, r_cmd_deg: ArrayLike | None = None,
                  r_deg: ArrayLike | None = None) -> PoseMetrics:
     """ISO 9283 metrics of n >= 2 attained poses p_mm (n, 3) [and r_deg (n, 3)] of one
@@ -81,7 +87,8 @@ def pose_metrics(p_cmd_mm: ArrayLike, p_mm: ArrayLike, r_cmd_deg: ArrayLike | No
     dist = np.linalg.norm(p - mean, axis=1)  # l_j, Eq. 2.6
     l_mean = float(dist.mean())  # Eq. 2.7
     s_l = float(np.std(dist, ddof=1))  # Eq. 2.8
-    ap_abc = rp_abc = None
+    ap_abc: tuple[float, float, float] | None = None
+    rp_abc: tuple[float, float, float] | None = None
     if (r_cmd_deg is None) != (r_deg is None):
         raise InputError("give both commanded and attained orientations, or neither")
     if r_deg is not None:
@@ -92,10 +99,10 @@ def pose_metrics(p_cmd_mm: ArrayLike, p_mm: ArrayLike, r_cmd_deg: ArrayLike | No
                                 f"{r_cmd.shape}")
         r = euler_zyx_deg_near(rotation_from_euler_zyx_deg(r), r_cmd)
         dev = wrap_deg(r - r_cmd)  # attained - commanded, near 0
-        ap_abc = tuple(float(v) for v in dev.mean(axis=0))  # Eq. 2.9
-        rp_abc = tuple(float(3.0 * v) for v in np.std(dev, axis=0, ddof=1))  # Eq. 2.10
+        ap_abc = _triple(dev.mean(axis=0))  # Eq. 2.9
+        rp_abc = _triple(3.0 * np.std(dev, axis=0, ddof=1))  # Eq. 2.10
     return PoseMetrics(n_cycles=n, ap_mm=float(np.linalg.norm(ap_xyz)),
-                       ap_xyz_mm=tuple(float(v) for v in ap_xyz),
+                       ap_xyz_mm=_triple(ap_xyz),
                        rp_mm=l_mean + 3.0 * s_l, rp_thesis_eq2_8_mm=s_l,
                        mean_distance_mm=l_mean, std_distance_mm=s_l,
                        ap_abc_deg=ap_abc, rp_abc_deg=rp_abc)

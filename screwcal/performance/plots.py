@@ -11,10 +11,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 from numpy.typing import ArrayLike
 
 from screwcal.kinematics.forward import joint_positions
@@ -48,7 +50,7 @@ def accuracy_per_point(results: Mapping[str, Mapping[str, PoseMetrics]], path: s
         ap = [metrics[lbl].ap_mm for lbl in labels]
         axes[0, 0].bar(x + k * width, ap, width, label=name, color=colour)
         if has_orientation:
-            norm = [float(np.linalg.norm(metrics[lbl].ap_abc_deg)) for lbl in labels]
+            norm = [float(np.linalg.norm(metrics[lbl].ap_abc_deg or np.nan)) for lbl in labels]
             axes[0, 1].bar(x + k * width, norm, width, label=name, color=colour)
     axes[0, 0].set(title="(a) position accuracy AP (ISO 9283, Eq. 2.5)", ylabel="AP [mm]")
     if has_orientation:
@@ -65,7 +67,8 @@ def accuracy_per_point(results: Mapping[str, Mapping[str, PoseMetrics]], path: s
 def _readable_scale(ax: Axes, ratio: float = 20.0) -> None:
     """A log scale when the tallest bar is `ratio` times the shortest: an "after" 100x smaller
     than "before" stays visible."""
-    heights = np.array([b.get_height() for b in ax.patches], float)
+    heights = np.array([b.get_height() for b in ax.patches if isinstance(b, Rectangle)],
+                       dtype=np.float64)
     heights = heights[heights > 0]
     if heights.size and heights.max() > ratio * heights.min():
         ax.set_yscale("log")
@@ -143,8 +146,8 @@ def test_cube(model: SerialModel, cube: TestCube, q_p1_rad: ArrayLike, path: str
     views = [(ax3, (0, 1, 2)), (fig.add_subplot(1, 3, 2), (0, 2)),
              (fig.add_subplot(1, 3, 3), (0, 1))]
     for ax, dims in views:
-        def draw(xyz: np.ndarray, *args: object, ax: Axes = ax, dims: tuple = dims,
-                 **kw: object) -> None:
+        def draw(xyz: np.ndarray, *args: str, ax: Axes = ax, dims: tuple[int, ...] = dims,
+                 **kw: Any) -> None:
             ax.plot(*[xyz[:, d] for d in dims], *args, **kw)
 
         for i, j in edges:

@@ -104,7 +104,7 @@ def _margins(model: SerialModel, poses: Array, wrist_margin_deg: float
     lim = np.degrees(model.limits)
     qd = np.degrees(np.nan_to_num(q))
     margin = np.minimum(qd - lim[:, 0], lim[:, 1] - qd).min(axis=1)
-    bad = ~sol.reachable[:, _BRANCH] | (np.abs(qd[:, 4]) < wrist_margin_deg)
+    bad = np.logical_not(sol.reachable[:, _BRANCH]) | (np.abs(qd[:, 4]) < wrist_margin_deg)
     margin = np.where(bad, -np.inf, margin)
     return q.reshape(*shape, 6), margin.reshape(shape).min(axis=-1)
 
@@ -197,7 +197,7 @@ def performance_pose_list(model: SerialModel, cube: TestCube, cycles: int = 30
                                   f"model '{model.name}' on one IK branch")
     model.check_limits(q, "performance pose")
     q_deg = np.degrees(q)
-    plans = []
+    plans: list[PosePlan] = []
     for cycle in range(1, cycles + 1):
         for k, (label, role) in enumerate(order):
             plans.append(PosePlan(index=len(plans), cycle=cycle, point=label, role=role,
