@@ -43,7 +43,7 @@ from service.schemas import (
     RobotPublic,
 )
 from service.settings import ServiceSettings
-from service.store import Store
+from service.store import Store, open_store
 
 TERMINAL = ("done", "failed", "aborted")
 
@@ -104,7 +104,7 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        own = store if store is not None else Store(settings.db_path)
+        own = store if store is not None else open_store(settings)
         manager = JobManager(own, settings, on_fatal=on_fatal)
         app.state.store, app.state.manager, app.state.settings = own, manager, settings
         app.state.planning = set()  # robots whose job is being planned by a request now

@@ -1,6 +1,7 @@
 """`screwcal serve` (the job service) and `screwcal job ...` (the operator's client).
 
-    screwcal serve [--db screwcal.db] [--host 127.0.0.1] [--port 8080] [--token T]
+    screwcal serve [--db screwcal.db | postgresql://...] [--host 127.0.0.1] [--port 8080]
+                   [--token T]
     screwcal job robot-add --name N --controller HOST:PORT --arm URL [--model irb1600]
     screwcal job start --robot ID --kind procedure|calibration|performance [--mode STEP]
     screwcal job watch ID        # progress; in STEP mode asks before every move
@@ -45,14 +46,17 @@ def serve(settings: ServiceSettings, announce: Callable[[str], None] = print) ->
 
     server = bind(settings)
     host, port = server.address
-    announce(f"screwcal service on http://{host}:{port} (database {settings.db_path})")
+    announce(f"screwcal service on http://{host}:{port} (database {server.store.label})")
     sys.stdout.flush()
     asyncio.run(server.serve())
     return 1 if server.fatal else 0
 
 
 def run_serve(args: argparse.Namespace) -> int:
-    overrides = {k: v for k, v in (("db_path", args.db), ("host", args.host),
+    from service.database import is_postgres_url
+
+    db_key = "db_url" if is_postgres_url(args.db or "") else "db_path"
+    overrides = {k: v for k, v in ((db_key, args.db), ("host", args.host),
                                    ("port", args.port), ("token", args.token)) if v is not None}
     from service.settings import ServiceSettings
 
@@ -396,9 +400,12 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    s = sub.add_parser("serve", help="run the job service (REST, SQLite)", description=__doc__,
+    s = sub.add_parser("serve", help="run the job service (REST; SQLite or PostgreSQL)",
+                       description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
-    s.add_argument("--db", type=Path, default=None, help="SQLite file (default screwcal.db)")
+    s.add_argument("--db", default=None, help="SQLite file (default screwcal.db), or a "
+                   "postgresql://user@host/name URL: several services may share a PostgreSQL "
+                   "database, each job held by one of them (SCREWCAL_LEASE_S)")
     s.add_argument("--host", default=None, help="bind address (default 127.0.0.1)")
     s.add_argument("--port", type=int, default=None, help="port (default 8080; 0: free one)")
     s.add_argument("--token", default=None, help="bearer token (or SCREWCAL_TOKEN)")

@@ -3,11 +3,13 @@
     ServiceError
     ├── NotFoundError      no such robot or job (HTTP 404)
     ├── ConflictError      the request does not fit the job's state (HTTP 409)
+    │   └── LeaseLostError     another service holds the job now (its lease expired here)
     ├── SafetyError        a target or correction refused before anything is sent (HTTP 422)
     └── StoreError         the database cannot be used (HTTP 503)
         ├── StoreBusyError     another live service holds the database file
         ├── StoreFullError     the disk (or the database's size limit) is full: jobs pause
-        └── StoreLostError     the database file was deleted or replaced under the service
+        ├── StoreLostError     the database file was deleted or replaced under the service
+        └── SchemaTooNewError  a newer release wrote the database: this one must not
 """
 
 
@@ -21,6 +23,10 @@ class NotFoundError(ServiceError):
 
 class ConflictError(ServiceError):
     pass
+
+
+class LeaseLostError(ConflictError):
+    """This service no longer holds the job: a runner that gets this changes nothing more."""
 
 
 class SafetyError(ServiceError):
@@ -40,4 +46,8 @@ class StoreFullError(StoreError):
 
 
 class StoreLostError(StoreError):
+    pass
+
+
+class SchemaTooNewError(StoreError):
     pass

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 from service.errors import ServiceError
 from service.settings import ServiceSettings
-from service.store import Store
+from service.store import Store, open_store
 
 DESCRIPTORS_WANTED = 8192  # slow clients must not exhaust the 1024 a shell gives by default
 
@@ -64,7 +64,7 @@ def bind(settings: ServiceSettings, port: int | None = None) -> Server:
     """Open the store (StoreBusyError when another service holds it), then bind the port
     (ServiceError saying so when it is taken)."""
     raise_descriptor_limit()
-    store = Store(settings.db_path)
+    store = open_store(settings)
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     want = settings.port if port is None else port

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pydantic import Field
+from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 
@@ -12,6 +12,15 @@ class ServiceSettings(BaseSettings):
     model_config = SettingsConfigDict(env_prefix="SCREWCAL_")
 
     db_path: Path = Field(Path("screwcal.db"), description="the SQLite database file")
+    db_url: str = Field("", description="a postgresql:// URL: the job store on PostgreSQL, "
+                        "where several services may share one database; empty: the SQLite "
+                        "file db_path")
+    lease_s: float = Field(10.0, gt=0, description="how long this service holds a job "
+                           "unrenewed (it renews every third of this while it lives): how soon "
+                           "another service on the same database resumes the jobs of one that "
+                           "died")
+    instance: str = Field("", description="this service's name on the jobs it holds; empty: "
+                          "host:pid:random")
     host: str = Field("127.0.0.1", description="bind address: loopback unless told otherwise")
     port: int = 8080
     token: str = Field("", description="bearer token required to move a robot or change data, "
@@ -41,3 +50,16 @@ class ServiceSettings(BaseSettings):
                                     "request within this is disconnected")
     max_connections: int = Field(200, ge=8, description="open connections beyond which new "
                                  "ones are answered 503 at once (the operator's room)")
+
+    @field_validator("db_url")
+    @classmethod
+    def _postgres_only(cls, value: str) -> str:
+        if value and not value.startswith(("postgresql://", "postgres://")):
+            raise ValueError(f"db_url must be a postgresql:// URL (got {value.split(':')[0]}:..."
+                             "); a SQLite database is a file path (db_path)")
+        return value
+
+    @property
+    def db_target(self) -> str | Path:
+        """Where the store is: the PostgreSQL URL when one is set, else the SQLite file."""
+        return self.db_url or self.db_path

@@ -1,64 +1,76 @@
-"""The job store: a SQLite file, created and migrated by the service itself.
+"""The job store: SQLite (one file, the default) or PostgreSQL (several services on one
+database), created and migrated by the service itself (service/database.py says what differs).
 
 Every measurement is committed (one transaction) before the robot is allowed to move on; a job's
 remaining poses are always derived from what is committed, so a restart after a crash resumes
 with nothing lost and nothing measured twice (UNIQUE(job, phase, idx)).
 
-One owner: a service holds an exclusive lock on `<db>.owner` (flock: the OS releases it when the
-process dies) and a second service on the same file refuses to start, naming the holder's pid.
+Who may run a job: the service holding its lease (jobs.holder, jobs.lease_expires on the
+database's clock). A service takes the jobs it creates, renews its leases while it lives
+(`renew`), and adopts an unfinished job whose lease has expired (`take`): a service killed
+mid-job is replaced by another after one lease, at the pose the job waits for. Every write of
+a runner (claim_step, set_state, finish_step, add_measurement, set_result, fail) is checked
+against the lease in its own transaction, so a runner that lost its job (frozen past its
+lease) changes nothing and moves nothing more (LeaseLostError); each measurement renews it.
+
+On SQLite one service owns the file besides (flock on `<db>.owner`, released by the OS when the
+process dies; a second service refuses to start, naming the holder's pid); holding it, the
+service knows every earlier holder is dead and takes their jobs at once.
 The database itself holds the rules that a stale or second runner must not break: robot names
 are unique, a robot has at most one unfinished job (a partial unique index checked in the very
 transaction that inserts the job), and a job's step is claimed by compare-and-set
 (`claim_step`), so a step that changes the robot (ZERO) can never be started twice.
 
-Faults of the disk: SQLITE_FULL is a `StoreFullError` (jobs pause, nothing committed is lost); a
-database file deleted or replaced under the service is a `StoreLostError` before any write.
+Faults: a full disk is a `StoreFullError` (jobs pause, nothing committed is lost); a SQLite file
+deleted or replaced under the service, or a PostgreSQL connection lost, is a `StoreLostError`.
 """
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import json
 import os
-import sqlite3
-import threading
+import socket
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
+import uuid
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from service.database import Database, open_database
 from service.document import JobRecord, PhaseRecord, ResultDocument
 from service.errors import (
     ConflictError,
+    LeaseLostError,
     NotFoundError,
-    StoreBusyError,
-    StoreError,
-    StoreFullError,
-    StoreLostError,
+    SchemaTooNewError,
 )
 
-SCHEMA_VERSION = 2
+if TYPE_CHECKING:
+    from service.settings import ServiceSettings
+
+SCHEMA_VERSION = 3
 UNFINISHED = ("queued", "running", "paused")
 _UNFINISHED_SQL = "(" + ", ".join(f"'{s}'" for s in UNFINISHED) + ")"  # in queries, not in
 # the migrations (a migration is history: it keeps the states it was written with)
+DEFAULT_LEASE_S = 10.0
+# Each migration is written once for both databases: {pk}, {int} and {real} are the column
+# types of the database it runs on (service/database.py). Never edit one that was released:
+# add the next.
 _MIGRATIONS = {
     1: """
     CREATE TABLE robots (
-        id INTEGER PRIMARY KEY, name TEXT NOT NULL, controller_host TEXT NOT NULL,
-        controller_port INTEGER NOT NULL, arm_url TEXT NOT NULL, model TEXT NOT NULL,
-        holes_mm TEXT NOT NULL, created REAL NOT NULL);
+        id {pk}, name TEXT NOT NULL, controller_host TEXT NOT NULL,
+        controller_port {int} NOT NULL, arm_url TEXT NOT NULL, model TEXT NOT NULL,
+        holes_mm TEXT NOT NULL, created {real} NOT NULL);
     CREATE TABLE jobs (
-        id INTEGER PRIMARY KEY, robot_id INTEGER NOT NULL REFERENCES robots(id),
+        id {pk}, robot_id {int} NOT NULL REFERENCES robots(id),
         kind TEXT NOT NULL, mode TEXT NOT NULL, state TEXT NOT NULL, reason TEXT NOT NULL,
-        options TEXT NOT NULL, phases TEXT NOT NULL, result TEXT, created REAL NOT NULL,
-        updated REAL NOT NULL);
+        options TEXT NOT NULL, phases TEXT NOT NULL, result TEXT, created {real} NOT NULL,
+        updated {real} NOT NULL);
     CREATE TABLE measurements (
-        id INTEGER PRIMARY KEY, job_id INTEGER NOT NULL REFERENCES jobs(id),
-        phase TEXT NOT NULL, idx INTEGER NOT NULL, joints_deg TEXT NOT NULL,
+        id {pk}, job_id {int} NOT NULL REFERENCES jobs(id),
+        phase TEXT NOT NULL, idx {int} NOT NULL, joints_deg TEXT NOT NULL,
         tool0 TEXT NOT NULL, holes_mm TEXT NOT NULL, flange_pose TEXT NOT NULL,
-        created REAL NOT NULL, UNIQUE (job_id, phase, idx));
+        created {real} NOT NULL, UNIQUE (job_id, phase, idx));
     """,
     # Version 2: the rules the database itself holds (a database of version 1 is brought to them:
     # a repeated robot name gets its id appended, and of several unfinished jobs of one robot
@@ -75,10 +87,16 @@ _MIGRATIONS = {
     CREATE UNIQUE INDEX jobs_one_unfinished_per_robot ON jobs(robot_id)
         WHERE state IN ('queued', 'running', 'paused');
     """,
+    # Version 3: the lease of a job (several services on one database). The jobs of an older
+    # database have no holder: the first service to open it takes them.
+    3: """
+    ALTER TABLE jobs ADD COLUMN holder TEXT;
+    ALTER TABLE jobs ADD COLUMN lease_expires {real};
+    """,
 }
 
 
-def _row(row: sqlite3.Row | None, what: str) -> dict[str, Any]:
+def _row(row: dict[str, Any] | None, what: str) -> dict[str, Any]:
     if row is None:
         raise NotFoundError(f"no such {what}")
     out = dict(row)
@@ -89,169 +107,187 @@ def _row(row: sqlite3.Row | None, what: str) -> dict[str, Any]:
     return out
 
 
-def _row_id(cursor: sqlite3.Cursor) -> int:
-    """The id SQLite gave the row an INSERT just added."""
-    if cursor.lastrowid is None:  # only when the statement inserted nothing
-        raise StoreError("the database inserted no row")
-    return int(cursor.lastrowid)
+def open_store(settings: ServiceSettings) -> Store:
+    """The store the settings name (SQLite file or PostgreSQL URL), with their lease."""
+    return Store(settings.db_target, holder=settings.instance or None, lease_s=settings.lease_s)
 
 
-def _hold_owner_lock(path: Path) -> int:
-    """An exclusive flock on `<db>.owner` with this process's pid in it; StoreBusyError naming
-    the holder when another live process has it."""
-    lock_path = path.with_name(path.name + ".owner")
-    fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
-        os.close(fd)
-        raise StoreBusyError(
-            f"the database {path} is in use by another screwcal service (pid {holder}): stop "
-            "it, or give this one its own --db") from None
-    os.ftruncate(fd, 0)
-    os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-    return fd
-
-
-def _identity(path: Path) -> tuple[int, int]:
-    st = os.stat(path)
-    return st.st_dev, st.st_ino
+def instance_name() -> str:
+    """This service's name as a lease holder: host, pid and a random part (a pid is reused)."""
+    return f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:6]}"
 
 
 class Store:
-    def __init__(self, path: str | Path):
-        self.path = Path(path)
-        self._lock = threading.Lock()
-        self._owner_fd = _hold_owner_lock(self.path)
+    """`target`: a SQLite file path, or a postgresql:// URL. `holder`: this service's name on
+    the leases it takes (unique per process by default); `lease_s`: how long a lease lasts
+    unrenewed, i.e. how soon another service adopts the jobs of one that died."""
+
+    def __init__(self, target: str | Path, holder: str | None = None,
+                 lease_s: float = DEFAULT_LEASE_S):
+        self.holder = holder or instance_name()
+        self.lease_s = float(lease_s)
+        self.db: Database = open_database(target)
+        self.path = getattr(self.db, "path", None)
         try:
-            self._db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None)
-            self._db.row_factory = sqlite3.Row
-            self._db.execute("PRAGMA journal_mode=WAL")
-            self._db.execute("PRAGMA synchronous=FULL")  # a committed measurement survives SIGKILL
-            self._db.execute("PRAGMA foreign_keys=ON")
-            self._file = _identity(self.path)
             self._migrate()
+            if self.db.holders_gone():
+                with self.db.tx() as db:
+                    db.execute("UPDATE jobs SET holder = NULL, lease_expires = NULL "
+                               "WHERE holder IS NOT NULL")
         except BaseException:
-            os.close(self._owner_fd)
+            self.db.close()
             raise
 
+    @property
+    def label(self) -> str:
+        return self.db.label
+
     def close(self) -> None:
-        self._db.close()
-        with contextlib.suppress(OSError):
-            os.close(self._owner_fd)
+        self.db.close()
 
     def check_file(self) -> None:
-        """StoreLostError when the database file was deleted or replaced since it was opened
-        (what this service writes would go nowhere, or into another file)."""
-        try:
-            same = _identity(self.path) == self._file
-        except FileNotFoundError:
-            raise StoreLostError(f"the database file {self.path} was deleted while the service "
-                                 "ran: nothing more can be committed; the service stops") from None
-        if not same:
-            raise StoreLostError(f"the database file {self.path} was replaced while the service "
-                                 "ran: nothing more can be committed; the service stops")
+        """StoreLostError when the database can no longer be written (a SQLite file deleted
+        or replaced since it was opened: what this service writes would go nowhere)."""
+        self.db.check()
 
     def _migrate(self) -> None:
-        version = self._db.execute("PRAGMA user_version").fetchone()[0]
-        for v in range(version + 1, SCHEMA_VERSION + 1):
-            # executescript commits by itself: the script carries its own transaction.
-            with self._lock:
-                self._db.executescript(f"BEGIN IMMEDIATE; {_MIGRATIONS[v]} "
-                                       f"PRAGMA user_version={v}; COMMIT;")
+        version = self.db.schema_version()
+        if version > SCHEMA_VERSION:
+            raise SchemaTooNewError(
+                f"the database {self.db.label} has schema version {version}, newer than this "
+                f"release's {SCHEMA_VERSION}: a newer screwcal wrote it; upgrade this one")
+        self.db.migrate(_MIGRATIONS, SCHEMA_VERSION)
 
-    @contextmanager
-    def _tx(self) -> Iterator[sqlite3.Connection]:
-        with self._lock:
-            self.check_file()
-            try:
-                self._db.execute("BEGIN IMMEDIATE")
-                try:
-                    yield self._db
-                    self._db.execute("COMMIT")
-                except BaseException:
-                    # SQLite may have rolled back by itself (SQLITE_FULL): a second ROLLBACK
-                    # would raise "no transaction is active" and hide the real cause.
-                    if self._db.in_transaction:
-                        self._db.execute("ROLLBACK")
-                    raise
-            except sqlite3.OperationalError as err:
-                if getattr(err, "sqlite_errorcode", None) == sqlite3.SQLITE_FULL:
-                    raise StoreFullError(
-                        f"the disk holding {self.path} is full (SQLite: {err}): free space, "
-                        "then restart the service; the job resumes where it stopped") from err
-                raise
+    def schema_version(self) -> int:
+        return self.db.schema_version()
 
     # -- robots --------------------------------------------------------------------------------
     def add_robot(self, name: str, controller_host: str, controller_port: int, arm_url: str,
                   model: dict, holes_mm: list) -> dict:
         try:
-            with self._tx() as db:
-                cur = db.execute(
+            with self.db.tx() as db:
+                rid = db.execute(
                     "INSERT INTO robots (name, controller_host, controller_port, arm_url, model, "
-                    "holes_mm, created) VALUES (?, ?, ?, ?, ?, ?, ?)",
+                    "holes_mm, created) VALUES (?, ?, ?, ?, ?, ?, ?) RETURNING id",
                     (name, controller_host, controller_port, arm_url, json.dumps(model),
-                     json.dumps(holes_mm), time.time()))
-                rid = _row_id(cur)
-        except sqlite3.IntegrityError:
+                     json.dumps(holes_mm), time.time())).fetchone()["id"]
+        except self.db.integrity_errors:
             other = self.robot_named(name)
             raise ConflictError(f"a robot named {name!r} exists already (robot {other['id']}): "
                                 "robot names are unique") from None
-        return self.robot(rid)
+        return self.robot(int(rid))
 
     def robot(self, robot_id: int) -> dict:
-        return _row(self._db.execute("SELECT * FROM robots WHERE id = ?", (robot_id,))
-                    .fetchone(), f"robot {robot_id}")
+        return _row(self.db.row("SELECT * FROM robots WHERE id = ?", (robot_id,)),
+                    f"robot {robot_id}")
 
     def robot_named(self, name: str) -> dict:
-        return _row(self._db.execute("SELECT * FROM robots WHERE name = ?", (name,)).fetchone(),
+        return _row(self.db.row("SELECT * FROM robots WHERE name = ?", (name,)),
                     f"robot named {name!r}")
 
     def robots(self) -> list[dict]:
-        return [_row(r, "robot") for r in self._db.execute("SELECT * FROM robots ORDER BY id")]
+        return [_row(r, "robot") for r in self.db.rows("SELECT * FROM robots ORDER BY id")]
 
     # -- jobs ----------------------------------------------------------------------------------
     def add_job(self, robot_id: int, kind: str, mode: str, options: dict) -> JobRecord:
-        """A new queued job; ConflictError when the robot has an unfinished job (the database's
-        unique index decides, in the inserting transaction: no race between services)."""
+        """A new queued job, held by this service; ConflictError when the robot has an
+        unfinished job (the database's unique index decides, in the inserting transaction: no
+        race between services)."""
         self.robot(robot_id)
         now = time.time()
         try:
-            with self._tx() as db:
-                cur = db.execute(
+            with self.db.tx() as db:
+                jid = db.execute(
                     "INSERT INTO jobs (robot_id, kind, mode, state, reason, options, phases, "
-                    "created, updated) VALUES (?, ?, ?, 'queued', '', ?, '{}', ?, ?)",
-                    (robot_id, kind, mode, json.dumps(options), now, now))
-                jid = _row_id(cur)
-        except sqlite3.IntegrityError:
+                    "created, updated, holder, lease_expires) VALUES (?, ?, ?, 'queued', '', ?, "
+                    f"'{{}}', ?, ?, ?, {self.db.now_sql} + ?) RETURNING id",
+                    (robot_id, kind, mode, json.dumps(options), now, now, self.holder,
+                     self.lease_s)).fetchone()["id"]
+        except self.db.integrity_errors:
             busy = self.unfinished_job(robot_id)
             raise ConflictError(f"robot {robot_id} is busy with job {busy}: wait for it to end "
                                 f"or abort it (screwcal job abort {busy})") from None
-        return self.job(jid)
+        return self.job(int(jid))
 
     def unfinished_job(self, robot_id: int) -> int | None:
-        row = self._db.execute(
+        row = self.db.row(
             f"SELECT id FROM jobs WHERE robot_id = ? AND state IN {_UNFINISHED_SQL}",
-            (robot_id,)).fetchone()
-        return None if row is None else int(row[0])
+            (robot_id,))
+        return None if row is None else int(row["id"])
 
     def unfinished_jobs(self) -> list[int]:
         """The ids of every unfinished job, oldest first."""
-        return [int(r[0]) for r in self._db.execute(
+        return [int(r["id"]) for r in self.db.rows(
             f"SELECT id FROM jobs WHERE state IN {_UNFINISHED_SQL} ORDER BY id")]
+
+    # -- leases --------------------------------------------------------------------------------
+    def take(self, job_id: int) -> bool:
+        """Hold this unfinished job when nobody does or its holder's lease has expired (or it
+        is ours already): True when this service holds it now."""
+        with self.db.tx() as db:
+            cur = db.execute(
+                f"UPDATE jobs SET holder = ?, lease_expires = {self.db.now_sql} + ? "
+                f"WHERE id = ? AND state IN {_UNFINISHED_SQL} AND (holder IS NULL OR "
+                f"holder = ? OR lease_expires < {self.db.now_sql})",
+                (self.holder, self.lease_s, job_id, self.holder))
+            return bool(cur.rowcount)
+
+    def renew(self) -> set[int]:
+        """Extend the leases of every unfinished job this service holds; their ids (a job
+        missing from them is held by another service now, or ended)."""
+        with self.db.tx() as db:
+            rows = db.execute(
+                f"UPDATE jobs SET lease_expires = {self.db.now_sql} + ? WHERE holder = ? AND "
+                f"state IN {_UNFINISHED_SQL} RETURNING id", (self.lease_s, self.holder)
+            ).fetchall()
+        return {int(r["id"]) for r in rows}
+
+    def release(self) -> None:
+        """Let go of every job this service holds (a clean stop: another service may adopt
+        them at once instead of after the lease)."""
+        with self.db.tx() as db:
+            db.execute("UPDATE jobs SET holder = NULL, lease_expires = NULL WHERE holder = ?",
+                       (self.holder,))
+
+    def adoptable(self) -> list[int]:
+        """The unfinished jobs nobody holds: no holder, or the holder's lease expired."""
+        return [int(r["id"]) for r in self.db.rows(
+            f"SELECT id FROM jobs WHERE state IN {_UNFINISHED_SQL} AND (holder IS NULL OR "
+            f"lease_expires < {self.db.now_sql}) ORDER BY id")]
+
+    def lease_of(self, job_id: int) -> tuple[str | None, float]:
+        """Who holds the job and for how many more seconds (negative: expired)."""
+        row = _row(self.db.row(
+            f"SELECT holder, lease_expires - {self.db.now_sql} AS left_s FROM jobs WHERE id = ?",
+            (job_id,)), f"job {job_id}")
+        return row["holder"], float(row["left_s"] if row["left_s"] is not None else -1.0)
+
+    def _check_held(self, db: Database, job_id: int) -> str:
+        """Inside a transaction: the job's state, locked for update; LeaseLostError when another
+        service holds it, ConflictError when it has ended."""
+        row = db.execute(f"SELECT state, holder, phases FROM jobs WHERE id = ?"
+                         f"{self.db.for_update}", (job_id,)).fetchone()
+        if row is None:
+            raise NotFoundError(f"no such job {job_id}")
+        if row["holder"] != self.holder:
+            raise LeaseLostError(f"job {job_id} is held by the service {row['holder']} now, not "
+                                 f"this one ({self.holder}): this runner is stale and changes "
+                                 "nothing")
+        return row["phases"]
 
     def claim_step(self, job_id: int, step: str) -> dict[str, PhaseRecord]:
         """Mark `step` started, in one transaction that re-reads the job's phases: returns the
         phases as they were before (a runner decides from these, never from its own copy).
-        ConflictError when the job is no longer unfinished (another runner ended it)."""
-        with self._tx() as db:
-            row = db.execute("SELECT state, phases FROM jobs WHERE id = ?", (job_id,)).fetchone()
+        ConflictError when the job is no longer unfinished (another runner ended it) or another
+        service holds it."""
+        with self.db.tx() as db:
+            row = db.execute(f"SELECT state FROM jobs WHERE id = ?{self.db.for_update}",
+                             (job_id,)).fetchone()
             if row is None:
                 raise NotFoundError(f"no such job {job_id}")
             if row["state"] not in UNFINISHED:
                 raise ConflictError(f"job {job_id} is {row['state']}: this runner is stale")
-            phases = json.loads(row["phases"])
+            phases = json.loads(self._check_held(db, job_id))
             if not phases.get(step, {}).get("done"):
                 new = {**phases, step: {**phases.get(step, {}), "started": True}}
                 db.execute("UPDATE jobs SET phases = ?, updated = ? WHERE id = ?",
@@ -259,30 +295,36 @@ class Store:
         return {k: PhaseRecord.model_validate(v) for k, v in phases.items()}
 
     def job(self, job_id: int) -> JobRecord:
-        return JobRecord.model_validate(_row(self._db.execute(
-            "SELECT * FROM jobs WHERE id = ?", (job_id,)).fetchone(), f"job {job_id}"))
+        return JobRecord.model_validate(_row(self.db.row(
+            "SELECT * FROM jobs WHERE id = ?", (job_id,)), f"job {job_id}"))
 
     def jobs(self) -> list[JobRecord]:
-        rows = self._db.execute("SELECT * FROM jobs ORDER BY id").fetchall()
-        return [JobRecord.model_validate(_row(r, "job")) for r in rows]
+        return [JobRecord.model_validate(_row(r, "job"))
+                for r in self.db.rows("SELECT * FROM jobs ORDER BY id")]
 
     def set_result(self, job_id: int, result: ResultDocument) -> JobRecord:
-        """Store the job's result document (the sections set in it)."""
-        with self._tx() as db:
+        """Store the job's result document (the sections set in it), only while this service
+        holds the job."""
+        with self.db.tx() as db:
+            self._check_held(db, job_id)
             db.execute("UPDATE jobs SET result = ?, updated = ? WHERE id = ?",
                        (json.dumps(result.document()), time.time(), job_id))
         return self.job(job_id)
 
     def fail(self, job_id: int, reason: str) -> None:
-        """A job that cannot run, whatever its state (its records cannot make a runner)."""
-        with self._tx() as db:
+        """A job that cannot run, whatever its state (its records cannot make a runner), only
+        while this service holds it."""
+        with self.db.tx() as db:
+            self._check_held(db, job_id)
             db.execute("UPDATE jobs SET state = 'failed', reason = ?, updated = ? WHERE id = ?",
                        (reason, time.time(), job_id))
 
     def set_state(self, job_id: int, state: str, reason: str) -> JobRecord:
-        """A runner's state change, only while the job is unfinished: ConflictError when another
-        runner (or service) has ended it, so a stale runner never revives a finished job."""
-        with self._tx() as db:
+        """A runner's state change, only while the job is unfinished and held by this service:
+        ConflictError when another runner (or service) has ended or taken it, so a stale runner
+        never revives a finished job."""
+        with self.db.tx() as db:
+            self._check_held(db, job_id)
             cur = db.execute(
                 f"UPDATE jobs SET state = ?, reason = ?, updated = ? WHERE id = ? AND state IN "
                 f"{_UNFINISHED_SQL}", (state, reason, time.time(), job_id))
@@ -293,17 +335,22 @@ class Store:
 
     def finish_step(self, job_id: int, step: str, seconds: float) -> None:
         """Mark `step` done, merged into the phases as stored now."""
-        with self._tx() as db:
-            row = db.execute("SELECT phases FROM jobs WHERE id = ?", (job_id,)).fetchone()
-            phases = {**json.loads(row["phases"]), step: {"done": True, "seconds": seconds}}
+        with self.db.tx() as db:
+            phases = {**json.loads(self._check_held(db, job_id)),
+                      step: {"done": True, "seconds": seconds}}
             db.execute("UPDATE jobs SET phases = ?, updated = ? WHERE id = ?",
                        (json.dumps(phases), time.time(), job_id))
 
     # -- measurements ----------------------------------------------------------------------------
     def add_measurement(self, job_id: int, phase: str, idx: int, joints_deg: list,
                         tool0: list, holes_mm: list, flange_pose: list) -> None:
-        """Commit one pose (its own transaction). A pose already stored is an error."""
-        with self._tx() as db:
+        """Commit one pose (its own transaction), renewing the job's lease: LeaseLostError when
+        another service holds the job (the robot must not be moved on), an integrity error when
+        the pose is stored already."""
+        with self.db.tx() as db:
+            self._check_held(db, job_id)
+            db.execute(f"UPDATE jobs SET lease_expires = {self.db.now_sql} + ? WHERE id = ?",
+                       (self.lease_s, job_id))
             db.execute(
                 "INSERT INTO measurements (job_id, phase, idx, joints_deg, tool0, holes_mm, "
                 "flange_pose, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
@@ -316,15 +363,14 @@ class Store:
         if phase is not None:
             sql += " AND phase = ?"
             args += (phase,)
-        return [_row(r, "measurement") for r in self._db.execute(sql + " ORDER BY phase, idx",
-                                                                 args)]
+        return [_row(r, "measurement") for r in self.db.rows(sql + " ORDER BY phase, idx", args)]
 
     def last_measurement(self, job_id: int) -> dict | None:
         """The pose this job committed last (in any phase), or None."""
-        row = self._db.execute("SELECT * FROM measurements WHERE job_id = ? ORDER BY id DESC "
-                               "LIMIT 1", (job_id,)).fetchone()
+        row = self.db.row("SELECT * FROM measurements WHERE job_id = ? ORDER BY id DESC LIMIT 1",
+                          (job_id,))
         return None if row is None else _row(row, "measurement")
 
     def measured_indices(self, job_id: int, phase: str) -> set[int]:
-        return {r[0] for r in self._db.execute(
+        return {int(r["idx"]) for r in self.db.rows(
             "SELECT idx FROM measurements WHERE job_id = ? AND phase = ?", (job_id, phase))}

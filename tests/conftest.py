@@ -54,3 +54,29 @@ def random_q(model: SerialModel, rng: np.random.Generator, n: int) -> np.ndarray
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20181122)
+
+
+# -- the job store's two databases ------------------------------------------------------------
+@pytest.fixture(scope="session")
+def postgres_server():
+    """A real PostgreSQL server on a private socket for the session (tests/postgres_server.py);
+    skipped, saying how to install it, where its binaries are missing."""
+    from tests.postgres_server import INSTALL, PostgresServer, find_bin_dir
+
+    bin_dir = find_bin_dir()
+    if bin_dir is None:
+        pytest.skip(f"no PostgreSQL server (initdb, pg_ctl, postgres): install it with "
+                    f"`{INSTALL}`")
+    server = PostgresServer(bin_dir)
+    server.start()
+    yield server
+    server.stop()
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def db_target(request, tmp_path):
+    """Where a job store lives, once per database: a SQLite file, or a fresh PostgreSQL
+    database's URL."""
+    if request.param == "sqlite":
+        return tmp_path / "jobs.db"
+    return request.getfixturevalue("postgres_server").new_database()

@@ -4,6 +4,7 @@ them; the service itself never imports them), the service through httpx's ASGI t
 from __future__ import annotations
 
 import contextlib
+import sqlite3
 
 import httpx
 import pytest
@@ -69,3 +70,18 @@ async def add_robot(http, rig) -> int:
         "arm_url": rig.arm.url})
     assert r.status_code == 201, r.text
     return r.json()["id"]
+
+
+def peek(db_target, sql: str, args: tuple = ()) -> list[tuple]:
+    """Rows read straight from a service's database (SQLite file or PostgreSQL URL) while the
+    service runs, beside it (a Store would take the SQLite owner lock); `?` placeholders."""
+    if isinstance(db_target, str) and db_target.startswith("postgresql://"):
+        import psycopg
+
+        with psycopg.connect(db_target) as con:
+            return [tuple(r) for r in con.execute(sql.replace("?", "%s"), args).fetchall()]
+    con = sqlite3.connect(db_target)
+    try:
+        return [tuple(r) for r in con.execute(sql, args).fetchall()]
+    finally:
+        con.close()

@@ -159,8 +159,8 @@ def test_disk_full_is_said_as_such_and_loses_nothing_committed(tmp_path):
                             [[0, 0, 0], [10, 0, 0], [0, 10, 0]])
     job = store.add_job(robot["id"], "calibration", "AUTO", {})
     store.add_measurement(job.id, "cal", 0, [0.0] * 6, [0.0] * 7, [[0.0] * 3] * 3, [0.0] * 6)
-    pages = store._db.execute("PRAGMA page_count").fetchone()[0]
-    store._db.execute(f"PRAGMA max_page_count = {pages}")  # the disk is full now
+    pages = store.db.row("PRAGMA page_count")["page_count"]
+    store.db.execute(f"PRAGMA max_page_count = {pages}")  # the disk is full now
     big = [[float(i)] * 3 for i in range(3)]
     with pytest.raises(StoreFullError, match="full"):
         for idx in range(1, 2000):
@@ -183,8 +183,8 @@ async def test_a_full_disk_pauses_the_job_instead_of_failing_it(app_http, rig):
     async with asyncio.timeout(30):
         while len((await http.get(f"/jobs/{job_id}/measurements")).json()) < 3:
             await asyncio.sleep(0.01)
-    db = app.state.manager.store._db
-    db.execute(f"PRAGMA max_page_count = {db.execute('PRAGMA page_count').fetchone()[0]}")
+    db = app.state.manager.store.db
+    db.execute(f"PRAGMA max_page_count = {db.row('PRAGMA page_count')['page_count']}")
     async with asyncio.timeout(30):
         while (job := app.state.manager.store.job(job_id)).state == "running":
             await asyncio.sleep(0.02)

@@ -1,25 +1,27 @@
 """The service killed with SIGKILL mid-job and restarted resumes the job: every committed
-measurement kept, none measured twice."""
+measurement kept, none measured twice; on SQLite and on PostgreSQL."""
 
 import asyncio
+import os
 import re
 import signal
-import sqlite3
 import subprocess
 import sys
 
 import httpx
 import pytest
 
-from tests.integration.conftest import FAST, TOKEN
+from tests.integration.conftest import FAST, TOKEN, peek
 
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
 
 
-def start_service(db):
+def start_service(db, lease_s: float = 1.0):
+    """`screwcal serve` on this database (a file or a URL), its jobs held by lease_s leases."""
     proc = subprocess.Popen([sys.executable, "-m", "screwcal", "serve", "--db", str(db),
                              "--port", "0", "--token", TOKEN], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "SCREWCAL_LEASE_S": str(lease_s)})
     line = proc.stdout.readline()
     m = re.search(r"http://[\d.]+:\d+", line)
     assert m, line + proc.stderr.read()
@@ -27,15 +29,14 @@ def start_service(db):
 
 
 def committed(db, job_id):
-    with sqlite3.connect(db) as con:
-        return {r[0]: r[1] for r in con.execute(
-            "SELECT idx, id FROM measurements WHERE job_id = ? AND phase = 'cal'", (job_id,))}
+    return {r[0]: r[1] for r in peek(
+        db, "SELECT idx, id FROM measurements WHERE job_id = ? AND phase = 'cal'", (job_id,))}
 
 
 @pytest.mark.slow
-async def test_sigkill_mid_job_then_restart_resumes_without_loss(tmp_path, rig):
+async def test_sigkill_mid_job_then_restart_resumes_without_loss(db_target, rig):
     rig.emu.settings.time_scale = 0.02  # slow enough to be killed mid-list
-    db = tmp_path / "jobs.db"
+    db = db_target  # on PostgreSQL the restarted service (a new holder) waits out the lease
     proc, url = start_service(db)
     try:
         async with httpx.AsyncClient(base_url=url, headers=AUTH) as http:
