@@ -1,0 +1,106 @@
+"""/jobs: start a job, follow it, let it move, abort it, read its measurements, result,
+calibrated model and report page."""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Annotated, Any
+
+from fastapi import APIRouter, HTTPException, Query, Request
+from fastapi.responses import HTMLResponse
+
+from screwcal.errors import ScrewcalError
+from screwcal.kinematics.modelfile import parse_model
+from service.api.deps import Auth, JobId, ManagerDep, Read, StoreDep, public
+from service.errors import ConflictError, NotFoundError
+from service.manager import JobManager
+from service.plans import LISTS_OF_KIND, plan_for
+from service.report import report_html
+from service.schemas import GoAhead, JobCreate, JobPublic, JobResult, MeasurementPublic
+from service.store import Store
+
+router = APIRouter(prefix="/jobs", tags=["jobs"])
+
+
+@router.post("", status_code=202, response_model=JobPublic)
+async def create_job(body: JobCreate, _: Auth, request: Request, store: StoreDep,
+                     manager: ManagerDep) -> JobPublic:
+    """One unfinished job per robot: refused at once when the robot has one or another
+    request is planning one for it; the database's unique index decides in the end (a
+    second service on a server database included)."""
+    robot = store.robot(body.robot_id)
+    busy = store.unfinished_job(body.robot_id)
+    if busy is not None:
+        raise ConflictError(f"robot {body.robot_id} is busy with job {busy}: wait for it to "
+                            f"end or abort it (screwcal job abort {busy})")
+    planning: set[int] = request.app.state.planning
+    if body.robot_id in planning:
+        raise ConflictError(f"robot {body.robot_id} is busy: another request is starting a "
+                            "job on it")
+    planning.add(body.robot_id)
+    try:
+        return await _plan_and_add(body, robot, store, manager, request.app.state.plans)
+    finally:
+        planning.discard(body.robot_id)
+
+async def _plan_and_add(body: JobCreate, robot: dict, store: Store, manager: JobManager,
+                        plans: asyncio.Semaphore) -> JobPublic:
+    source = body.options.frame_from_job
+    if source is not None and not store.job(source).result.base:
+        raise HTTPException(422, f"job {source} has no identified robot base frame to "
+                            "measure in: choose a calibration or procedure job that ran "
+                            "its estimation")
+    try:  # a job that cannot run is refused now, with the reason, not at run time
+        model = parse_model(robot["model"], f"robot {body.robot_id}")
+        async with plans:  # a bounded number of plans at once: each takes a worker thread
+            for kind in LISTS_OF_KIND[body.kind]:
+                await asyncio.to_thread(plan_for, model, kind, body.options)
+    except ScrewcalError as err:
+        raise HTTPException(422, f"this job cannot run on robot {body.robot_id}: "
+                            f"{err}") from None
+    job = store.add_job(body.robot_id, body.kind, body.mode, body.options.model_dump())
+    manager.start(job.id)
+    return public(job, manager)
+
+@router.get("", response_model=list[JobPublic])
+def list_jobs(_: Read, store: StoreDep, manager: ManagerDep) -> list[JobPublic]:
+    return [public(j, manager) for j in store.jobs()]
+
+@router.get("/{job_id}", response_model=JobPublic)
+def get_job(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep) -> JobPublic:
+    return public(store.job(job_id), manager)
+
+@router.post("/{job_id}/go", status_code=204)
+async def go_ahead(job_id: JobId, body: GoAhead, _: Auth, manager: ManagerDep) -> None:
+    await manager.go(job_id, body.index)
+
+@router.post("/{job_id}/abort", status_code=204)
+async def abort(job_id: JobId, _: Auth, manager: ManagerDep) -> None:
+    await manager.abort(job_id)
+
+@router.get("/{job_id}/measurements", response_model=list[MeasurementPublic])
+def measurements(job_id: JobId, _: Read, store: StoreDep,
+                 phase: str | None = None) -> list[dict]:
+    store.job(job_id)
+    return store.measurements(job_id, phase)
+
+@router.get("/{job_id}/result", response_model=JobResult, response_model_exclude_unset=True)
+def result(job_id: JobId, _: Read, store: StoreDep) -> JobResult:
+    return JobResult.of(store.job(job_id))
+
+@router.get("/{job_id}/model", responses={200: {"description": (
+    "the calibration result document (format screwcal-calibration) whose `model` is the "
+    "robot as its controller reads it after the job's correction; `screwcal predict`, "
+    "`compensate` and the RAPID filter read it")}})
+def calibrated_model(job_id: JobId, _: Read, store: StoreDep,
+                     round: Annotated[int, Query(ge=1, le=2)] = 1) -> dict[str, Any]:
+    doc = store.job(job_id).result.calibration_of("_2" if round == 2 else "")
+    if doc is None:
+        raise NotFoundError(f"job {job_id} has no calibrated model (round {round}): "
+                            "a calibration or procedure job has one once its estimation ran")
+    return doc
+
+@router.get("/{job_id}/report", response_class=HTMLResponse)
+async def report(job_id: JobId, _: Read, store: StoreDep) -> str:
+    job = store.job(job_id)
+    return await asyncio.to_thread(report_html, job, store.robot(job.robot_id))
