@@ -49,6 +49,9 @@ PLAUSIBLE_OFFSET_DEG = 5.0
 # J6 together near the wrist singularity): twice the offsets' bound.
 PLAUSIBLE_CHANGE_DEG = 2 * PLAUSIBLE_OFFSET_DEG
 MAX_STD_ERROR_DEG = 0.1
+# Residual scale: mm, and rad x 10 mm, so that the position is met first where the two
+# cannot both be (the wrist singularity)
+_POSE_SCALE = np.r_[np.ones(3), np.full(3, 10.0)]
 
 
 @dataclass(frozen=True)
@@ -234,11 +237,6 @@ def _wrist_solutions(robot: SerialModel, T: Array, ref: Array) -> tuple[Array, A
         q_out[k], ok[k] = q, bool(robot.within_limits(q[None])[0])
         measure[k] = float(np.max(np.abs([d[0], d[1], d[2], d[4], combined])))
     return q_out, ok, measure
-
-
-# Residual scale: mm, and rad x 10 mm, so that the position is met first where the two
-# cannot both be (the wrist singularity)
-_POSE_SCALE = np.r_[np.ones(3), np.full(3, 10.0)]
 
 
 def _turned_toward(q: Array, ref: Array) -> Array:

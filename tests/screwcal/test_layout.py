@@ -27,3 +27,21 @@ def test_small_modules_and_functions(path):
 @pytest.mark.parametrize("path", FILES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_type_ignore(path):
     assert "type: ignore" not in path.read_text()
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_constants_defined_before_their_use(path):
+    tree = ast.parse(path.read_text())
+    defined: dict[str, int] = {}
+    for node in tree.body:
+        targets = node.targets if isinstance(node, ast.Assign) else \
+            [node.target] if isinstance(node, ast.AnnAssign) else []
+        for t in targets:
+            if isinstance(t, ast.Name) and t.id.lstrip("_").isupper():
+                defined.setdefault(t.id, node.lineno)
+    late = sorted({f"{n.id} (line {defined[n.id]}) used at line {n.lineno}"
+                   for node in tree.body
+                   if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef)
+                   for n in ast.walk(node)
+                   if isinstance(n, ast.Name) and defined.get(n.id, 0) > node.lineno})
+    assert not late
