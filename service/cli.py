@@ -25,14 +25,10 @@ from typing import TYPE_CHECKING, Any
 
 from screwcal.commands.options import finite_float
 from service.errors import ServiceError
-from service.phases import PERF_PHASE_NAMES, ROUND_SUFFIXES
-from service.summary import before_after
 
 if TYPE_CHECKING:  # imported where used: `screwcal --help` pays for neither
-    import httpx
 
-    from service.document import CorrectionPlan, EstimationSummary
-    from service.schemas import JobResult
+    from service.operator import Operator
     from service.settings import ServiceSettings
 
 
@@ -70,239 +66,6 @@ def run_serve(args: argparse.Namespace) -> int:
         return 0
 
 
-# -- the operator's client ---------------------------------------------------------------------
-class Operator:
-    """A thin httpx client of the REST API (a transport can be passed for tests)."""
-
-    def __init__(self, base_url: str, token: str, transport: httpx.BaseTransport | None = None):
-        import httpx
-
-        self.http = httpx.Client(base_url=base_url, transport=transport, timeout=30.0,
-                                 headers={"Authorization": f"Bearer {token}"})
-
-    def close(self) -> None:
-        self.http.close()
-
-    def __enter__(self) -> Operator:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def _check(self, r: httpx.Response) -> Any:
-        if r.status_code >= 400:
-            try:
-                detail = r.json().get("detail")
-            except ValueError:
-                detail = r.text
-            if isinstance(detail, list):  # a validation error: the field, the value, the rule
-                detail = "; ".join(_invalid(e) for e in detail if isinstance(e, dict))
-            raise ServiceError(f"{r.request.method} {r.request.url.path}: {r.status_code} "
-                               f"{detail}")
-        return r.json() if r.content else None
-
-    def add_robot(self, **body: Any) -> dict:
-        return self._check(self.http.post("/robots", json=body))
-
-    def start(self, **body: Any) -> dict:
-        return self._check(self.http.post("/jobs", json=body))
-
-    def robots(self) -> list[dict]:
-        return self._check(self.http.get("/robots"))
-
-    def jobs(self) -> list[dict]:
-        return self._check(self.http.get("/jobs"))
-
-    def robot_id(self, name_or_id: str) -> int:
-        """A robot named by its id or its (unique) name."""
-        robots = self.robots()
-        for r in robots:
-            if r["name"] == name_or_id:
-                return int(r["id"])
-        if name_or_id.isdigit() and any(r["id"] == int(name_or_id) for r in robots):
-            return int(name_or_id)
-        known = ", ".join(f"{r['id']} ({r['name']})" for r in robots) or "none yet"
-        raise ServiceError(f"no robot {name_or_id!r} on the service; robots: {known} "
-                           "(screwcal job robot-add)")
-
-    def job(self, job_id: int) -> dict:
-        return self._check(self.http.get(f"/jobs/{job_id}"))
-
-    def go(self, job_id: int, index: int) -> None:
-        self._check(self.http.post(f"/jobs/{job_id}/go", json={"index": index}))
-
-    def abort(self, job_id: int) -> None:
-        self._check(self.http.post(f"/jobs/{job_id}/abort"))
-
-    def result(self, job_id: int) -> JobResult:
-        from service.schemas import JobResult
-
-        return JobResult.model_validate(self._check(self.http.get(f"/jobs/{job_id}/result")))
-
-    def model(self, job_id: int, round_: int = 1) -> dict:
-        return self._check(self.http.get(f"/jobs/{job_id}/model", params={"round": round_}))
-
-    def report(self, job_id: int) -> str:
-        r = self.http.get(f"/jobs/{job_id}/report")
-        if r.status_code >= 400:
-            self._check(r)
-        return r.text
-
-    def watch(self, job_id: int, ask: Callable[[str], str] = input,
-              out: Callable[[str], None] = print) -> str:
-        """Follow the job's events to its end; in STEP mode ask before every move. Returns the
-        final state (or 'waiting' when the operator declined a move: the job waits)."""
-        asked: set[tuple[str, int]] = set()
-
-        def ask_for(waiting: dict, joints: list | None, note: str = "") -> bool:
-            """Prompt for the pose the job waits for now; False when the operator declines."""
-            key = (waiting["phase"], waiting["index"])
-            if key in asked:
-                return True
-            asked.add(key)
-            where = f" (joints {joints})" if joints is not None else ""
-            prompt = (f"{note + '. ' if note else ''}robot will move to {key[0]} pose "
-                      f"{key[1]}{where}: go? [y/N] ")
-            try:
-                answer = ask(prompt)
-            except EOFError:  # no one to answer: the robot does not move
-                return False
-            except KeyboardInterrupt:
-                out("")
-                try:
-                    stop = ask(f"abort job {job_id}? [y/N] ")
-                except (EOFError, KeyboardInterrupt):
-                    stop = "n"
-                if stop.strip().lower() == "y":
-                    self.abort(job_id)
-                    out(f"job {job_id}: abort requested")
-                return False
-            if answer.strip().lower() != "y":
-                return False
-            self.go(job_id, key[1])
-            return True
-
-        with self.http.stream("GET", f"/jobs/{job_id}/events", timeout=None) as r:
-            for line in r.iter_lines():
-                if not line.startswith("data: "):
-                    continue
-                event = json.loads(line[len("data: "):])
-                kind = event["kind"]
-                if kind == "state":  # where the job stands when we attach
-                    out(f"job {job_id}: {event['state']} {event.get('reason', '')}".rstrip())
-                    waiting = event.get("waiting_for")
-                    if waiting and not ask_for(waiting, None):
-                        out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
-                        return "waiting"
-                elif kind == "measured":
-                    bar = "#" * int(30 * event["done"] / event["total"])
-                    out(f"{event['phase']:<12} [{bar:<30}] pose {event['done']} of "
-                        f"{event['total']}")
-                elif kind == "waiting":
-                    waiting = {"phase": event["phase"], "index": event["index"]}
-                    if self.job(job_id)["waiting_for"] != waiting:
-                        continue  # history: the job has gone past this pose
-                    if not ask_for(waiting, event["joints_deg"], event.get("note", "")):
-                        out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
-                        return "waiting"
-                elif kind in ("phase", "paused", "resumed", "corrected", "failed", "warning",
-                              "discarded", "stale"):
-                    out(f"{kind}: " + ", ".join(f"{k}={v}" for k, v in event.items()
-                                               if k not in ("kind", "seq", "time")))
-                elif kind == "end":
-                    return event["state"]
-        return self.job(job_id)["state"]
-
-
-def result_table(result: JobResult, times: bool = True) -> str:
-    """The before/after table a person reads (`times`: the seconds each phase took)."""
-    lines = [f"job {result.id}: {result.state} {result.reason}".rstrip()]
-    phases, rows = before_after(result.performance or {})
-    if rows:
-        lines.append(f"  {'ISO 9283':<36}" + "".join(f"{PERF_PHASE_NAMES[p]:>12}" for p in phases)
-                     + (f"{'factor':>9}" if len(phases) > 1 else ""))
-        for r in rows:
-            cells = "".join(f"{v:>9.3f} {r.unit:<2}" if v is not None else f"{'-':>12}"
-                            for v in r.values)
-            factor = f"{r.factor:>8.1f}x" if r.factor is not None else ""
-            lines.append(f"  {r.label:<36}{cells}{factor}")
-    if result.estimation is not None:
-        lines += _estimation_lines(result.estimation)
-    if result.frame_note:
-        lines.append(f"  frame: {result.frame_note}")
-    home = result.home_check
-    for when, measured in (("before", home and home.before), ("after", home and home.after)):
-        if measured:
-            e = measured.error_mm
-            lines.append(f"  home position error {when} (Table 14): x {e[0]:+.3f}, y {e[1]:+.3f}, "
-                         f"z {e[2]:+.3f} mm, |e| {measured.distance_mm:.3f} mm")
-    for suffix in ROUND_SUFFIXES:
-        lines += _route_lines(result.correction_of(suffix), suffix)
-    for warning in result.warnings or []:
-        lines.append(f"  WARNING: {warning}")
-    if result.phases and times:
-        lines.append("  time per phase (s): " + ", ".join(
-            f"{k} {v.seconds:.2f}" for k, v in result.phases.items()))
-    return "\n".join(lines)
-
-
-def _estimation_lines(est: EstimationSummary) -> list[str]:
-    """The joints' identified parameters, the noise levels measured, what was not separable."""
-    lines = [f"  identified ({est.rank} parameters, chi2/dof {est.chi2_reduced:.2f}):"]
-    for p in est.parameters:
-        if p.name.startswith("J"):
-            lines.append(f"    {p.name:<8}{p.value:>10.4f} {p.unit:<3} ± {p.std_error:.4f}")
-    if est.noise:
-        lines.append("    noise levels: " + ", ".join(
-            f"{k} {v['value']:.4g} {v['unit']}" + (f" ± {v['std']:.2g}" if v["std"] else "")
-            for k, v in est.noise.items() if isinstance(v, dict) and v["measured"]))
-    if est.removed:
-        lines.append("    not separable from these data (not corrected): " + ", ".join(
-            r.name for r in est.removed))
-    return lines
-
-
-def _route_lines(corr: CorrectionPlan | None, suffix: str) -> list[str]:
-    """What the correction route did, compensated, or left in the robot."""
-    if corr is None:
-        return []
-    head = f"  correction{' (round 2)' if suffix else ''}: {corr.route}"
-    lines = []
-    if corr.route == "none":
-        return [f"{head} ({corr.note or ''})"]
-    if corr.zero_command_deg is not None:
-        sent = "sent" if corr.sent else "planned, not sent"
-        lines.append(f"{head}; ZERO {sent} (deg): "
-                     + " ".join(f"{v:.4f}" for v in corr.zero_command_deg))
-    else:
-        lines.append(head)
-    if corr.compensated_lists:
-        lines.append(f"    compensated joint targets for {', '.join(corr.compensated_lists)} "
-                     f"(largest joint change {corr.max_joint_change_deg or 0:.3f} deg)")
-    predicted = corr.predicted_position_error_mm
-    if predicted is not None:
-        lines.append(f"    model-predicted flange error on the ISO targets: "
-                     f"{predicted.before:.3f} -> {predicted.after:.3f} mm")
-    if corr.left_in_robot:
-        lines.append("    left in the robot (not corrected by this route): " + ", ".join(
-            f"{p.name} {p.value:+.3f} {p.unit}" for p in corr.left_in_robot))
-    elif corr.left_in_robot is not None:
-        lines.append("    left in the robot: nothing the model identified")
-    if corr.not_identified:
-        lines.append("    not identified from these data (nothing corrects them): "
-                     + ", ".join(corr.not_identified))
-    return lines
-
-
-def _invalid(error: dict) -> str:
-    """One pydantic error as a person reads it: `options.cycles = 1: must be >= 2`."""
-    loc = ".".join(str(p) for p in error.get("loc", ()) if p != "body")
-    value = f" = {error['input']!r}" if "input" in error and not isinstance(
-        error["input"], dict) else ""
-    rule = str(error.get("msg", "invalid")).removeprefix("Value error, ")
-    return f"{loc}{value}: {rule}"
-
-
 def _model_argument(model: str) -> str | dict:
     """A built-in robot's name as it is; anything else is a file read on this side and sent as
     a document (the service never opens a path a client names)."""
@@ -320,6 +83,8 @@ def _write(path: str, text: str) -> None:
 
 
 def _operator(args: argparse.Namespace) -> Operator:
+    from service.operator import Operator
+
     token = args.token or os.environ.get("SCREWCAL_TOKEN", "")
     if not token:
         raise ServiceError("no token: pass --token or set SCREWCAL_TOKEN (the one the service "
@@ -337,6 +102,8 @@ def run_job(args: argparse.Namespace) -> int:
 
 def _run_job(op: Operator, args: argparse.Namespace) -> int:
     import httpx
+
+    from service.result_text import result_table
 
     try:
         if args.action == "robot-add":

@@ -84,8 +84,9 @@ def service(settings: ServiceSettings) -> Iterator[str]:
 
 def run(args: argparse.Namespace) -> int:
     from screwcal.calibration.virtual_joints import THESIS_TABLE11
-    from service.cli import Operator, result_table
+    from service.operator import Operator
     from service.report import report_figures
+    from service.result_text import result_table
     from service.settings import ServiceSettings
 
     started = time.perf_counter()

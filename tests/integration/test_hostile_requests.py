@@ -128,7 +128,7 @@ def test_careless_cli_use_gets_a_message_not_a_traceback(argv, message, capsys, 
 
 
 def test_report_to_a_folder_that_does_not_exist(capsys, monkeypatch):
-    monkeypatch.setattr("service.cli.Operator.report", lambda self, job_id: "<html/>")
+    monkeypatch.setattr("service.operator.Operator.report", lambda self, job_id: "<html/>")
     assert main(["job", "--token", "t", "report", "1", "--out", "/nonexistent/r.html"]) == 2
     assert "cannot write /nonexistent/r.html" in capsys.readouterr().err
 

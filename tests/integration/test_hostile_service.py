@@ -234,7 +234,7 @@ def test_worse_repeatability_after_a_correction_is_a_warning():
 
 
 def _operator_on(app):
-    from service.cli import Operator
+    from service.operator import Operator
 
     return Operator("http://service", TOKEN, transport=httpx.ASGITransport(app=app))
 

@@ -5,8 +5,9 @@ import asyncio
 import re
 
 from screwcal.commands.main import main
-from service.cli import Operator, result_table
 from service.demo import service
+from service.operator import Operator
+from service.result_text import result_table
 from service.settings import ServiceSettings
 from tests.integration.conftest import FAST, TOKEN
 

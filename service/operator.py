@@ -1,0 +1,168 @@
+"""The operator's client of the job service: a thin httpx client of the REST API (a transport
+can be passed, so that tests drive the app in-process), and the job's events followed to its end,
+asking before every move in STEP mode."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from service.errors import ServiceError
+
+if TYPE_CHECKING:  # imported where used: `screwcal --help` pays for neither
+    import httpx
+
+    from service.schemas import JobResult
+
+
+class Operator:
+    """A thin httpx client of the REST API (a transport can be passed for tests)."""
+
+    def __init__(self, base_url: str, token: str, transport: httpx.BaseTransport | None = None):
+        import httpx
+
+        self.http = httpx.Client(base_url=base_url, transport=transport, timeout=30.0,
+                                 headers={"Authorization": f"Bearer {token}"})
+
+    def close(self) -> None:
+        self.http.close()
+
+    def __enter__(self) -> Operator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _check(self, r: httpx.Response) -> Any:
+        if r.status_code >= 400:
+            try:
+                detail = r.json().get("detail")
+            except ValueError:
+                detail = r.text
+            if isinstance(detail, list):  # a validation error: the field, the value, the rule
+                detail = "; ".join(_invalid(e) for e in detail if isinstance(e, dict))
+            raise ServiceError(f"{r.request.method} {r.request.url.path}: {r.status_code} "
+                               f"{detail}")
+        return r.json() if r.content else None
+
+    def add_robot(self, **body: Any) -> dict:
+        return self._check(self.http.post("/robots", json=body))
+
+    def start(self, **body: Any) -> dict:
+        return self._check(self.http.post("/jobs", json=body))
+
+    def robots(self) -> list[dict]:
+        return self._check(self.http.get("/robots"))
+
+    def jobs(self) -> list[dict]:
+        return self._check(self.http.get("/jobs"))
+
+    def robot_id(self, name_or_id: str) -> int:
+        """A robot named by its id or its (unique) name."""
+        robots = self.robots()
+        for r in robots:
+            if r["name"] == name_or_id:
+                return int(r["id"])
+        if name_or_id.isdigit() and any(r["id"] == int(name_or_id) for r in robots):
+            return int(name_or_id)
+        known = ", ".join(f"{r['id']} ({r['name']})" for r in robots) or "none yet"
+        raise ServiceError(f"no robot {name_or_id!r} on the service; robots: {known} "
+                           "(screwcal job robot-add)")
+
+    def job(self, job_id: int) -> dict:
+        return self._check(self.http.get(f"/jobs/{job_id}"))
+
+    def go(self, job_id: int, index: int) -> None:
+        self._check(self.http.post(f"/jobs/{job_id}/go", json={"index": index}))
+
+    def abort(self, job_id: int) -> None:
+        self._check(self.http.post(f"/jobs/{job_id}/abort"))
+
+    def result(self, job_id: int) -> JobResult:
+        from service.schemas import JobResult
+
+        return JobResult.model_validate(self._check(self.http.get(f"/jobs/{job_id}/result")))
+
+    def model(self, job_id: int, round_: int = 1) -> dict:
+        return self._check(self.http.get(f"/jobs/{job_id}/model", params={"round": round_}))
+
+    def report(self, job_id: int) -> str:
+        r = self.http.get(f"/jobs/{job_id}/report")
+        if r.status_code >= 400:
+            self._check(r)
+        return r.text
+
+    def watch(self, job_id: int, ask: Callable[[str], str] = input,
+              out: Callable[[str], None] = print) -> str:
+        """Follow the job's events to its end; in STEP mode ask before every move. Returns the
+        final state (or 'waiting' when the operator declined a move: the job waits)."""
+        asked: set[tuple[str, int]] = set()
+
+        def ask_for(waiting: dict, joints: list | None, note: str = "") -> bool:
+            """Prompt for the pose the job waits for now; False when the operator declines."""
+            key = (waiting["phase"], waiting["index"])
+            if key in asked:
+                return True
+            asked.add(key)
+            where = f" (joints {joints})" if joints is not None else ""
+            prompt = (f"{note + '. ' if note else ''}robot will move to {key[0]} pose "
+                      f"{key[1]}{where}: go? [y/N] ")
+            try:
+                answer = ask(prompt)
+            except EOFError:  # no one to answer: the robot does not move
+                return False
+            except KeyboardInterrupt:
+                out("")
+                try:
+                    stop = ask(f"abort job {job_id}? [y/N] ")
+                except (EOFError, KeyboardInterrupt):
+                    stop = "n"
+                if stop.strip().lower() == "y":
+                    self.abort(job_id)
+                    out(f"job {job_id}: abort requested")
+                return False
+            if answer.strip().lower() != "y":
+                return False
+            self.go(job_id, key[1])
+            return True
+
+        with self.http.stream("GET", f"/jobs/{job_id}/events", timeout=None) as r:
+            for line in r.iter_lines():
+                if not line.startswith("data: "):
+                    continue
+                event = json.loads(line[len("data: "):])
+                kind = event["kind"]
+                if kind == "state":  # where the job stands when we attach
+                    out(f"job {job_id}: {event['state']} {event.get('reason', '')}".rstrip())
+                    waiting = event.get("waiting_for")
+                    if waiting and not ask_for(waiting, None):
+                        out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
+                        return "waiting"
+                elif kind == "measured":
+                    bar = "#" * int(30 * event["done"] / event["total"])
+                    out(f"{event['phase']:<12} [{bar:<30}] pose {event['done']} of "
+                        f"{event['total']}")
+                elif kind == "waiting":
+                    waiting = {"phase": event["phase"], "index": event["index"]}
+                    if self.job(job_id)["waiting_for"] != waiting:
+                        continue  # history: the job has gone past this pose
+                    if not ask_for(waiting, event["joints_deg"], event.get("note", "")):
+                        out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
+                        return "waiting"
+                elif kind in ("phase", "paused", "resumed", "corrected", "failed", "warning",
+                              "discarded", "stale"):
+                    out(f"{kind}: " + ", ".join(f"{k}={v}" for k, v in event.items()
+                                               if k not in ("kind", "seq", "time")))
+                elif kind == "end":
+                    return event["state"]
+        return self.job(job_id)["state"]
+
+
+def _invalid(error: dict) -> str:
+    """One pydantic error as a person reads it: `options.cycles = 1: must be >= 2`."""
+    loc = ".".join(str(p) for p in error.get("loc", ()) if p != "body")
+    value = f" = {error['input']!r}" if "input" in error and not isinstance(
+        error["input"], dict) else ""
+    rule = str(error.get("msg", "invalid")).removeprefix("Value error, ")
+    return f"{loc}{value}: {rule}"

@@ -1,0 +1,89 @@
+"""A job's result as the text a person reads in a terminal: the before/after table, what was
+identified, the home check, the correction route, the warnings."""
+
+from __future__ import annotations
+
+from service.document import CorrectionPlan, EstimationSummary
+from service.phases import PERF_PHASE_NAMES, ROUND_SUFFIXES
+from service.schemas import JobResult
+from service.summary import before_after
+
+
+def result_table(result: JobResult, times: bool = True) -> str:
+    """The before/after table a person reads (`times`: the seconds each phase took)."""
+    lines = [f"job {result.id}: {result.state} {result.reason}".rstrip()]
+    phases, rows = before_after(result.performance or {})
+    if rows:
+        lines.append(f"  {'ISO 9283':<36}" + "".join(f"{PERF_PHASE_NAMES[p]:>12}" for p in phases)
+                     + (f"{'factor':>9}" if len(phases) > 1 else ""))
+        for r in rows:
+            cells = "".join(f"{v:>9.3f} {r.unit:<2}" if v is not None else f"{'-':>12}"
+                            for v in r.values)
+            factor = f"{r.factor:>8.1f}x" if r.factor is not None else ""
+            lines.append(f"  {r.label:<36}{cells}{factor}")
+    if result.estimation is not None:
+        lines += _estimation_lines(result.estimation)
+    if result.frame_note:
+        lines.append(f"  frame: {result.frame_note}")
+    home = result.home_check
+    for when, measured in (("before", home and home.before), ("after", home and home.after)):
+        if measured:
+            e = measured.error_mm
+            lines.append(f"  home position error {when} (Table 14): x {e[0]:+.3f}, y {e[1]:+.3f}, "
+                         f"z {e[2]:+.3f} mm, |e| {measured.distance_mm:.3f} mm")
+    for suffix in ROUND_SUFFIXES:
+        lines += _route_lines(result.correction_of(suffix), suffix)
+    for warning in result.warnings or []:
+        lines.append(f"  WARNING: {warning}")
+    if result.phases and times:
+        lines.append("  time per phase (s): " + ", ".join(
+            f"{k} {v.seconds:.2f}" for k, v in result.phases.items()))
+    return "\n".join(lines)
+
+
+def _estimation_lines(est: EstimationSummary) -> list[str]:
+    """The joints' identified parameters, the noise levels measured, what was not separable."""
+    lines = [f"  identified ({est.rank} parameters, chi2/dof {est.chi2_reduced:.2f}):"]
+    for p in est.parameters:
+        if p.name.startswith("J"):
+            lines.append(f"    {p.name:<8}{p.value:>10.4f} {p.unit:<3} ± {p.std_error:.4f}")
+    if est.noise:
+        lines.append("    noise levels: " + ", ".join(
+            f"{k} {v['value']:.4g} {v['unit']}" + (f" ± {v['std']:.2g}" if v["std"] else "")
+            for k, v in est.noise.items() if isinstance(v, dict) and v["measured"]))
+    if est.removed:
+        lines.append("    not separable from these data (not corrected): " + ", ".join(
+            r.name for r in est.removed))
+    return lines
+
+
+def _route_lines(corr: CorrectionPlan | None, suffix: str) -> list[str]:
+    """What the correction route did, compensated, or left in the robot."""
+    if corr is None:
+        return []
+    head = f"  correction{' (round 2)' if suffix else ''}: {corr.route}"
+    lines = []
+    if corr.route == "none":
+        return [f"{head} ({corr.note or ''})"]
+    if corr.zero_command_deg is not None:
+        sent = "sent" if corr.sent else "planned, not sent"
+        lines.append(f"{head}; ZERO {sent} (deg): "
+                     + " ".join(f"{v:.4f}" for v in corr.zero_command_deg))
+    else:
+        lines.append(head)
+    if corr.compensated_lists:
+        lines.append(f"    compensated joint targets for {', '.join(corr.compensated_lists)} "
+                     f"(largest joint change {corr.max_joint_change_deg or 0:.3f} deg)")
+    predicted = corr.predicted_position_error_mm
+    if predicted is not None:
+        lines.append(f"    model-predicted flange error on the ISO targets: "
+                     f"{predicted.before:.3f} -> {predicted.after:.3f} mm")
+    if corr.left_in_robot:
+        lines.append("    left in the robot (not corrected by this route): " + ", ".join(
+            f"{p.name} {p.value:+.3f} {p.unit}" for p in corr.left_in_robot))
+    elif corr.left_in_robot is not None:
+        lines.append("    left in the robot: nothing the model identified")
+    if corr.not_identified:
+        lines.append("    not identified from these data (nothing corrects them): "
+                     + ", ".join(corr.not_identified))
+    return lines
