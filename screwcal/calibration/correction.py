@@ -24,7 +24,6 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import least_squares
 
 from screwcal.errors import (
     CorrectionRefusedError,
@@ -35,11 +34,12 @@ from screwcal.errors import (
 from screwcal.kinematics.forward import (
     flange_kinematics,
     forward_kinematics,
+    point_jacobian,
     spatial_jacobian,
 )
 from screwcal.kinematics.ik import _pose_error, local_ik, numerical_ik
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.se3 import Array
+from screwcal.kinematics.se3 import Array, Mask
 
 if TYPE_CHECKING:  # a type only: compensating a program needs none of the error models
     from screwcal.calibration.error_parameters import Param
@@ -52,6 +52,7 @@ MAX_STD_ERROR_DEG = 0.1
 # Residual scale: mm, and rad x 10 mm, so that the position is met first where the two
 # cannot both be (the wrist singularity)
 _POSE_SCALE = np.r_[np.ones(3), np.full(3, 10.0)]
+_LM_ITERATIONS = 200  # at most; a batch of wrist-singular targets stops when all settled
 
 
 @dataclass(frozen=True)
@@ -185,7 +186,7 @@ def _wrist_axes_cos(model: SerialModel, q: Array) -> Array:
     return np.sum(J[:, :3, 3] * J[:, :3, 5], axis=-1)
 
 
-def _wrist_singular(model: SerialModel, q: Array) -> Array:
+def _wrist_singular(model: SerialModel, q: Array) -> Mask:
     """(N,) joints q (N, n) within WRIST_SINGULAR_DEG of a 6R arm's wrist singularity (axes 4
     and 6 in line)."""
     if model.n_joints != 6 or not np.all(model.is_revolute):
@@ -193,54 +194,89 @@ def _wrist_singular(model: SerialModel, q: Array) -> Array:
     return np.abs(_wrist_axes_cos(model, q)) > np.cos(np.radians(WRIST_SINGULAR_DEG))
 
 
-def _meets(T: Array, robot: SerialModel, q: Array) -> bool:
-    """The joints q put the flange on T within the singular tolerances."""
-    err = _pose_error(T[None], forward_kinematics(robot, q[None]))[0]
-    return bool(np.linalg.norm(err[:3]) <= SINGULAR_TOL_MM
-                and np.linalg.norm(err[3:]) <= np.radians(SINGULAR_TOL_DEG))
+def _meets(T: Array, robot: SerialModel, q: Array) -> Mask:
+    """(M,) whether the joints q (M, 6) put the flange on T (M, 4, 4) within the singular
+    tolerances."""
+    err = _pose_error(T, forward_kinematics(robot, q))
+    return (np.linalg.norm(err[:, :3], axis=1) <= SINGULAR_TOL_MM) & \
+        (np.linalg.norm(err[:, 3:], axis=1) <= np.radians(SINGULAR_TOL_DEG))
 
 
-def _wrist_solutions(robot: SerialModel, T: Array, ref: Array) -> tuple[Array, Array, Array]:
+def _wrist_solutions(robot: SerialModel, T: Array, ref: Array) -> tuple[Array, Mask, Array]:
     """Near the wrist singularity: the joints (M, 6) nearest the reference that reach T
     (M, 4, 4), counting for joints 4 and 6 only their combined turn (what moves the tool
     there); exactly at the singularity the two share that turn equally, so each stays nearest
     its reference value. A calibrated wrist is not quite spherical: at its singularity a sliver
     of orientations is out of reach, so the position is met and the orientation as closely as
     it goes (within SINGULAR_TOL_DEG, else refused). Levenberg-Marquardt from the reference,
-    and from it with joint 5 tilted +-1 deg (on the singular point itself the tilt has no
-    gradient). Returns the joints, which have one, and each one's largest change (deg,
+    and, where that misses, from it with joint 5 tilted -1 deg, then +1 deg (on the singular
+    point itself the tilt has no gradient): the first start whose best fit so far meets the
+    target wins. Returns the joints, which have one, and each one's largest change (deg,
     joints 4 and 6 combined)."""
-    M = len(T)
     s = np.sign(_wrist_axes_cos(robot, ref))  # axes 4 and 6 alike (+1) or opposed (-1)
-    q_out, ok, measure = ref.copy(), np.zeros(M, bool), np.full(M, np.inf)
-    for k in range(M):
-        best = None
-        for tilt in (0.0, -WRIST_SEED_TILT, WRIST_SEED_TILT):
-            start = ref[k].copy()
-            start[4] += tilt
-            sol = least_squares(lambda q, k=k: _pose_error(T[k:k + 1], forward_kinematics(
-                robot, q[None]))[0] * _POSE_SCALE, start, method="lm", xtol=1e-15,
-                ftol=1e-15, gtol=1e-15)
-            if best is None or sol.cost < best.cost:
-                best = sol
-            if _meets(T[k], robot, best.x):  # the reference's own start did: no tilted seeds
-                break
-        assert best is not None
-        if not _meets(T[k], robot, best.x):
-            continue
-        q = _turned_toward(best.x, ref[k])
-        d = np.degrees(q - ref[k])
-        combined = d[3] + s[k] * d[5]
-        if abs(_wrist_axes_cos(robot, q[None])[0]) > np.cos(1e-6):  # exactly singular
-            d[3], d[5] = 0.5 * combined, 0.5 * s[k] * combined
-            q = ref[k] + np.radians(d)
-        q_out[k], ok[k] = q, bool(robot.within_limits(q[None])[0])
-        measure[k] = float(np.max(np.abs([d[0], d[1], d[2], d[4], combined])))
+    best, cost = _fit_poses(robot, T, ref)
+    met = _meets(T, robot, best)
+    miss = np.flatnonzero(~met)
+    if miss.size:  # the tilted starts, for the targets the reference's own start missed
+        tilted = np.concatenate([ref[miss], ref[miss]])
+        tilted[:, 4] += np.repeat([-WRIST_SEED_TILT, WRIST_SEED_TILT], miss.size)
+        fits, costs = _fit_poses(robot, np.concatenate([T[miss], T[miss]]), tilted)
+        for fit, c in ((fits[:miss.size], costs[:miss.size]), (fits[miss.size:],
+                                                               costs[miss.size:])):
+            better = (c < cost[miss]) & ~met[miss]
+            best[miss[better]], cost[miss[better]] = fit[better], c[better]
+            met[miss] = _meets(T[miss], robot, best[miss])
+    q = _turned_toward(best, ref)
+    d = np.degrees(q - ref)
+    combined = d[:, 3] + s * d[:, 5]
+    exact = np.abs(_wrist_axes_cos(robot, q)) > np.cos(1e-6)  # exactly singular
+    d[exact, 3], d[exact, 5] = 0.5 * combined[exact], 0.5 * s[exact] * combined[exact]
+    q[exact] = ref[exact] + np.radians(d[exact])
+    q_out = np.where(met[:, None], q, ref)
+    ok = met & robot.within_limits(q_out)
+    measure = np.where(met, np.max(np.abs(np.column_stack(
+        [d[:, 0], d[:, 1], d[:, 2], d[:, 4], combined])), axis=1), np.inf)
     return q_out, ok, measure
 
 
+def _fit_poses(robot: SerialModel, T: Array, q0: Array) -> tuple[Array, Array]:
+    """Levenberg-Marquardt (Marquardt's diagonal scaling) from the joints q0 (M, 6) toward the
+    flange poses T (M, 4, 4), every target at once: least squares of the pose error scaled by
+    _POSE_SCALE, with the analytic Jacobian. Each target stops when a step no longer lowers its
+    cost. Returns the joints and their costs (half the squared scaled error) (M,)."""
+    q = q0.copy()
+    r = _pose_error(T, forward_kinematics(robot, q)) * _POSE_SCALE
+    cost = 0.5 * np.einsum("ij,ij->i", r, r)
+    lam = np.full(len(q), 1e-3)
+    active = np.ones(len(q), bool)
+    for _ in range(_LM_ITERATIONS):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        Tq = forward_kinematics(robot, q[idx])
+        J = point_jacobian(spatial_jacobian(robot, q[idx]), Tq) * _POSE_SCALE[:, None]
+        JT = np.swapaxes(J, 1, 2)
+        A = JT @ J
+        g = (JT @ r[idx][:, :, None])[:, :, 0]
+        D = np.maximum(np.diagonal(A, axis1=1, axis2=2), 1e-12)
+        step = np.linalg.solve(A + (lam[idx, None] * D)[:, :, None] * np.eye(6), g[:, :, None])
+        trial = q[idx] + step[:, :, 0]
+        r_trial = _pose_error(T[idx], forward_kinematics(robot, trial)) * _POSE_SCALE
+        c_trial = 0.5 * np.einsum("ij,ij->i", r_trial, r_trial)
+        better = c_trial < cost[idx]
+        gain = cost[idx] - c_trial
+        up = idx[better]
+        q[up], r[up], cost[up] = trial[better], r_trial[better], c_trial[better]
+        lam[up] /= 3.0
+        lam[idx[~better]] *= 4.0
+        # done: no lower cost within reach of the damping, or a negligible gain
+        settled = (better & (gain <= 1e-15 * np.maximum(c_trial, 1e-300))) | (lam[idx] > 1e12)
+        active[idx[settled]] = False
+    return q, cost
+
+
 def _turned_toward(q: Array, ref: Array) -> Array:
-    """q (6,) with each revolute joint moved by whole turns as close as it gets to ref."""
+    """q (..., 6) with each revolute joint moved by whole turns as close as it gets to ref."""
     return ref + np.mod(q - ref + np.pi, 2 * np.pi) - np.pi
 
 
