@@ -38,18 +38,28 @@ class Rig:
         return self.emu.address
 
 
-@pytest.fixture
-async def rig():
+async def start_rig(time_scale: float = 0.0) -> Rig:
+    """An emulated cell on free ports (stop it with stop_rig)."""
     world = make_world(None, None)
-    emu = IRC5Emulator(world, EmulatorSettings(time_scale=0.0))
+    emu = IRC5Emulator(world, EmulatorSettings(time_scale=time_scale))
     emu.address = await emu.start("127.0.0.1", 0)
     arm = ArmEmulator(world, seed=7)
     host, port = await arm.start("127.0.0.1", 0)
     arm.url = f"socket://{host}:{port}"
-    yield Rig(emu, arm)
-    await arm.stop()
+    return Rig(emu, arm)
+
+
+async def stop_rig(rig: Rig) -> None:
+    await rig.arm.stop()
     with contextlib.suppress(Exception):
-        await emu.stop()
+        await rig.emu.stop()
+
+
+@pytest.fixture
+async def rig():
+    cell = await start_rig()
+    yield cell
+    await stop_rig(cell)
 
 
 @pytest.fixture

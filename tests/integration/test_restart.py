@@ -16,12 +16,14 @@ from tests.integration.conftest import FAST, TOKEN, peek
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
 
 
-def start_service(db, lease_s: float = 1.0):
-    """`screwcal serve` on this database (a file or a URL), its jobs held by lease_s leases."""
+def start_service(db, lease_s: float = 1.0, instance: str = ""):
+    """`screwcal serve` on this database (a file or a URL), its jobs held by lease_s leases
+    under the name `instance` (default: host:pid:random)."""
     proc = subprocess.Popen([sys.executable, "-m", "screwcal", "serve", "--db", str(db),
                              "--port", "0", "--token", TOKEN], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "SCREWCAL_LEASE_S": str(lease_s)})
+                            env={**os.environ, "SCREWCAL_LEASE_S": str(lease_s),
+                                 "SCREWCAL_INSTANCE": instance})
     line = proc.stdout.readline()
     m = re.search(r"http://[\d.]+:\d+", line)
     assert m, line + proc.stderr.read()
