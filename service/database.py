@@ -72,7 +72,8 @@ class Database:
     def check(self) -> None:
         """StoreLostError when the database can no longer be written (SQLite: its file gone)."""
 
-    def schema_version(self) -> int: ...
+    def schema_version(self) -> int:
+        raise NotImplementedError
 
     def migrate(self, scripts: dict[int, str], target: int) -> None: ...
 
