@@ -290,11 +290,9 @@ class PostgresDatabase(Database):
 
     def schema_version(self) -> int:
         with self.lock:
-            if self._db.execute("SELECT to_regclass('screwcal_schema') AS t").fetchone()["t"] \
-                    is None:
+            if self._value("SELECT to_regclass('screwcal_schema') AS v") is None:
                 return 0
-            row = self._db.execute("SELECT max(version) AS v FROM screwcal_schema").fetchone()
-        return int(row["v"] or 0)
+            return int(self._value("SELECT max(version) AS v FROM screwcal_schema") or 0)
 
     def migrate(self, scripts: dict[int, str], target: int) -> None:
         # Services starting together: one migrates, the others wait for it on the advisory
@@ -303,10 +301,17 @@ class PostgresDatabase(Database):
             self._db.execute("SELECT pg_advisory_xact_lock(%s)", (_MIGRATION_LOCK,))
             self._db.execute("CREATE TABLE IF NOT EXISTS screwcal_schema (version INTEGER NOT "
                              "NULL)")
-            row = self._db.execute("SELECT max(version) AS v FROM screwcal_schema").fetchone()
-            for v in range(int(row["v"] or 0) + 1, target + 1):
+            done = int(self._value("SELECT max(version) AS v FROM screwcal_schema") or 0)
+            for v in range(done + 1, target + 1):
                 self._db.execute(scripts[v].format(**self.types))  # DDL is transactional here
                 self._db.execute("INSERT INTO screwcal_schema (version) VALUES (%s)", (v,))
+
+    def _value(self, sql: str) -> Any:
+        """Column `v` of a SELECT that returns one row (an aggregate's)."""
+        row = self._db.execute(sql).fetchone()
+        if row is None:
+            raise StoreLostError(f"the database {self.label} returned no row for {sql!r}")
+        return row["v"]
 
     def close(self) -> None:
         self._db.close()

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import asyncio
 from collections import OrderedDict
-from typing import Any
+from typing import Any, cast
 
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
@@ -44,8 +44,10 @@ def guarded_protocol(header_timeout_s: float, max_pending: int) -> type[H11Proto
             waiting.pop(self, None)
             self.transport.close()
 
-        def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
-            super().connection_made(transport)
+        def connection_made(self, transport: asyncio.BaseTransport) -> None:
+            # asyncio's Protocol takes a BaseTransport; uvicorn's h11 protocol is always given
+            # (and types) a stream Transport
+            super().connection_made(cast(asyncio.Transport, transport))
             self._wait_for_head()
 
         def handle_events(self) -> None:
