@@ -38,7 +38,7 @@ from service.document import (
     RemovedParameter,
     ResultDocument,
 )
-from service.phases import PERF_PHASES, ROUND_SUFFIXES
+from service.phases import PERF_PHASES, ROUND_SUFFIXES, Round, compensated_list
 from service.plans import PlannedPose
 
 POOR_FIT_CHI2 = 10.0  # chi2/dof above this with the stated noise: the model misses something
@@ -101,7 +101,7 @@ class PlannedCorrection:
 
 
 def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
-                    perf_plan: list[PlannedPose], suffix: str) -> PlannedCorrection:
+                    perf_plan: list[PlannedPose], suffix: Round) -> PlannedCorrection:
     """What the route will do, checked before anything moves: the ZERO targets (refused
     when implausible), the compensated lists (refused when unreachable or implausible), the
     accuracy the model predicts before and after, and what stays in the robot."""
@@ -127,7 +127,7 @@ def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
         compensated, change = compensate_plan(perf_plan, robot, nominal)
         q_sent = np.radians([p.joints_deg for p in compensated])
         after = flange_error_mm(robot, q_sent, target)
-        out |= {"compensated_lists": ["perf_after" + suffix], "max_joint_change_deg": change,
+        out |= {"compensated_lists": [compensated_list(suffix)], "max_joint_change_deg": change,
                 "left_in_robot": []}
     else:
         after = flange_error_mm(robot, q_nominal, target)

@@ -39,6 +39,11 @@ def job_steps(kind: str, rounds: int = 1) -> tuple[str, ...]:
     return steps
 
 
+def compensated_list(suffix: Round) -> str:
+    """The performance list that round `suffix`'s estimation compensates."""
+    return next(phase for phase, s in ESTIMATION_FOR.items() if s == suffix)
+
+
 def round_suffix(step: str) -> Round:
     """'_2' for a step of the second calibration round, '' otherwise."""
     return "_2" if step.endswith("_2") else ""

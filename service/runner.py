@@ -52,6 +52,7 @@ from service.phases import (
     HOME_PHASES,
     PERF_PHASES,
     Round,
+    compensated_list,
     job_steps,
     round_suffix,
 )
@@ -234,7 +235,7 @@ class JobRunner:
                                                suffix)
             doc = doc.with_round(suffix, correction=planned.section)
             if planned.compensated is not None:
-                self._compensated["perf_after" + suffix] = planned.compensated
+                self._compensated[compensated_list(suffix)] = planned.compensated
         finally:
             self.job = self.store.set_result(self.job_id, doc)
 
@@ -272,7 +273,7 @@ class JobRunner:
             doc.frame_note = (f"accuracy measured in the robot base frame identified by job "
                               f"{source}'s calibration")
         else:  # a performance job alone: the measuring frame from its own data
-            data = analysis.measurement_set(self.store.measurements(self.job_id, "perf_before"))
+            data = analysis.measurement_set(self.store.measurements(self.job_id, PERF_PHASES[0]))
             doc.base = identify(self.model, data, kind="frames", frames="base").model.base.tolist()
             doc.frame_note = (
                 "accuracy measured in a robot base frame fitted to this performance data "
