@@ -122,8 +122,12 @@ async def run_plant(db: str, n_services: int, n_robots: int, options: dict,
             ids.append(r.json()["id"])
         live = https
         if kill_after_poses is not None:
-            while rows(db, "SELECT count(*) FROM measurements")[0][0] < kill_after_poses:
-                await asyncio.sleep(0.01)
+            import psycopg
+
+            with psycopg.connect(db, autocommit=True) as con:  # one connection, polled
+                while con.execute("SELECT count(*) FROM measurements").fetchone()[0] < \
+                        kill_after_poses:
+                    await asyncio.sleep(0.05)
             services[0].kill()
             out["killed_at"] = time.perf_counter() - start
             out["before"] = {(j, p, i): mid for j, p, i, mid in rows(

@@ -20,7 +20,7 @@ from fastapi.staticfiles import StaticFiles
 from swagger_ui_bundle import swagger_ui_path
 
 from screwcal.calibration.blas_threads import hold_one_blas_thread
-from service.api import events, jobs, robots
+from service.api import events, history, jobs, robots
 from service.api.errors import install_error_handlers
 from service.manager import JobManager
 from service.settings import ServiceSettings
@@ -56,6 +56,7 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
     _serve_docs(app)
     install_error_handlers(app)
     app.include_router(robots.router)
+    app.include_router(history.router)
     app.include_router(jobs.router)
     app.include_router(events.router)
     return app

@@ -113,7 +113,9 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                                    f"{args.controller!r}")
             robot = op.add_robot(name=args.name, controller_host=host,
                                  controller_port=int(port), arm_url=args.arm,
-                                 model=_model_argument(args.model))
+                                 model=_model_argument(args.model), serial=args.serial,
+                                 controller_software=args.controller_software,
+                                 tool=args.tool, payload_kg=args.payload_kg)
             print(f"robot {robot['id']}: {robot['name']}")
         elif args.action == "robot-list":
             for r in op.robots():
@@ -148,6 +150,12 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                 return 0 if op.job(args.id)["state"] == "done" else 1
             state = op.watch(args.id)
             return 0 if state in ("done", "waiting") else 1
+        elif args.action == "history":
+            from service.history import RobotHistory, history_text
+
+            doc = RobotHistory.model_validate(op.history(op.robot_id(args.robot)))
+            print(history_text(doc))
+            return 2 if doc.alarm is not None else 0
         elif args.action == "abort":
             op.abort(args.id)
             print(f"job {args.id}: abort requested")
@@ -194,6 +202,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--arm", required=True, help="pyserial URL of the measuring arm")
     r.add_argument("--model", default="irb1600", help="built-in robot, or a model file read "
                    "here (relative to this directory) and sent to the service")
+    r.add_argument("--serial", default="", help="the robot's serial number")
+    r.add_argument("--controller-software", default="", help="e.g. 'RobotWare 6.15'")
+    r.add_argument("--tool", default="", help="the tool mounted")
+    r.add_argument("--payload-kg", type=finite_float, default=None)
+    h = actions.add_parser("history", parents=[common], help="a robot's jobs and models with "
+                           "their provenance, its accuracy trend and drift alarm (exit 2 when "
+                           "the alarm is on)")
+    h.add_argument("robot", help="the robot's name or id")
     st = actions.add_parser("start", parents=[common], help="start a job and watch it")
     st.add_argument("--robot", required=True, help="the robot's name or id")
     st.add_argument("--kind", choices=["procedure", "calibration", "performance"],

@@ -73,6 +73,9 @@ class Operator:
     def job(self, job_id: int) -> dict:
         return self._check(self.http.get(f"/jobs/{job_id}"))
 
+    def history(self, robot_id: int) -> dict:
+        return self._check(self.http.get(f"/robots/{robot_id}/history"))
+
     def go(self, job_id: int, index: int) -> None:
         self._check(self.http.post(f"/jobs/{job_id}/go", json={"index": index}))
 

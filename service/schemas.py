@@ -36,6 +36,10 @@ class RobotCreate(BaseModel):
     holes_mm: list[list[float]] = Field(
         default_factory=lambda: [list(h) for h in DEFAULT_HOLES_IN_FLANGE_MM],
         description="the measuring flange's holes P1, P2, P3 in the tool0 frame, mm")
+    serial: str = Field("", max_length=80, description="the robot's serial number")
+    controller_software: str = Field("", max_length=80, description="e.g. RobotWare 6.15")
+    tool: str = Field("", max_length=80, description="the tool mounted")
+    payload_kg: float | None = Field(None, ge=0, le=2000, description="the payload carried")
 
     @field_validator("holes_mm")
     @classmethod
@@ -72,6 +76,21 @@ class RobotPublic(BaseModel):
     arm_url: str
     model: dict[str, Any]
     holes_mm: list[list[float]]
+    serial: str = ""
+    controller_software: str = ""
+    tool: str = ""
+    payload_kg: float | None = None
+
+
+class RobotIdentity(BaseModel):
+    """A change of a robot's identity (a new controller software, tool or payload): the
+    fields sent are changed, the others kept."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    serial: str | None = Field(None, max_length=80)
+    controller_software: str | None = Field(None, max_length=80)
+    tool: str | None = Field(None, max_length=80)
+    payload_kg: float | None = Field(None, ge=0, le=2000)
 
 
 class JobCreate(BaseModel):

@@ -21,6 +21,9 @@ class ServiceSettings(BaseSettings):
                            "died")
     instance: str = Field("", description="this service's name on the jobs it holds; empty: "
                           "host:pid:random")
+    drift_alarm_mm: float = Field(0.5, gt=0, description="a robot is flagged when the AP "
+                                  "it measures now is this much worse than the AP its newest "
+                                  "model reached (ISO 9283 AP, mm)")
     host: str = Field("127.0.0.1", description="bind address: loopback unless told otherwise")
     port: int = 8080
     token: str = Field("", description="bearer token required to move a robot or change data, "

@@ -35,6 +35,7 @@ import uuid
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from screwcal import __version__
 from service.database import Database, open_database
 from service.document import JobRecord, PhaseRecord, ResultDocument
 from service.errors import (
@@ -47,7 +48,7 @@ from service.errors import (
 if TYPE_CHECKING:
     from service.settings import ServiceSettings
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 UNFINISHED = ("queued", "running", "paused")
 _UNFINISHED_SQL = "(" + ", ".join(f"'{s}'" for s in UNFINISHED) + ")"  # in queries, not in
 # the migrations (a migration is history: it keeps the states it was written with)
@@ -93,7 +94,18 @@ _MIGRATIONS = {
     ALTER TABLE jobs ADD COLUMN holder TEXT;
     ALTER TABLE jobs ADD COLUMN lease_expires {real};
     """,
+    # Version 4: a robot's identity (serial number, controller software, tool, payload), and
+    # each job's provenance: the software that ran it, the robot's identity when it was made.
+    4: """
+    ALTER TABLE robots ADD COLUMN serial TEXT NOT NULL DEFAULT '';
+    ALTER TABLE robots ADD COLUMN controller_software TEXT NOT NULL DEFAULT '';
+    ALTER TABLE robots ADD COLUMN tool TEXT NOT NULL DEFAULT '';
+    ALTER TABLE robots ADD COLUMN payload_kg {real};
+    ALTER TABLE jobs ADD COLUMN software TEXT NOT NULL DEFAULT '';
+    ALTER TABLE jobs ADD COLUMN robot_identity TEXT;
+    """,
 }
+IDENTITY = ("serial", "controller_software", "tool", "payload_kg")  # a robot's, as it changes
 
 
 def _row(row: dict[str, Any] | None, what: str) -> dict[str, Any]:
@@ -101,7 +113,7 @@ def _row(row: dict[str, Any] | None, what: str) -> dict[str, Any]:
         raise NotFoundError(f"no such {what}")
     out = dict(row)
     for key in ("model", "holes_mm", "options", "phases", "result", "joints_deg", "tool0",
-                "flange_pose"):
+                "flange_pose", "robot_identity"):
         if key in out and isinstance(out[key], str):
             out[key] = json.loads(out[key])
     return out
@@ -163,19 +175,42 @@ class Store:
 
     # -- robots --------------------------------------------------------------------------------
     def add_robot(self, name: str, controller_host: str, controller_port: int, arm_url: str,
-                  model: dict, holes_mm: list) -> dict:
+                  model: dict, holes_mm: list, identity: dict | None = None) -> dict:
+        """A robot cell; `identity` its serial number, controller software, tool and payload
+        (IDENTITY: each optional)."""
+        ident = self._identity(identity or {})
         try:
             with self.db.tx() as db:
                 rid = db.execute(
                     "INSERT INTO robots (name, controller_host, controller_port, arm_url, model, "
-                    "holes_mm, created) VALUES (?, ?, ?, ?, ?, ?, ?) RETURNING id",
+                    "holes_mm, created, serial, controller_software, tool, payload_kg) VALUES "
+                    "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
                     (name, controller_host, controller_port, arm_url, json.dumps(model),
-                     json.dumps(holes_mm), time.time())).fetchone()["id"]
+                     json.dumps(holes_mm), time.time(), *ident.values())).fetchone()["id"]
         except self.db.integrity_errors:
             other = self.robot_named(name)
             raise ConflictError(f"a robot named {name!r} exists already (robot {other['id']}): "
                                 "robot names are unique") from None
         return self.robot(int(rid))
+
+    @staticmethod
+    def _identity(identity: dict) -> dict:
+        unknown = set(identity) - set(IDENTITY)
+        if unknown:
+            raise ValueError(f"not a robot identity field: {', '.join(sorted(unknown))} "
+                             f"(fields: {', '.join(IDENTITY)})")
+        return {k: identity.get(k, None if k == "payload_kg" else "") for k in IDENTITY}
+
+    def set_identity(self, robot_id: int, identity: dict) -> dict:
+        """Change a robot's identity (a new controller software, tool or payload): the jobs
+        made before keep the identity they were made with."""
+        self.robot(robot_id)
+        fields = {k: v for k, v in self._identity(identity).items() if k in identity}
+        if fields:
+            cols = ", ".join(f"{k} = ?" for k in fields)
+            with self.db.tx() as db:
+                db.execute(f"UPDATE robots SET {cols} WHERE id = ?", (*fields.values(), robot_id))
+        return self.robot(robot_id)
 
     def robot(self, robot_id: int) -> dict:
         return _row(self.db.row("SELECT * FROM robots WHERE id = ?", (robot_id,)),
@@ -193,16 +228,19 @@ class Store:
         """A new queued job, held by this service; ConflictError when the robot has an
         unfinished job (the database's unique index decides, in the inserting transaction: no
         race between services)."""
-        self.robot(robot_id)
+        robot = self.robot(robot_id)
+        identity = {k: robot[k] for k in IDENTITY}
         now = time.time()
         try:
             with self.db.tx() as db:
                 jid = db.execute(
                     "INSERT INTO jobs (robot_id, kind, mode, state, reason, options, phases, "
-                    "created, updated, holder, lease_expires) VALUES (?, ?, ?, 'queued', '', ?, "
-                    f"'{{}}', ?, ?, ?, {self.db.now_sql} + ?) RETURNING id",
+                    "created, updated, holder, lease_expires, software, robot_identity) VALUES "
+                    f"(?, ?, ?, 'queued', '', ?, '{{}}', ?, ?, ?, {self.db.now_sql} + ?, ?, ?) "
+                    "RETURNING id",
                     (robot_id, kind, mode, json.dumps(options), now, now, self.holder,
-                     self.lease_s)).fetchone()["id"]
+                     self.lease_s, f"screwcal {__version__}", json.dumps(identity))
+                ).fetchone()["id"]
         except self.db.integrity_errors:
             busy = self.unfinished_job(robot_id)
             raise ConflictError(f"robot {robot_id} is busy with job {busy}: wait for it to end "
@@ -297,6 +335,22 @@ class Store:
     def job(self, job_id: int) -> JobRecord:
         return JobRecord.model_validate(_row(self.db.row(
             "SELECT * FROM jobs WHERE id = ?", (job_id,)), f"job {job_id}"))
+
+    def robot_jobs(self, robot_id: int) -> list[tuple[JobRecord, dict[str, Any]]]:
+        """A robot's jobs, oldest first, each with its provenance as stored (software,
+        robot_identity, holder: the service that ran it last) and its poses per phase."""
+        poses: dict[int, dict[str, int]] = {}
+        for r in self.db.rows(
+                "SELECT m.job_id, m.phase, count(*) AS n FROM measurements m JOIN jobs j ON "
+                "j.id = m.job_id WHERE j.robot_id = ? GROUP BY m.job_id, m.phase", (robot_id,)):
+            poses.setdefault(int(r["job_id"]), {})[r["phase"]] = int(r["n"])
+        out = []
+        for r in self.db.rows("SELECT * FROM jobs WHERE robot_id = ? ORDER BY id", (robot_id,)):
+            row = _row(r, "job")
+            extra = {"software": row["software"], "robot_identity": row["robot_identity"],
+                     "service": row["holder"], "poses": poses.get(int(row["id"]), {})}
+            out.append((JobRecord.model_validate(row), extra))
+        return out
 
     def jobs(self) -> list[JobRecord]:
         return [JobRecord.model_validate(_row(r, "job"))

@@ -9,6 +9,7 @@ from screwcal.kinematics.modelfile import model_document, parse_model
 from screwcal.kinematics.robots import BUILTIN_MODELS, builtin_model
 from service.api.deps import Auth, Read, RobotId, StoreDep
 from service.schemas import RobotCreate, RobotPublic
+from service.store import IDENTITY
 
 router = APIRouter(prefix="/robots", tags=["robots"])
 
@@ -28,7 +29,8 @@ def create_robot(body: RobotCreate, _: Auth, store: StoreDep) -> dict:
         raise HTTPException(422, f"model: {err}") from None
     doc = model_document(model)
     return store.add_robot(body.name, body.controller_host, body.controller_port,
-                           body.arm_url, doc, body.holes_mm)
+                           body.arm_url, doc, body.holes_mm,
+                           body.model_dump(include=set(IDENTITY)))
 
 @router.get("", response_model=list[RobotPublic])
 def list_robots(_: Read, store: StoreDep) -> list[dict]:

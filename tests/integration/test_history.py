@@ -1,0 +1,63 @@
+"""A robot's history through the REST API (issue 28, points 4-5): its jobs with their
+provenance, its model versions, its accuracy trend, and the drift alarm when a verification
+measures the robot worse than its newest model left it (a "collision" moves a joint's zero in
+the emulated robot)."""
+
+import numpy as np
+
+from service.history import RobotHistory, history_text
+from tests.integration.conftest import AUTH, FAST
+from tests.integration.test_jobs import wait_state
+
+
+async def test_history_keeps_provenance_and_raises_the_drift_alarm(service, rig):
+    host, port = rig.address
+    r = await service.post("/robots", headers=AUTH, json={
+        "name": "line 3 cell 2", "controller_host": host, "controller_port": port,
+        "arm_url": rig.arm.url, "serial": "6400-501234", "controller_software": "RW 6.15",
+        "tool": "gripper A", "payload_kg": 4.5})
+    assert r.status_code == 201, r.text
+    robot = r.json()
+    assert (robot["serial"], robot["payload_kg"]) == ("6400-501234", 4.5)
+
+    async def run(kind: str, **options) -> int:
+        r = await service.post("/jobs", json={"robot_id": robot["id"], "kind": kind,
+                                              "options": {**FAST, **options}})
+        assert r.status_code == 202, r.text
+        job = await wait_state(service, r.json()["id"])
+        assert job["state"] == "done", job["reason"]
+        return job["id"]
+
+    async def history() -> RobotHistory:
+        r = await service.get(f"/robots/{robot['id']}/history")
+        assert r.status_code == 200, r.text
+        return RobotHistory.model_validate(r.json())
+
+    calibrated = await run("procedure", model="thesis", correction="zero")
+    verified = await run("performance", frame_from_job=calibrated)
+    h = await history()
+    assert h.alarm is None
+    first, check = h.entries
+    assert (first.job, first.model_version, first.route) == (calibrated, 1, "zero")
+    assert first.software.startswith("screwcal ") and first.service
+    assert first.robot_identity == {"serial": "6400-501234", "controller_software": "RW 6.15",
+                                    "tool": "gripper A", "payload_kg": 4.5}
+    assert first.poses["cal"] == FAST["calibration_poses"] and first.poses["perf_after"] > 0
+    assert first.ap_before_mm > 5 * first.ap_mm  # the correction's effect, as measured
+    assert check.model_version is None and abs(check.ap_mm - first.ap_mm) < 0.3
+    assert [t[0] for t in h.trend] == [calibrated, verified]
+
+    r = await service.put(f"/robots/{robot['id']}/identity", json={"tool": "gripper B"})
+    assert r.status_code == 200 and r.json()["tool"] == "gripper B"
+    rig.emu.world.truth.joint_zero[1] += np.radians(0.3)  # a collision shifts J2
+    drifted = await run("performance", frame_from_job=calibrated)
+    h = await history()
+    assert h.entries[0].robot_identity["tool"] == "gripper A"  # as it was when made
+    assert h.entries[-1].robot_identity["tool"] == "gripper B"
+    assert h.alarm is not None and h.alarm.latest_job == drifted
+    assert h.alarm.model_job == calibrated and h.alarm.latest_ap_mm > h.alarm.baseline_ap_mm + 0.5
+    text = history_text(h)
+    assert "DRIFT ALARM" in text and f"job {drifted}" in text and "gripper B" in text
+
+    missing = await service.get("/robots/999/history")
+    assert missing.status_code == 404
