@@ -127,9 +127,13 @@ def _calls(nodes: tuple) -> list[rapid.ProcCall | rapid.Call]:
         node = stack.pop()
         if type(node) is tuple:
             stack.extend(node)
+        elif type(node) is rapid.ProcCall or type(node) is rapid.Call:
+            out.append(node)
+            if node.late is not None:
+                stack.append(node.late)
+            # arguments: only their values can hold calls; names and literals cannot
+            stack.extend([a.value for a in node.args if not isinstance(a.value, _LEAVES)])
         elif isinstance(node, rapid.Node) and not isinstance(node, _LEAVES):
-            if isinstance(node, (rapid.ProcCall, rapid.Call)):
-                out.append(node)
             stack.extend([getattr(node, f) for f in node.__slots__])
     return out
 

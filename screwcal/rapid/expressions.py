@@ -210,6 +210,24 @@ class ExpressionParser(Scanner):
             starts = list(accumulate([len(p) + 1 for p in pieces[:-1]], initial=start + 1))
         return NumberRow(line, start - base, start, end, tuple(texts), tuple(starts))
 
+    def number_rows(self, start: int, end: int, line: int, base: int) -> tuple[NumberRow, ...]:
+        """The NumberRows of `[[n, ...], [n, ...], ...]` between start and end (one line,
+        checked by _NESTED): split at `],[` when written without blanks (a robtarget as the
+        controller writes it), else row by row."""
+        inner = self.text[start + 1:end - 1]
+        if " " in inner or "\t" in inner:
+            return tuple([self.numbers(m.start(), m.end(), line, base)
+                          for m in _FLAT.finditer(self.text, start + 1, end)])
+        rows = []
+        at = start + 1  # the row's '['
+        for body in inner[1:-1].split("],["):
+            texts = body.split(",")
+            starts = tuple(accumulate([len(t) + 1 for t in texts[:-1]], initial=at + 1))
+            after = at + len(body) + 2  # one past the row's ']'
+            rows.append(NumberRow(line, at - base, at, after, tuple(texts), starts))
+            at = after + 1
+        return tuple(rows)
+
     def item(self) -> Expr:
         """An item of an aggregate: most often an aggregate itself, read without going down
         the operator levels (and again as an expression when an operator follows it)."""
@@ -236,9 +254,8 @@ class ExpressionParser(Scanner):
             if flat:
                 value = self.numbers(start, end, line, base)
             else:
-                value = AggregateNode(line, start - base, start, end, tuple([
-                    self.numbers(m.start(), m.end(), line, base)
-                    for m in _FLAT.finditer(text, start + 1, end)]))
+                value = AggregateNode(line, start - base, start, end,
+                                      self.number_rows(start, end, line, base))
             self.pos = self.end = end
             self.advance()
             return value

@@ -53,7 +53,6 @@ __all__ = ["KEYWORDS", "RapidSyntaxError", "parse_expression", "parse_module"]
 
 # A procedure call whose arguments are all names, on one line (the rest of most statements).
 _PLAIN_CALL = re.compile(r"[ \t]+([A-Za-z]\w*(?:[ \t]*,[ \t]*[A-Za-z]\w*)*)[ \t]*;")
-_NAME = re.compile(r"[A-Za-z]\w*")
 _ENDS = {"PROC": "ENDPROC", "FUNC": "ENDFUNC", "TRAP": "ENDTRAP"}
 _HANDLERS = ("BACKWARD", "ERROR", "UNDO")
 _CLOSERS = frozenset(("ENDPROC", "ENDFUNC", "ENDTRAP", "ENDIF", "ENDWHILE", "ENDFOR", "ENDTEST",
@@ -323,14 +322,16 @@ class _Parser(ExpressionParser):
         line = bisect_right(self.starts, start)
         base = self.starts[line - 1] - 1
         args = []
-        for m in _NAME.finditer(self.text, plain.start(1), plain.end(1)):
-            a, b = m.span()
-            word = m.group()
+        at = plain.start(1)
+        for piece in plain.group(1).split(","):  # names, blanks around them: no comments
+            word = piece.strip()
             if word.upper() in KEYWORDS:  # not a plain call after all: the general way
                 self.advance()
                 return ProcCall(*self.loc(start), name, self.arguments(";"))
-            arg = Name(line, a - base, a, b, word)
-            args.append(Argument(line, a - base, a, b, arg))
+            a = at + piece.index(word)
+            b, col = a + len(word), a - base
+            args.append(Argument(line, col, a, b, Name(line, col, a, b, word)))
+            at += len(piece) + 1
         self.pos = self.end = plain.end()
         self.advance()
         return ProcCall(line, start - base, start, plain.end(), name, tuple(args))
