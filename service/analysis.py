@@ -20,6 +20,8 @@ from screwcal.calibration.correction import (
 )
 from screwcal.calibration.identify import CalibrationResult
 from screwcal.calibration.measurements import MeasurementSet
+from screwcal.calibration.resultfile import compliance_summary
+from screwcal.kinematics.compliance import Payload
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
@@ -45,10 +47,24 @@ POOR_FIT_CHI2 = 10.0  # chi2/dof above this with the stated noise: the model mis
 
 
 def measurement_set(rows: Sequence[Mapping[str, Any]]) -> MeasurementSet:
-    """The committed poses of a phase as the identification reads them."""
+    """The committed poses of a phase as the identification reads them, in the order measured:
+    each pose's previous readings are those of the pose before it (the read-back lag's
+    `q_previous`; unknown for the first)."""
     T = transform_from_pose(np.array([r["flange_pose"] for r in rows]))
-    return MeasurementSet(np.radians([r["joints_deg"] for r in rows]), T[:, :3, 3].copy(),
-                          T[:, :3, :3].copy(), tuple(str(r["idx"]) for r in rows))
+    q = np.radians([r["joints_deg"] for r in rows])
+    previous = np.full_like(q, np.nan)
+    previous[1:] = q[:-1]
+    return MeasurementSet(q, T[:, :3, 3].copy(), T[:, :3, :3].copy(),
+                          tuple(str(r["idx"]) for r in rows), q_previous=previous)
+
+
+def list_payload(options: JobOptions, kind: str) -> Payload:
+    """What the flange carries during a job's "cal" or "perf" list (its options)."""
+    kg, cog = options.payload_kg, options.payload_cog_mm
+    if kind == "cal" and options.calibration_payload_kg is not None:
+        kg = options.calibration_payload_kg
+        cog = options.calibration_payload_cog_mm or cog
+    return Payload(float(kg), (float(cog[0]), float(cog[1]), float(cog[2])))
 
 
 def compensate_plan(plan: list[PlannedPose], robot: SerialModel, nominal: SerialModel
@@ -88,7 +104,11 @@ def estimation_summary(result: CalibrationResult) -> EstimationSummary:
         noise=result.noise.to_dict() if result.noise is not None else None,
         warnings=list(result.warnings),
         residual_before_mm=float(result.residuals_before.mean()),
-        residual_after_mm=float(result.residuals_after.mean()))
+        residual_after_mm=float(result.residuals_after.mean()),
+        compliance=compliance_summary(result),
+        reading_lag={"per_joint": None if result.reading_lag is None else
+                     [float(v) for v in result.reading_lag], "note": result.lag_note,
+                     "meaning": "fraction of the previous move the joint readings trail"})
 
 
 @dataclass(frozen=True)
@@ -101,10 +121,12 @@ class PlannedCorrection:
 
 
 def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
-                    perf_plan: list[PlannedPose], suffix: Round) -> PlannedCorrection:
+                    perf_plan: list[PlannedPose], suffix: Round,
+                    payload: Payload | None = None) -> PlannedCorrection:
     """What the route will do, checked before anything moves: the ZERO targets (refused
     when implausible), the compensated lists (refused when unreachable or implausible), the
-    accuracy the model predicts before and after, and what stays in the robot."""
+    accuracy the model predicts before and after, and what stays in the robot. `payload`:
+    what the robot carries during the performance list (default: the calibration's)."""
     robot_params = [(p, v) for p, v in zip(result.params, result.values, strict=True)
                     if p.group == "robot"]
     not_identified = [n for n, _ in result.removed if not n.startswith(("base", "tool"))]
@@ -113,7 +135,8 @@ def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
             route="none", note="a calibration job sends no correction; the calibrated model "
             "is downloadable (screwcal job model N)", not_identified=not_identified))
     q_nominal = np.radians([p.joints_deg for p in perf_plan])
-    robot = result.model
+    calibrated = result.model if payload is None else replace(result.model, payload=payload)
+    robot = calibrated
     out: dict[str, Any] = {"route": route, "not_identified": not_identified}
     if route.startswith("zero"):
         correction = joint_correction(result.params, result.values, result.std_errors,
@@ -121,7 +144,7 @@ def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
         out |= correction.to_dict()
         robot = after_zero(robot, correction.zero_command_deg)
     target = flange_kinematics(nominal, q_nominal)
-    before = flange_error_mm(result.model, q_nominal, target)
+    before = flange_error_mm(calibrated, q_nominal, target)
     compensated = None
     if "compensate" in route:
         compensated, change = compensate_plan(perf_plan, robot, nominal)

@@ -59,6 +59,24 @@ class JobOptions(BaseModel):
     cube_edge_mm: float = Field(300.0, gt=0, le=2000)
     arm_position_mm: tuple[float, float, float] | None = Field(
         None, description="where the arm stands in the robot frame, to keep the cube in reach")
+    compliance: Literal["auto", "none", "j23", "j23-free", "wrist"] = Field(
+        "auto", description="joint compliance under gravity identified with the geometry: auto "
+        "(joints 2-3 when the data support them), none (geometric only), j23, j23-free (a "
+        "coefficient per arm mass), wrist (joints 2-6)")
+    lag: Literal["auto", "none"] = Field(
+        "auto", description="joint readings that trail the motion: auto (estimated and "
+        "corrected when the diagnostics flag them) or none")
+    payload_kg: float = Field(0.0, ge=0.0, le=2000.0, description="mass on the flange during "
+                              "the performance lists (and the calibration list unless "
+                              "calibration_payload_kg is given), kg")
+    payload_cog_mm: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="its centre of gravity in the flange (tool0) frame, mm")
+    calibration_payload_kg: float | None = Field(
+        None, ge=0.0, le=2000.0, description="mass on the flange during the calibration list, "
+        "kg (default: payload_kg)")
+    calibration_payload_cog_mm: tuple[float, float, float] | None = Field(
+        None, description="its centre of gravity in the flange frame, mm (default: "
+        "payload_cog_mm)")
     frame_from_job: Id | None = Field(
         None, description="performance: measure accuracy in the robot base frame that this "
         "earlier job's calibration identified (default: a frame fitted to the job's own data, "
@@ -110,6 +128,9 @@ class EstimationSummary(Section):
     warnings: list[str] = Field(default_factory=list)
     residual_before_mm: float
     residual_after_mm: float
+    # the joint compliance identified (resultfile.compliance_summary) and the read-back lag
+    compliance: dict[str, Any] | None = None
+    reading_lag: dict[str, Any] | None = None
 
 
 # -- the correction ------------------------------------------------------------------------------

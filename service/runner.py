@@ -32,6 +32,7 @@ from __future__ import annotations
 import asyncio
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
@@ -107,7 +108,8 @@ class JobRunner:
         if not doc:
             raise SafetyError(f"no calibrated model for the estimation{suffix or ''}: the "
                               "compensated targets cannot be built")
-        return parse_model(doc["model"], f"job {self.job_id} calibration{suffix}")
+        robot = parse_model(doc["model"], f"job {self.job_id} calibration{suffix}")
+        return replace(robot, payload=analysis.list_payload(self.options, "perf"))
 
     def steps(self) -> tuple[str, ...]:
         return job_steps(self.job.kind, self.options.rounds)
@@ -221,18 +223,23 @@ class JobRunner:
     def estimate(self, suffix: Round = "") -> None:
         kind = self.options.model
         data = analysis.measurement_set(self.store.measurements(self.job_id, "cal" + suffix))
-        result = identify(self.model, data, kind=kind, frames="base")
+        nominal = replace(self.model, payload=analysis.list_payload(self.options, "cal"))
+        result = identify(nominal, data, kind=kind, frames="base",
+                          compliance=self.options.compliance, lag=self.options.lag)
         doc = self.job.result.with_round(
             suffix, estimation=analysis.estimation_summary(result),
             calibration=result_document(
                 result, self.model.name, {"model": kind, "frames": "base", "poses": len(data),
-                                          "job": self.job_id, "phase": "cal" + suffix}))
+                                          "job": self.job_id, "phase": "cal" + suffix,
+                                          "compliance": self.options.compliance,
+                                          "lag": self.options.lag}))
         doc.base = result.model.base.tolist()
         doc.warnings = analysis.job_warnings(doc)
         try:
             perf_plan = self.plan("perf") if self.route != "none" else []
             planned = analysis.plan_correction(result, self.route, self.model, perf_plan,
-                                               suffix)
+                                               suffix, analysis.list_payload(self.options,
+                                                                             "perf"))
             doc = doc.with_round(suffix, correction=planned.section)
             if planned.compensated is not None:
                 self._compensated[compensated_list(suffix)] = planned.compensated

@@ -4,6 +4,7 @@
                            [--time-scale X] [--world FILE] [--arm-port P]
                            [--realism ideal|typical|harsh | --realism-file FILE]
                            [--realism-seed N] [--payload-kg KG --payload-cog-mm X,Y,Z]
+                           [--list-payload CAL=KG[:X,Y,Z] --list-payload PERF=KG[:X,Y,Z]]
     screwcal emulator arm --port PORT [--world FILE] [--pty]
     (both: [--arm-faults duplicate=P,late=P,stale=P])
 
@@ -48,6 +49,11 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
     world_file = Path(args.world) if args.world else \
         Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "world.json"
     writer = WorldFileWriter(world_file)
+    if args.list_payload:  # the operator mounts each list's payload: before anything reads
+        from simulators.realism import ListPayloads
+
+        world.observers.append(ListPayloads(lambda: getattr(emu, "list_name", ""),
+                                            dict(args.list_payload)))
     world.observers.append(writer)
     writer(world)
     emu = IRC5Emulator(world, EmulatorSettings(speed_deg_s=args.speed_deg_s,
@@ -216,3 +222,17 @@ def _add_realism(p: argparse.ArgumentParser) -> None:
     p.add_argument("--realism-seed", type=int, default=None,
                    help="seed of the robot's own masses and of its stops (default: --seed)")
     add_payload_arguments(p)
+    p.add_argument("--list-payload", type=_list_payload, action="append", default=[],
+                   metavar="LIST=KG[:X,Y,Z]",
+                   help="the payload mounted while the controller runs list CAL or PERF (the "
+                   "operator of a job that calibrates and evaluates under different loads), "
+                   "e.g. --list-payload CAL=10:0,0,100 --list-payload PERF=0")
+
+
+def _list_payload(text: str) -> object:
+    from simulators.realism import parse_list_payload
+
+    try:
+        return parse_list_payload(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None

@@ -48,7 +48,9 @@ class World:
     def __post_init__(self) -> None:
         self.q_deg = np.asarray(self.q_deg, dtype=np.float32)
         self._commanded = self.q_deg.astype(float)  # where the motors were sent (deg)
-        self._link = self._commanded.copy()  # where the joints really stand (deg, readings' zero)
+        # where the joints really stand minus what the encoders report (deg): a reading set
+        # from outside (a test placing the robot) keeps the true joints beside it
+        self._true_minus_read = np.zeros(len(self._commanded))
         self._direction = np.zeros(len(self._commanded))  # sign of each joint's last move
         self._rng = np.random.default_rng(self.realism_seed)
         self._drifted: tuple[float, SerialModel] | None = None
@@ -57,7 +59,7 @@ class World:
     def true_joints_deg(self) -> Array:
         """Where the joints really stand, in the readings' zero (deg): the commanded joints
         with the backlash and the repeatability error, before gravity bends them."""
-        return self._link.copy()
+        return self.q_deg.astype(float) + self._true_minus_read
 
     def set_payload(self, payload: Payload) -> None:
         """What the flange now carries (the joints bend under it when the robot is compliant)."""
@@ -72,15 +74,16 @@ class World:
         self.running_s += float(np.max(np.abs(move), initial=0.0)) / r.speed_deg_s + r.dwell_s
         self._direction = np.where(move != 0.0, np.sign(move), self._direction)
         # Backlash (lost motion b): the link stops b/2 short, on the side it came from.
-        self._link = target - self._direction * np.asarray(r.backlash_deg) / 2.0
+        link = target - self._direction * np.asarray(r.backlash_deg) / 2.0
         if r.repeatability_deg:
-            self._link = self._link + self._rng.normal(0.0, r.repeatability_deg, len(target))
+            link = link + self._rng.normal(0.0, r.repeatability_deg, len(target))
         self._commanded = target
         # Read-back lag (calibration.lag's model): q_read = q_true - lag (q_read - q_previous),
         # q_true the encoders' settled reading (the commanded joints), q_previous the last read.
         lag = np.asarray(r.lag)
         previous = self.q_deg.astype(float)
         self.q_deg = ((target + lag * previous) / (1.0 + lag)).astype(np.float32)
+        self._true_minus_read = link - self.q_deg.astype(float)
 
     def _condition(self) -> asyncio.Condition:
         if self.arrived is None:
@@ -111,7 +114,6 @@ class World:
         self._drifted = None
         self.q_deg = (self.q_deg.astype(float) - at).astype(np.float32)
         self._commanded = self._commanded - at
-        self._link = self._link - at
 
     def true_model(self) -> SerialModel:
         """The true robot now: its lengths grown by the warm-up so far (thermal drift)."""
@@ -132,6 +134,6 @@ class World:
 
     def true_holes_mm(self) -> Array:
         """Where the three holes really are, in the arm's frame (3, 3)."""
-        q = np.radians(self._link)[None]
+        q = np.radians(self.true_joints_deg)[None]
         T = forward_kinematics(self.true_model().with_frames(tool=np.eye(4)), q)[0]
         return transform_points(T, self.holes_mm)

@@ -50,10 +50,19 @@ async def test_operator_answers_step_prompts_and_reads_the_result(tmp_path, rig)
 
 
 def test_demo_runs_the_whole_procedure(tmp_path, capsys):
-    assert main(["demo", "--cycles", "2", "--poses", "30", "--out", str(tmp_path)]) == 0
+    assert main(["demo", "--cycles", "2", "--out", str(tmp_path)]) == 0  # 80 poses
     out = capsys.readouterr().out
     m = re.search(r"position accuracy AP, mean\s+([\d.]+) mm\s+([\d.]+) mm", out)
     assert m and float(m.group(1)) > 10 * float(m.group(2)), out
+    # the typical robot by default: what it carries, what was identified of it, and our route
+    # beside the geometric-only one on the same robot and the oracle floor
+    assert "realism typical" in out and "backlash_deg: J1 0.006" in out, out
+    assert re.search(r"identified: compliance_deg_per_knm J2 [\d.]+ ± [\d.]+", out), out
+    ours = re.search(r"ours \(geometry[^)]*\)\s+([\d.]+) mm", out)
+    geo = re.search(r"geometric only \(compliance none, lag none\)\s+([\d.]+) mm", out)
+    floor = re.search(r"oracle floor\s+([\d.]+) mm", out)
+    assert ours and geo and floor, out
+    assert float(geo.group(1)) > float(ours.group(1)) >= float(floor.group(1)) * 0.9, out
     assert (tmp_path / "report.html").stat().st_size > 10_000
     assert (tmp_path / "accuracy_per_point.png").exists()
     assert (tmp_path / "straightness.png").exists()
