@@ -119,6 +119,9 @@ def _to_homogeneous(A: Array) -> Array:
     return T
 
 
+_FEW = 16  # up to this many configurations, `_few_poses` (fewer, larger array calls)
+
+
 def forward_kinematics(model: SerialModel, q: ArrayLike) -> Array:
     """Pose of the tool in the world frame, shape (N, n) -> (N, 4, 4). Eq. of Annex B chained."""
     q = _check_q(model, q)
@@ -127,9 +130,6 @@ def forward_kinematics(model: SerialModel, q: ArrayLike) -> Array:
     A, _ = _chain(model, q, keep=False)
     A = (A.reshape(-1, 4) @ _generators(model)[2]).reshape(-1, 3, 4)
     return _to_homogeneous(A)
-
-
-_FEW = 16  # up to this many configurations, `_few_poses` (fewer, larger array calls)
 
 
 def _few_poses(model: SerialModel, q: Array) -> Array:

@@ -20,6 +20,7 @@ from screwcal.kinematics.se3 import Array, Mask
 
 BRANCHES = tuple((s, e, w) for s in ("front", "back") for e in ("up", "down")
                  for w in ("noflip", "flip"))
+_TAU = 2.0 * np.pi
 
 
 @dataclass(frozen=True)
@@ -95,9 +96,6 @@ def controller_readings(model: SerialModel, theta: Array) -> tuple[Array, Mask]:
     q += start
     within: Mask = np.all((q >= lo) & (q <= hi), axis=-1)  # NaN compares False: out of reach
     return q, within
-
-
-_TAU = 2.0 * np.pi
 
 
 @once_per_object

@@ -75,6 +75,10 @@ _GIMBAL_TOL = 1e-12
 # the elbow's bend signed.
 _ARM_T1_OFFSET = np.array([0.0, 0.0, np.pi, np.pi])
 _ARM_ELBOW_SIGN = np.array([1.0, -1.0, 1.0, -1.0])
+_SLACK = 1e-12
+_NAN_ROWS = (math.nan,) * 24  # a shoulder's four branches
+_SHOULDER_T1_OFFSET = tuple(_ARM_T1_OFFSET[::2].tolist())  # per shoulder (front, back)
+_ELBOW_SIGN = tuple(_ARM_ELBOW_SIGN[:2].tolist())  # per elbow (up, down)
 
 
 def _euler_xyx(W: Array) -> Array:
@@ -143,12 +147,6 @@ def closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Mas
             theta += (t1, t2, t3, wa, wb, wc, t1, t2, t3, wa + math.pi, -wb, wc + math.pi)
             reach += (True, True)  # the wrist as it is, then flipped
     return np.array(theta).reshape(1, 8, 6), np.array(reach).reshape(1, 8)
-
-
-_SLACK = 1e-12
-_NAN_ROWS = (math.nan,) * 24  # a shoulder's four branches
-_SHOULDER_T1_OFFSET = tuple(_ARM_T1_OFFSET[::2].tolist())  # per shoulder (front, back)
-_ELBOW_SIGN = tuple(_ARM_ELBOW_SIGN[:2].tolist())  # per elbow (up, down)
 
 
 @once_per_object
