@@ -212,8 +212,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     h.add_argument("robot", help="the robot's name or id")
     st = actions.add_parser("start", parents=[common], help="start a job and watch it")
     st.add_argument("--robot", required=True, help="the robot's name or id")
-    st.add_argument("--kind", choices=["procedure", "calibration", "performance"],
-                    default="procedure")
+    st.add_argument("--kind", choices=["procedure", "calibration", "performance", "verify"],
+                    default="procedure", help="verify: a short ISO 9283 test with the robot's "
+                    "newest model (10 cycles unless --cycles), no estimation")
     st.add_argument("--mode", choices=["AUTO", "STEP"], default="AUTO")
     st.add_argument("--cycles", type=int, default=30, help="ISO 9283 cycles")
     st.add_argument("--poses", type=int, default=40, help="calibration poses")

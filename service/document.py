@@ -256,7 +256,7 @@ class JobRecord(BaseModel):
 
     id: int
     robot_id: int
-    kind: Literal["performance", "calibration", "procedure"]
+    kind: Literal["performance", "calibration", "procedure", "verify"]
     mode: Literal["AUTO", "STEP"]
     state: str
     reason: str

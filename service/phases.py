@@ -14,15 +14,17 @@ STEPS: Final = {
     "calibration": ("cal", "estimation"),
     "procedure": ("home_before", "perf_before", "cal", "estimation", "correction", "home_after",
                   "perf_after", "evaluation"),
+    # a short pose test with the robot's current model, no estimation (service/verify.py)
+    "verify": ("perf_verify", "evaluation"),
 }
 # Table 14's check: the robot sent home (all joints 0) before and after, its flange measured.
 HOME_PHASES: Final = ("home_before", "home_after")
 # The thesis's "Calibracao 2" (4.7): acquire again, estimate, correct, evaluate.
 SECOND_ROUND: Final = ("cal_2", "estimation_2", "correction_2", "perf_after_2")
 # The ISO 9283 lists, in the order they are measured, and what a person calls each.
-PERF_PHASES: Final = ("perf_before", "perf_after", "perf_after_2")
+PERF_PHASES: Final = ("perf_before", "perf_after", "perf_after_2", "perf_verify")
 PERF_PHASE_NAMES: Final = {"perf_before": "before", "perf_after": "after",
-                           "perf_after_2": "round 2"}
+                           "perf_after_2": "round 2", "perf_verify": "verification"}
 # The estimation whose model drives a performance list's targets when the route compensates.
 # A calibration list (the second round's) is sent as planned: its poses need reach no
 # particular target, only be measured, and compensating them could push one out of the limits.

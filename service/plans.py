@@ -74,4 +74,5 @@ def plan_for(model: SerialModel, kind: str, options: JobOptions) -> list[Planned
                             options.arm_position_mm)
 
 
-LISTS_OF_KIND = {"performance": ("perf",), "calibration": ("cal",), "procedure": ("cal", "perf")}
+LISTS_OF_KIND = {"performance": ("perf",), "calibration": ("cal",), "procedure": ("cal", "perf"),
+                 "verify": ("perf",)}

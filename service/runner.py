@@ -60,6 +60,7 @@ from service.phases import (
 from service.plans import PlannedPose, plan_for
 from service.settings import ServiceSettings
 from service.store import Store
+from service.verify import VERIFY_PHASE, drift_warnings, verification_targets
 
 
 class JobRunner:
@@ -94,6 +95,11 @@ class JobRunner:
         if phase in HOME_PHASES:
             return [PlannedPose(0, (0.0,) * self.model.n_joints, "home")]
         plan = self.plan("cal" if phase.startswith("cal") else "perf")
+        if phase == VERIFY_PHASE and self.options.frame_from_job is not None:
+            if phase not in self._compensated:  # as production sends it with the model
+                self._compensated[phase] = verification_targets(
+                    self.store, plan, self.options.frame_from_job, self.model)
+            return self._compensated[phase]
         suffix = ESTIMATION_FOR.get(phase)
         if suffix is None or "compensate" not in self.route:
             return plan
@@ -302,4 +308,7 @@ class JobRunner:
         doc.test_conditions = analysis.iso_test_conditions(
             self.robot, self.model, self.options, plan, self.job.created)
         doc.warnings = analysis.job_warnings(doc)
+        if self.job.kind == "verify":  # the drift alarm, in the job's own result and report
+            doc.warnings += drift_warnings(self.store, self.job, doc,
+                                           self.settings.drift_alarm_mm)
         self.job = self.store.set_result(self.job_id, doc)

@@ -96,7 +96,7 @@ class RobotIdentity(BaseModel):
 class JobCreate(BaseModel):
     model_config = ConfigDict(extra="forbid")
     robot_id: Id
-    kind: Literal["performance", "calibration", "procedure"]
+    kind: Literal["performance", "calibration", "procedure", "verify"]
     mode: Literal["AUTO", "STEP"] = "AUTO"
     options: JobOptions = Field(default_factory=JobOptions)
 

@@ -18,6 +18,7 @@ from service.plans import LISTS_OF_KIND, plan_for
 from service.report import report_html
 from service.schemas import GoAhead, JobCreate, JobPublic, JobResult, MeasurementPublic
 from service.store import Store
+from service.verify import verify_options
 
 router = APIRouter(prefix="/jobs", tags=["jobs"])
 
@@ -45,6 +46,9 @@ async def create_job(body: JobCreate, _: Auth, request: Request, store: StoreDep
 
 async def _plan_and_add(body: JobCreate, robot: dict, store: Store, manager: JobManager,
                         plans: asyncio.Semaphore) -> JobPublic:
+    if body.kind == "verify":  # the robot's newest model: its frame, its targets
+        body = body.model_copy(update={"options": verify_options(store, body.robot_id,
+                                                                 body.options)})
     source = body.options.frame_from_job
     if source is not None and not store.job(source).result.base:
         raise HTTPException(422, f"job {source} has no identified robot base frame to "

@@ -6,7 +6,7 @@ the emulated robot)."""
 import numpy as np
 
 from service.history import RobotHistory, history_text
-from tests.integration.conftest import AUTH, FAST
+from tests.integration.conftest import AUTH, FAST, add_robot
 from tests.integration.test_jobs import wait_state
 
 
@@ -34,7 +34,7 @@ async def test_history_keeps_provenance_and_raises_the_drift_alarm(service, rig)
         return RobotHistory.model_validate(r.json())
 
     calibrated = await run("procedure", model="thesis", correction="zero")
-    verified = await run("performance", frame_from_job=calibrated)
+    verified = await run("verify")  # the newest model's frame; ZERO route: targets as planned
     h = await history()
     assert h.alarm is None
     first, check = h.entries
@@ -50,14 +50,40 @@ async def test_history_keeps_provenance_and_raises_the_drift_alarm(service, rig)
     r = await service.put(f"/robots/{robot['id']}/identity", json={"tool": "gripper B"})
     assert r.status_code == 200 and r.json()["tool"] == "gripper B"
     rig.emu.world.truth.joint_zero[1] += np.radians(0.3)  # a collision shifts J2
-    drifted = await run("performance", frame_from_job=calibrated)
+    drifted = await run("verify")
     h = await history()
     assert h.entries[0].robot_identity["tool"] == "gripper A"  # as it was when made
     assert h.entries[-1].robot_identity["tool"] == "gripper B"
     assert h.alarm is not None and h.alarm.latest_job == drifted
     assert h.alarm.model_job == calibrated and h.alarm.latest_ap_mm > h.alarm.baseline_ap_mm + 0.5
+    warnings = (await service.get(f"/jobs/{drifted}/result")).json()["warnings"]
+    assert any("drifted since model 1" in w for w in warnings)  # in the job's result and report
     text = history_text(h)
     assert "DRIFT ALARM" in text and f"job {drifted}" in text and "gripper B" in text
 
     missing = await service.get("/robots/999/history")
     assert missing.status_code == 404
+
+
+async def test_verify_sends_the_targets_compensated_by_the_newest_model(service, rig):
+    """A compensate-route model changes nothing in the controller: a verification measures the
+    robot as production runs it, with the targets compensated by that model (AP as the
+    procedure's list after, not the uncorrected robot's)."""
+    robot = await add_robot(service, rig)
+    refused = await service.post("/jobs", json={"robot_id": robot, "kind": "verify"})
+    assert refused.status_code == 409 and "no calibrated model" in refused.json()["detail"]
+    proc = (await service.post("/jobs", json={"robot_id": robot, "kind": "procedure",
+                                              "options": FAST})).json()["id"]
+    assert (await wait_state(service, proc))["state"] == "done"
+    r = await service.post("/jobs", json={"robot_id": robot, "kind": "verify",
+                                          "options": {"arm_position_mm": FAST["arm_position_mm"],
+                                                      "cube_edge_mm": FAST["cube_edge_mm"]}})
+    assert r.status_code == 202, r.text
+    job = await wait_state(service, r.json()["id"])
+    assert job["state"] == "done", job["reason"]
+    assert job["options"]["cycles"] == 10 and job["options"]["frame_from_job"] == proc
+    assert set(job["phases"]) == {"setup", "perf_verify", "evaluation"}  # no estimation
+    perf = {p: (await service.get(f"/jobs/{j}/result")).json()["performance"][p]["overall"]
+            for j, p in ((proc, "perf_after"), (job["id"], "perf_verify"))}
+    assert perf["perf_verify"]["ap_mm_mean"] < 0.1  # compensated (uncorrected: > 40 mm)
+    assert abs(perf["perf_verify"]["ap_mm_mean"] - perf["perf_after"]["ap_mm_mean"]) < 0.05
