@@ -108,7 +108,16 @@ def estimation_summary(result: CalibrationResult) -> EstimationSummary:
         compliance=compliance_summary(result),
         reading_lag={"per_joint": None if result.reading_lag is None else
                      [float(v) for v in result.reading_lag], "note": result.lag_note,
-                     "meaning": "fraction of the previous move the joint readings trail"})
+                     "meaning": "fraction of the previous move the joint readings trail"},
+        explained_share=explained_share(result))
+
+
+def explained_share(result: CalibrationResult) -> float:
+    """How much of the error before the model explains: 1 - mean(after^2) / mean(before^2) of
+    the calibration's position residuals (the nominal model's, then the identified one's)."""
+    before = float(np.mean(np.square(result.residuals_before)))
+    after = float(np.mean(np.square(result.residuals_after)))
+    return 1.0 - after / before if before > 0 else 0.0
 
 
 @dataclass(frozen=True)

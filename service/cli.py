@@ -23,7 +23,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from screwcal.commands.options import finite_float
+from screwcal.commands.options import finite_float, non_negative_float, vec3
 from service.errors import ServiceError
 
 if TYPE_CHECKING:  # imported where used: `screwcal --help` pays for neither
@@ -137,6 +137,7 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                 options["arm_position_mm"] = args.arm_position
             if args.frame_from_job:
                 options["frame_from_job"] = args.frame_from_job
+            options |= _model_options(args)
             job = op.start(robot_id=op.robot_id(args.robot), kind=args.kind, mode=args.mode,
                            options=options)
             print(f"job {job['id']} started ({job['kind']}, {job['mode']})")
@@ -226,6 +227,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     st.add_argument("--arm-position", type=finite_float, nargs=3, metavar=("X", "Y", "Z"))
     st.add_argument("--frame-from-job", type=int, metavar="JOB",
                     help="performance: measure in the base frame an earlier job identified")
+    _add_model_options(st)
     st.add_argument("--no-watch", action="store_true")
     for name, text in (("watch", "follow a job (STEP: answer the prompts)"),
                        ("abort", "abort a job"), ("result", "print a job's result table")):
@@ -242,3 +244,32 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     rep.add_argument("--out", required=True)
     for a in actions.choices.values():
         a.set_defaults(func=run_job)
+
+
+def _add_model_options(p: argparse.ArgumentParser) -> None:
+    """`job start`'s options of what the calibration identifies and what the robot carries."""
+    p.add_argument("--compliance", choices=["auto", "none", "j23", "j23-free", "wrist"],
+                    default="auto", help="joint compliance identified with the geometry "
+                    "(default auto: joints 2-3 when the data support them; none: geometric "
+                    "only)")
+    p.add_argument("--lag", choices=["auto", "none"], default="auto",
+                    help="joint readings that trail the motion: estimated and corrected when "
+                    "flagged (default auto)")
+    p.add_argument("--payload-kg", type=non_negative_float, default=0.0,
+                    help="mass on the flange during the performance lists, and the calibration "
+                    "list unless --calibration-payload-kg (kg, default 0)")
+    p.add_argument("--payload-cog-mm", type=vec3, default=(0.0, 0.0, 0.0), metavar="X,Y,Z",
+                    help="its centre of gravity in the flange (tool0) frame, mm")
+    p.add_argument("--calibration-payload-kg", type=non_negative_float, default=None,
+                    help="mass on the flange during the calibration list (kg)")
+    p.add_argument("--calibration-payload-cog-mm", type=vec3, default=(0.0, 0.0, 0.0),
+                    metavar="X,Y,Z", help="its centre of gravity in the flange frame, mm")
+
+
+def _model_options(args: argparse.Namespace) -> dict[str, Any]:
+    options = {"compliance": args.compliance, "lag": args.lag, "payload_kg": args.payload_kg,
+               "payload_cog_mm": args.payload_cog_mm}
+    if args.calibration_payload_kg is not None:
+        options |= {"calibration_payload_kg": args.calibration_payload_kg,
+                    "calibration_payload_cog_mm": args.calibration_payload_cog_mm}
+    return options

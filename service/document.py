@@ -131,6 +131,8 @@ class EstimationSummary(Section):
     # the joint compliance identified (resultfile.compliance_summary) and the read-back lag
     compliance: dict[str, Any] | None = None
     reading_lag: dict[str, Any] | None = None
+    # the share of the calibration residual's mean square the identified model explains
+    explained_share: float | None = None
 
 
 # -- the correction ------------------------------------------------------------------------------

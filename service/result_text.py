@@ -31,6 +31,11 @@ def result_table(result: JobResult, times: bool = True) -> str:
             e = measured.error_mm
             lines.append(f"  home position error {when} (Table 14): x {e[0]:+.3f}, y {e[1]:+.3f}, "
                          f"z {e[2]:+.3f} mm, |e| {measured.distance_mm:.3f} mm")
+    if home and home.before and home.after and result.correction is not None and \
+            result.correction.zero_command_deg is None:
+        moved = [a - b for a, b in zip(home.after.error_mm, home.before.error_mm, strict=True)]
+        lines.append(f"  home moved over the job (drift, backlash; nothing was sent to the "
+                     f"controller): {sum(v * v for v in moved) ** 0.5:.3f} mm")
     for suffix in ROUND_SUFFIXES:
         lines += _route_lines(result.correction_of(suffix), suffix)
     for warning in result.warnings or []:
@@ -54,6 +59,34 @@ def _estimation_lines(est: EstimationSummary) -> list[str]:
     if est.removed:
         lines.append("    not separable from these data (not corrected): " + ", ".join(
             r.name for r in est.removed))
+    lines += _gravity_lines(est)
+    if est.explained_share is not None:
+        lines.append(f"    the model explains {100 * est.explained_share:.3f} % of the error "
+                     f"before (mean square of the calibration residual; mean "
+                     f"{est.residual_before_mm:.3f} -> {est.residual_after_mm:.3f} mm left)")
+    return lines
+
+
+def _gravity_lines(est: EstimationSummary) -> list[str]:
+    """The joint compliance identified (or why none), the payload it was under, the read-back
+    lag."""
+    lines = []
+    gravity = est.compliance or {}
+    payload = gravity.get("payload") or {}
+    if gravity:
+        joints = gravity.get("joints") or []
+        note = f" ({gravity['note']})" if gravity.get("note") else ""
+        cog = ", ".join(f"{v:g}" for v in payload.get("cog_mm", (0.0, 0.0, 0.0)))
+        lines.append("    joint compliance: " + (", ".join(
+            f"{j['name']} {j['compliance_deg_per_knm']:.3f} ± {j['std_error']:.3f} deg/kNm"
+            for j in joints) if joints else "none") + f"{note}; calibrated carrying "
+            f"{payload.get('kg', 0.0):g} kg at ({cog}) mm")
+    lag = est.reading_lag or {}
+    if lag:
+        per_joint = lag.get("per_joint")
+        lines.append("    read-back lag: " + (", ".join(
+            f"J{k + 1} {v:.5f}" for k, v in enumerate(per_joint) if abs(v) >= 1e-5)
+            + " (fraction of the previous move)" if per_joint else (lag.get("note") or "none")))
     return lines
 
 

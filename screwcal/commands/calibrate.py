@@ -24,9 +24,9 @@ from typing import TYPE_CHECKING, Literal
 
 from screwcal.commands.options import (
     check_outputs,
-    finite_float,
     non_negative_float,
     positive_float,
+    vec3,
 )
 
 if TYPE_CHECKING:
@@ -169,19 +169,8 @@ def add_payload_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--payload-kg", type=non_negative_float, default=None,
                    help="mass on the flange (joint compliance scales with it; default: the "
                    "model's)")
-    p.add_argument("--payload-cog-mm", type=_vec3, default=(0.0, 0.0, 0.0), metavar="X,Y,Z",
+    p.add_argument("--payload-cog-mm", type=vec3, default=(0.0, 0.0, 0.0), metavar="X,Y,Z",
                    help="its centre of gravity in the flange (tool0) frame")
-
-
-def _vec3(text: str) -> tuple[float, float, float]:
-    parts = text.split(",")
-    if len(parts) != 3:
-        raise argparse.ArgumentTypeError(f"give x,y,z in mm, not '{text}'")
-    try:
-        x, y, z = (finite_float(v) for v in parts)
-    except argparse.ArgumentTypeError:
-        raise argparse.ArgumentTypeError(f"give x,y,z in mm, not '{text}'") from None
-    return x, y, z
 
 
 def _noise_line(noise: dict) -> str:

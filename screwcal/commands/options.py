@@ -88,3 +88,15 @@ def check_outputs(outputs: Iterable[str | Path | None], inputs: Iterable[str | P
                                 "choose another output")
         if not os.access(folder, os.W_OK | os.X_OK):
             raise DataFileError(str(path), f"the folder {folder} is not writable")
+
+
+def vec3(text: str) -> tuple[float, float, float]:
+    """`x,y,z` (mm): three finite numbers."""
+    parts = text.split(",")
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(f"give x,y,z in mm, not '{text}'")
+    try:
+        x, y, z = (finite_float(v) for v in parts)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"give x,y,z in mm, not '{text}'") from None
+    return x, y, z

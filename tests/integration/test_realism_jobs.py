@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import re
 
 import numpy as np
 import pytest
@@ -13,6 +14,8 @@ import pytest
 from screwcal.kinematics.compliance import Payload
 from service.analysis import list_payload, measurement_set
 from service.document import JobOptions
+from service.result_text import result_table
+from service.schemas import JobResult
 from simulators.arm import ArmEmulator
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
 from simulators.realism import TYPICAL, ListPayloads
@@ -76,6 +79,12 @@ async def test_procedure_carrying_10_kg_names_the_compliance_and_lag_it_identifi
     assert lag is not None, est["reading_lag"]["note"]
     for j in (1, 2):  # joints 2 and 3 trail 0.0002 of the previous move
         assert lag[j] == pytest.approx(TYPICAL.lag[j], rel=0.5)
+    table = result_table(JobResult.model_validate(result))
+    assert "joint compliance: J2c 0.1" in table and "calibrated carrying 10 kg" in table, table
+    assert "read-back lag: " in table and "J2 0.000" in table, table
+    assert re.search(r"the model explains 99\.9\d\d % of the error before .* -> 0\.0\d\d mm "
+                     "left", table), table
+    assert "home moved over the job" in table, table
     after = result["performance"]["perf_after"]["overall"]["ap_mm_mean"]
     before = result["performance"]["perf_before"]["overall"]["ap_mm_mean"]
     print(f"AP mean {before:.3f} -> {after:.3f} mm; compliance {compliance}; lag {lag[:3]}")
@@ -106,3 +115,33 @@ async def test_job_options_refused_by_name(service, rig, options, field):
     r = await service.post("/jobs", json={"robot_id": robot, "kind": "calibration",
                                           "options": options})
     assert r.status_code == 422 and field in r.text, r.text
+
+
+async def test_job_start_cli_takes_compliance_lag_and_payloads(tmp_path, rig, capsys):
+    from screwcal.commands.main import main
+    from service.demo import service as serve
+    from service.operator import Operator
+    from service.settings import ServiceSettings
+    from tests.integration.conftest import TOKEN
+
+    settings = ServiceSettings(db_path=tmp_path / "jobs.db", token=TOKEN, port=0)
+    host, port = rig.address
+    with serve(settings) as url, Operator(url, TOKEN) as op:
+        await asyncio.to_thread(op.add_robot, name="cell", controller_host=host,
+                                controller_port=port, arm_url=rig.arm.url)
+        common = ["job", "start", "--service", url, "--token", TOKEN, "--robot", "cell",
+                  "--kind", "calibration", "--no-watch"]
+        code = await asyncio.to_thread(main, [
+            *common, "--compliance", "none", "--lag", "none", "--payload-kg", "2",
+            "--payload-cog-mm", "0,0,50", "--calibration-payload-kg", "10",
+            "--calibration-payload-cog-mm", "0,0,100"])
+        assert code == 0
+        job = (await asyncio.to_thread(op.jobs))[-1]
+        await asyncio.to_thread(op.abort, job["id"])
+        options = JobOptions(**job["options"])
+        assert (options.compliance, options.lag) == ("none", "none")
+        assert list_payload(options, "cal") == Payload(10.0, (0.0, 0.0, 100.0))
+        assert list_payload(options, "perf") == Payload(2.0, (0.0, 0.0, 50.0))
+        with pytest.raises(SystemExit):  # refused by name before anything is sent
+            main([*common, "--payload-kg", "-1"])
+        assert "--payload-kg" in capsys.readouterr().err
