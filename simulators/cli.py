@@ -5,22 +5,25 @@
                            [--realism ideal|typical|harsh | --realism-file FILE]
                            [--realism-seed N] [--payload-kg KG --payload-cog-mm X,Y,Z]
                            [--list-payload CAL=KG[:X,Y,Z] --list-payload PERF=KG[:X,Y,Z]]
+                           [--program FILE.mod] [--verbose]
     screwcal emulator arm --port PORT [--world FILE] [--pty]
     (both: [--arm-faults duplicate=P,late=P,stale=P])
 
-Each prints its bound address on one line (`--port 0` picks a free port). The true robot is the
-nominal IRB 1600 with the thesis's Table 11 errors, or the virtual-joint errors of a JSON file
-({"J1rz": 2.0, ...}), or a whole model file (any full-model errors), or random errors from a
-seed. Beyond its geometry the true robot has what real ones have (`--realism`, default ideal:
-nothing more): joint compliance under its own masses and payload, backlash, read-back lag, thermal
-drift over its running time and repeatability error (simulators/realism.py says each effect,
-its units and the published figures the presets follow); a realism file is a JSON such as
-{"preset": "typical", "backlash_deg": [0, 0.01, 0, 0, 0, 0], "payload_kg": 10}. The arm runs in
-the IRC5 process (`--arm-port`) or in its own, following the world file
-the IRC5 process writes: `--world FILE`, or by default a new private folder per run, whose file
-the IRC5 process prints on its second line. Until a robot is known the arm answers
-`$NM ... NO_ROBOT`. Ctrl-C (SIGINT) or `kill` (SIGTERM) closes the servers and exits 0, also when
-started in the background by a script.
+The IRC5 executes the RAPID module users load on a real controller (ScrewcalServer.mod, or a
+cell's adapted copy given by --program) in the RAPID interpreter; --verbose prints its event log
+(what the FlexPendant shows) as it is written. Each prints its bound address on one line
+(`--port 0` picks a free port). The true robot is the nominal IRB 1600 with the thesis's Table
+11 errors, or the virtual-joint errors of a JSON file ({"J1rz": 2.0, ...}), or a whole model
+file (any full-model errors), or random errors from a seed. Beyond its geometry the true robot
+has what real ones have (`--realism`, default ideal: nothing more): joint compliance under its
+own masses and payload, backlash, read-back lag, thermal drift over its running time and
+repeatability error (simulators/realism.py says each effect, its units and the published figures
+the presets follow); a realism file is a JSON such as {"preset": "typical", "backlash_deg": [0,
+0.01, 0, 0, 0, 0], "payload_kg": 10}. The arm runs in the IRC5 process (`--arm-port`) or in its
+own, following the world file the IRC5 process writes: `--world FILE`, or by default a new
+private folder per run, whose file the IRC5 process prints on its second line. Until a robot is
+known the arm answers `$NM ... NO_ROBOT`. Ctrl-C (SIGINT) or `kill` (SIGTERM) closes the servers
+and exits 0, also when started in the background by a script.
 """
 
 from __future__ import annotations
@@ -56,11 +59,14 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
                                             dict(args.list_payload)))
     world.observers.append(writer)
     writer(world)
+    printer = (lambda event: print(f"event log: {event}", flush=True)) if args.verbose \
+        else None
     emu = IRC5Emulator(world, EmulatorSettings(speed_deg_s=args.speed_deg_s,
                                                time_scale=args.time_scale,
-                                               zero_wait=args.zero_wait,
                                                idle_timeout_s=args.idle_timeout_s,
-                                               send_timeout_s=args.send_timeout_s))
+                                               send_timeout_s=args.send_timeout_s,
+                                               program=args.program),
+                       printer=printer)
     host, port = await emu.start(args.host, args.port)
     line = f"irc5 emulator on {host}:{port}"
     arm = None
@@ -166,8 +172,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     irc5.add_argument("--time-scale", type=float, default=1.0,
                       help="motion time factor (0: instant)")
     irc5.add_argument("--speed-deg-s", type=float, default=60.0, help="joint speed")
-    irc5.add_argument("--zero-wait", action="store_true",
-                      help="stop after ZERO for the operator (WAIT 0), as a real IRC5 does")
+    irc5.add_argument("--program", type=Path, default=None, metavar="FILE.mod",
+                      help="the RAPID module to run (default: the shipped ScrewcalServer.mod)")
+    irc5.add_argument("--verbose", action="store_true",
+                      help="print the controller's event log as it is written")
     irc5.add_argument("--idle-timeout-s", type=float, default=60.0,
                       help="drop an owner that sends nothing (STAT counts) for this long")
     irc5.add_argument("--send-timeout-s", type=float, default=10.0,

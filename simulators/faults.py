@@ -1,4 +1,5 @@
-"""Faults the IRC5 emulator can inject, for the client's tests. Each fires once."""
+"""Faults the IRC5 emulator can inject, for the client's tests. Each fires once: the pose faults
+in the frames the RAPID program sends (the socket layer), the collision in its moves."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ class FaultPlan:
     stall_at_pose: int | None = None  # go silent for stall_s before pose k
     stall_s: float = 30.0
     garble_at_pose: int | None = None  # pose k's j frame loses its '#'
+    collision_at_move: int | None = None  # the controller's move k (0-based) stops halfway
 
     def take(self, name: str, idx: int) -> bool:
         """True once when the fault `name` is due at pose `idx`."""

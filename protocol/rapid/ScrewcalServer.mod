@@ -1,27 +1,41 @@
 MODULE ScrewcalServer
   !*********************************************************************
-  ! screwcal wire protocol v1 server for an ABB IRC5 (RobotWare 6,
-  ! option "PC Interface"). The controller is the server, the PC the
-  ! client (thesis 4.4, Algorithms 1 and 2). Every frame is 80 chars:
-  ! payload, "#", spaces. A socket time-out or close drops the client,
-  ! listens again and goes on; a request is never executed twice.
-  ! One client owns the controller: a newcomer gets "0 ERR 16 busy" and
-  ! is closed; an owner silent for IDLE_S (STAT counts) is dropped.
-  ! Joint limits below are the IRB 1600's: adapt them to the robot.
+  ! screwcal wire protocol v1 server for an ABB IRC5 (RobotWare 6 with
+  ! the option "PC Interface", which brings Socket Messaging). The
+  ! controller is the server, the PC the client (thesis 4.4,
+  ! Algorithms 1 and 2). Every frame is 80 chars: payload, "#", spaces
+  ! (docs/protocol.md). A session ends (the client is closed, the
+  ! listening socket kept) on a socket time-out or close, a bad frame,
+  ! an owner silent for IDLE_S, BYE, or any error: the program itself
+  ! never stops for a client. A request is never executed twice.
+  ! One client owns the controller: a newcomer gets "0 ERR 16 busy".
+  ! Adapt to the cell: BIND_ADDRESS (the controller's address the PC
+  ! reaches: 192.168.125.1 on the service port, or the LAN address),
+  ! PORT, and the joint limits J_MIN/J_MAX (the IRB 1600's below).
   !*********************************************************************
+  PERS string BIND_ADDRESS := "192.168.125.1";
   CONST num PORT := 4012;
   CONST num FRAME_LEN := 80;
   CONST num MAX_LIST := 200;
+  CONST num MAX_SEQ := 999999;
   CONST num IDLE_S := 60;
   CONST num POLL_S := 0.1;
   CONST num J_MIN{6} := [-180,-90,-245,-200,-115,-400];
   CONST num J_MAX{6} := [180,150,65,200,115,400];
   CONST speeddata MOVE_SPEED := v100;
+  CONST jointtarget HOME_JT := [[0,0,0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  ! The printable characters 0x20..0x7E, in two strings of at most 80.
+  CONST string PRINT_A := " !""#$%&'()*+,-./0123456789:;<=>?@ABCDEFGHIJKLMNO";
+  CONST string PRINT_B := "PQRSTUVWXYZ[\\]^_`abcdefghijklmnopqrstuvwxyz{|}~";
 
   VAR socketdev server_socket;
-  VAR socketdev client_socket;
-  VAR socketdev busy_socket;
+  ! The owner's connection is conn{owner}, a newcomer's the other one.
+  VAR socketdev conn{2};
+  VAR num owner := 1;
+  VAR bool connected := FALSE;
+  VAR bool busy_open := FALSE;
   VAR string client_ip;
+  VAR clock idle_clk;
   VAR jointtarget cal_list{MAX_LIST};
   VAR jointtarget perf_list{MAX_LIST};
   VAR jointtarget load_buf{MAX_LIST};
@@ -35,117 +49,268 @@ MODULE ScrewcalServer
   VAR num last_seq := 0;
   VAR string frm;
   VAR string payload;
+  VAR num hash := 0;
   VAR string tok{10};
   VAR num ntok := 0;
   VAR num seq := 0;
+  VAR num vals{6};
   VAR bool have_req := FALSE;
   VAR bool ok := FALSE;
 
   PROC main()
     Listen;
     WHILE TRUE DO
+      IF NOT connected AcceptClient;
       have_req := FALSE;
       ReceiveRequest;
-      IF have_req THEN
-        Dispatch;
-      ENDIF
+      IF have_req Dispatch;
     ENDWHILE
   ERROR
+    ! Whatever ends a session ends only the session: the client is
+    ! closed, the listening socket kept, the program goes on.
+    IF ERRNO = ERR_SOCK_ADDR_INVALID RAISE;
     IF ERRNO = ERR_SOCK_TIMEOUT OR ERRNO = ERR_SOCK_CLOSED THEN
-      ! Drop the client, listen again; TRYNEXT never repeats a motion.
-      Relisten;
-      TRYNEXT;
+      SkipWarn;
+    ELSE
+      ErrWrite \W, "ScrewcalServer", "A session ended on an error"
+        \RL2:="ERRNO " + ValToStr(ERRNO);
     ENDIF
-  ENDPROC
-
-  PROC Listen()
-    SocketCreate server_socket;
-    SocketBind server_socket, GetSysInfo(\LanIp), PORT;
-    SocketListen server_socket;
-    SocketAccept server_socket, client_socket \ClientAddress:=client_ip \Time:=WAIT_MAX;
-  ENDPROC
-
-  PROC Relisten()
-    SocketClose client_socket;
+    DropClient;
+    TRYNEXT;
+  UNDO
+    ! PP to Main mid-session: nothing stays open for the next start.
+    SocketClose conn{1};
+    SocketClose conn{2};
     SocketClose server_socket;
+  ENDPROC
+
+  ! Bind and listen; a port still held (TIME_WAIT after a restart) is
+  ! tried again every second.
+  PROC Listen()
+    VAR num tries := 0;
+    WHILE NOT TryBind() DO
+      IF tries = 0 ErrWrite \W, "ScrewcalServer", "Port in use, trying again";
+      Incr tries;
+      WaitTime 1;
+    ENDWHILE
+    SocketListen server_socket;
+  ENDPROC
+
+  FUNC bool TryBind()
+    SocketClose server_socket;
+    SocketCreate server_socket;
+    SocketBind server_socket, BIND_ADDRESS, PORT;
+    RETURN TRUE;
+  ERROR
+    IF ERRNO = ERR_SOCK_ADDR_INUSE THEN
+      SkipWarn;
+      RETURN FALSE;
+    ENDIF
+  ENDFUNC
+
+  PROC AcceptClient()
+    SocketClose conn{owner};
+    SocketAccept server_socket, conn{owner} \ClientAddress:=client_ip \Time:=WAIT_MAX;
+    connected := TRUE;
+    ClkReset idle_clk;
+    ClkStart idle_clk;
+  ENDPROC
+
+  ! The session ends: the client is closed, the listening socket kept
+  ! (closing and binding it again fails while the port is in TIME_WAIT).
+  PROC DropClient()
+    FlushClient;
+    SocketClose conn{owner};
+    connected := FALSE;
+    have_req := FALSE;
     IF state = "MOVING" OR state = "WAITING" state := "IDLE";
-    Listen;
+  ENDPROC
+
+  ! What the client sent and nobody will read is read and dropped
+  ! before the close: a close with unread data resets the connection,
+  ! and the client would lose the replies still on their way.
+  PROC FlushClient()
+    VAR string junk;
+    VAR num n := 0;
+    WHILE n < 64 AND SocketPeek(conn{owner}) > 0 DO
+      SocketReceive conn{owner} \Str:=junk \Time:=0.1;
+      Incr n;
+    ENDWHILE
+  ERROR
+    SkipWarn;
+    RETURN;
   ENDPROC
 
   ! The one place that reads the client: one 80-char frame -> payload
   ! and tokens. Until a whole frame is there, a newcomer is told busy
   ! and an owner silent for IDLE_S is dropped (half a frame is silence).
-  ! A bad frame drops the link.
+  ! A bad frame (docs/protocol.md) drops the link: no guessing.
   PROC ReceiveRequest()
-    VAR num hash;
-    VAR num quiet := 0;
-    WHILE SocketPeek(client_socket) < FRAME_LEN DO
+    ClkReset idle_clk;
+    ClkStart idle_clk;
+    WHILE SocketPeek(conn{owner}) < FRAME_LEN DO
       RefuseNewcomer;
-      quiet := quiet + POLL_S;
-      IF quiet >= IDLE_S THEN
-        Relisten;
+      IF ClkRead(idle_clk) >= IDLE_S THEN
+        DropClient;
         RETURN;
       ENDIF
     ENDWHILE
-    SocketReceive client_socket \Str:=frm \ReadNoOfBytes:=FRAME_LEN \Time:=1;
-    hash := StrFind(frm, 1, "#");
-    IF hash <= 1 OR hash > StrLen(frm) THEN
-      Relisten;
+    SocketReceive conn{owner} \Str:=frm \ReadNoOfBytes:=FRAME_LEN \Time:=1;
+    IF NOT FrameOk() OR NOT Tokenize() THEN
+      DropClient;
       RETURN;
     ENDIF
-    payload := StrPart(frm, 1, hash - 1);
-    Tokenize;
+    IF NOT IsInt(tok{1}) OR StrLen(tok{1}) > 6 THEN
+      DropClient;
+      RETURN;
+    ENDIF
     ok := StrToVal(tok{1}, seq);
-    IF NOT ok OR ntok < 2 THEN
-      Relisten;
+    IF ntok < 2 OR (seq = 0 AND tok{2} <> "ERR") THEN
+      DropClient;
       RETURN;
     ENDIF
     have_req := TRUE;
   ENDPROC
 
-  ! Another client while one owns the controller: told busy, closed.
-  ! Waits at most POLL_S for one.
-  PROC RefuseNewcomer()
-    SocketAccept server_socket, busy_socket \Time:=POLL_S;
-    SendTo busy_socket, "0 ERR 16 busy";
-    SocketClose busy_socket;
-  ERROR
-    IF ERRNO = ERR_SOCK_TIMEOUT THEN
-      RETURN;
+  ! 80 bytes, each printable, "#" after 1..79 of them, then spaces.
+  FUNC bool FrameOk()
+    VAR num p := 1;
+    VAR num a;
+    IF StrLen(frm) <> FRAME_LEN RETURN FALSE;
+    WHILE p <= FRAME_LEN DO
+      a := StrFind(frm, p, PRINT_A \NotInSet);
+      IF a <= FRAME_LEN THEN
+        IF NOT StrMemb(frm, a, PRINT_B) RETURN FALSE;
+      ENDIF
+      p := a + 1;
+    ENDWHILE
+    hash := StrFind(frm, 1, "#");
+    IF hash <= 1 OR hash > FRAME_LEN RETURN FALSE;
+    IF hash < FRAME_LEN THEN
+      IF StrFind(frm, hash + 1, " " \NotInSet) <= FRAME_LEN RETURN FALSE;
     ENDIF
-    SocketClose busy_socket;
-    RETURN;
-  ENDPROC
+    payload := StrPart(frm, 1, hash - 1);
+    RETURN TRUE;
+  ENDFUNC
 
-  ! Every request's tokens start empty: nothing of an earlier one is
-  ! ever read as this one's.
-  PROC Tokenize()
+  ! Tokens separated by single spaces (none leading, none trailing);
+  ! every request's tokens start empty. More than 10: ntok = 11.
+  FUNC bool Tokenize()
     VAR num start := 1;
     VAR num sp;
     FOR i FROM 1 TO 10 DO
       tok{i} := "";
     ENDFOR
     ntok := 0;
-    WHILE start <= StrLen(payload) AND ntok < 10 DO
+    IF StrPart(payload, StrLen(payload), 1) = " " RETURN FALSE;
+    WHILE start <= StrLen(payload) DO
       sp := StrFind(payload, start, " ");
+      IF sp = start RETURN FALSE;
+      IF ntok = 10 THEN
+        ntok := 11;
+        RETURN TRUE;
+      ENDIF
       Incr ntok;
       tok{ntok} := StrPart(payload, start, sp - start);
       start := sp + 1;
     ENDWHILE
+    RETURN TRUE;
+  ENDFUNC
+
+  ! Digits only.
+  FUNC bool IsInt(string t)
+    IF StrLen(t) = 0 RETURN FALSE;
+    RETURN StrFind(t, 1, STR_DIGIT \NotInSet) > StrLen(t);
+  ENDFUNC
+
+  ! A protocol number: optional "-", digits, optional "." and digits.
+  FUNC bool IsNum(string t)
+    VAR num s := 1;
+    VAR num d;
+    IF StrLen(t) = 0 RETURN FALSE;
+    IF StrPart(t, 1, 1) = "-" s := 2;
+    d := StrFind(t, s, STR_DIGIT \NotInSet);
+    IF d = s RETURN FALSE;
+    IF d > StrLen(t) RETURN TRUE;
+    IF StrPart(t, d, 1) <> "." OR d = StrLen(t) RETURN FALSE;
+    RETURN StrFind(t, d + 1, STR_DIGIT \NotInSet) > StrLen(t);
+  ENDFUNC
+
+  ! An integer token within lo..hi into n.
+  FUNC bool IntIn(string t, num lo, num hi, INOUT num n)
+    IF NOT IsInt(t) OR StrLen(t) > 6 RETURN FALSE;
+    ok := StrToVal(t, n);
+    RETURN n >= lo AND n <= hi;
+  ENDFUNC
+
+  ! Six numbers from tok{first..first+5} into vals: the first three
+  ! within +-b1, the last three within +-b2.
+  FUNC bool TokSix(num first, num b1, num b2)
+    IF ntok <> first + 5 RETURN FALSE;
+    FOR i FROM 1 TO 6 DO
+      IF NOT IsNum(tok{first + i - 1}) RETURN FALSE;
+      IF NOT StrToVal(tok{first + i - 1}, vals{i}) RETURN FALSE;
+      IF i <= 3 AND Abs(vals{i}) > b1 RETURN FALSE;
+      IF i > 3 AND Abs(vals{i}) > b2 RETURN FALSE;
+    ENDFOR
+    RETURN TRUE;
+  ENDFUNC
+
+  ! Another client while one owns the controller: told busy, what it
+  ! sent read and dropped (a close with unread data resets the link and
+  ! the refusal would be lost), then closed. Waits at most POLL_S. If
+  ! the owner has left meanwhile, the newcomer is the next owner.
+  PROC RefuseNewcomer()
+    VAR string junk;
+    VAR num n := 0;
+    VAR num other;
+    other := 3 - owner;
+    SocketAccept server_socket, conn{other} \Time:=POLL_S;
+    busy_open := TRUE;
+    IF OwnerGone() THEN
+      SocketClose conn{owner};
+      owner := other;
+      busy_open := FALSE;
+      have_req := FALSE;
+      IF state = "MOVING" OR state = "WAITING" state := "IDLE";
+      ClkReset idle_clk;
+      ClkStart idle_clk;
+      RETURN;
+    ENDIF
+    SendTo conn{other}, "0 ERR 16 busy";
+    WHILE n < 64 DO
+      SocketReceive conn{other} \Str:=junk \Time:=0.1;
+      Incr n;
+    ENDWHILE
+    SocketClose conn{other};
+    busy_open := FALSE;
+  ERROR
+    ! Nobody came (the usual case), or the newcomer is done or gone.
+    SkipWarn;
+    IF busy_open SocketClose conn{3 - owner};
+    busy_open := FALSE;
+    RETURN;
   ENDPROC
 
+  ! The owner closed its end (its unread requests are gone with it).
+  FUNC bool OwnerGone()
+    VAR num n;
+    n := SocketPeek(conn{owner});
+    RETURN FALSE;
+  ERROR
+    SkipWarn;
+    RETURN TRUE;
+  ENDFUNC
+
   PROC SendFrame(string p)
-    SendTo client_socket, p;
+    SendTo conn{owner}, p;
   ENDPROC
 
   ! Every frame goes out here: payload, "#", spaces up to 80 chars.
+  ! Callers build payloads of at most 79 chars from bounded values.
   PROC SendTo(VAR socketdev sock, string p)
     VAR string f;
-    IF StrLen(p) > FRAME_LEN - 1 THEN
-      f := NumToStr(seq, 0) + " ERR 12 reply too long#";
-    ELSE
-      f := p + "#";
-    ENDIF
+    f := p + "#";
     WHILE StrLen(f) < FRAME_LEN DO
       f := f + " ";
     ENDWHILE
@@ -170,7 +335,8 @@ MODULE ScrewcalServer
     RETURN 1;
   ENDFUNC
 
-  ! The thesis's packets (Table 12): encoders (CJointT) and tool0 (CRobT).
+  ! The thesis's packets (Table 12): encoders (CJointT) and tool0
+  ! (CRobT), read after the move is in position.
   PROC SendPose(num s, num flag, num idx)
     VAR jointtarget jt;
     VAR robtarget rt;
@@ -198,73 +364,108 @@ MODULE ScrewcalServer
     RETURN TRUE;
   ENDFUNC
 
-  ! Six numbers from tok{first..first+5} into a jointtarget.
-  FUNC bool TokJoints(num first, INOUT jointtarget jt)
-    VAR num v{6};
-    FOR i FROM 1 TO 6 DO
-      IF NOT StrToVal(tok{first + i - 1}, v{i}) RETURN FALSE;
-    ENDFOR
-    jt := CJointT();
-    jt.robax := [v{1}, v{2}, v{3}, v{4}, v{5}, v{6}];
-    RETURN TRUE;
+  ! vals into a jointtarget.
+  FUNC jointtarget ValsJoints()
+    VAR jointtarget jt;
+    jt := HOME_JT;
+    jt.robax := [vals{1}, vals{2}, vals{3}, vals{4}, vals{5}, vals{6}];
+    RETURN jt;
   ENDFUNC
 
-  ! Six numbers x y z rx ry rz into a jointtarget by the controller's IK.
-  FUNC bool TokPose(num first, INOUT jointtarget jt)
-    VAR num v{6};
+  ! vals (x y z rx ry rz) into a jointtarget by the controller's IK, in
+  ! the arm configuration of `near` (the pose before it in the list):
+  ! never in the one the robot happens to stand in.
+  FUNC bool PoseJoints(jointtarget near, INOUT jointtarget jt)
     VAR robtarget rt;
-    FOR i FROM 1 TO 6 DO
-      IF NOT StrToVal(tok{first + i - 1}, v{i}) RETURN FALSE;
-    ENDFOR
-    rt := CRobT(\Tool:=tool0 \WObj:=wobj0);
-    rt.trans := [v{1}, v{2}, v{3}];
-    rt.rot := OrientZYX(v{6}, v{5}, v{4});
+    rt := CalcRobT(near, tool0 \WObj:=wobj0);
+    rt.trans := [vals{1}, vals{2}, vals{3}];
+    rt.rot := OrientZYX(vals{6}, vals{5}, vals{4});
     jt := CalcJointT(rt, tool0 \WObj:=wobj0);
     RETURN TRUE;
   ERROR
     IF ERRNO = ERR_ROBLIMIT OR ERRNO = ERR_OUTSIDE_REACH THEN
+      SkipWarn;
+      RETURN FALSE;
+    ENDIF
+  ENDFUNC
+
+  ! One move to a stop point, in position before anything is read.
+  ! A motion error leaves the controller in FAULT (ERR 21 for the
+  ! request) until a move succeeds.
+  FUNC bool MoveTo(jointtarget jt)
+    state := "MOVING";
+    MoveAbsJ jt, MOVE_SPEED, fine \Inpos:=inpos50, tool0;
+    state := "IDLE";
+    RETURN TRUE;
+  ERROR
+    IF ERRNO = ERR_COLL_STOP OR ERRNO = ERR_ROBLIMIT OR ERRNO = ERR_PATH_STOP THEN
+      state := "FAULT";
       RETURN FALSE;
     ENDIF
   ENDFUNC
 
   PROC Dispatch()
-    VAR jointtarget jt;
+    VAR num n;
+    VAR bool counted := TRUE;
     TEST tok{2}
     CASE "HELO":
-      IF ntok = 3 AND tok{3} = "1" THEN
-        SendFrame NumToStr(seq, 0) + " ACK HELO 1";
-      ELSE
+      IF NOT IntIn(tok{3}, 0, 999, n) OR ntok <> 3 THEN
+        SendErr seq, 12, "bad arguments";
+        counted := FALSE;
+      ELSEIF n <> 1 THEN
         SendErr seq, 15, "version";
+      ELSE
+        SendFrame NumToStr(seq, 0) + " ACK HELO 1";
       ENDIF
     CASE "STAT":
-      SendStat seq;
+      IF ntok = 2 THEN
+        SendStat seq;
+      ELSE
+        SendErr seq, 23, "controller-side verb";
+      ENDIF
+      counted := FALSE;
     CASE "LOAD":
       DoLoad;
     CASE "RUN":
       DoRun;
     CASE "MOVJ":
-      IF ntok <> 8 OR NOT TokJoints(3, jt) THEN
+      IF NOT TokSix(3, 3600, 3600) THEN
         SendErr seq, 12, "bad arguments";
+        counted := FALSE;
       ELSE
-        DoMove seq, "MOVJ", jt;
+        DoMove seq, "MOVJ", ValsJoints();
       ENDIF
     CASE "HOME":
-      jt := CJointT();
-      jt.robax := [0, 0, 0, 0, 0, 0];
-      DoMove seq, "HOME", jt;
+      IF ntok <> 2 THEN
+        SendErr seq, 12, "bad arguments";
+        counted := FALSE;
+      ELSE
+        DoMove seq, "HOME", HOME_JT;
+      ENDIF
     CASE "ZERO":
       DoZero;
     CASE "ABRT":
       SendAck seq, "ABRT";
     CASE "BYE":
       SendAck seq, "BYE";
-      Relisten;
+      DropClient;
     CASE "GO":
-      SendErr seq, 13, "no step waiting";
+      IF ntok = 3 AND IntIn(tok{3}, 0, MAX_LIST - 1, n) THEN
+        SendErr seq, 13, "no step waiting";
+      ELSE
+        SendErr seq, 12, "bad arguments";
+      ENDIF
+      counted := FALSE;
+    CASE "j", "p":
+      SendErr seq, 13, "data packet outside LOAD";
+      counted := FALSE;
+    CASE "ACK", "ERR", "WAIT", "DONE":
+      SendErr seq, 23, "controller-side verb";
     DEFAULT:
       SendErr seq, 11, "unknown verb";
+      counted := FALSE;
     ENDTEST
-    IF tok{2} <> "STAT" AND tok{2} <> "GO" last_seq := seq;
+    IF counted last_seq := seq;
   ENDPROC
 
   PROC SendStat(num s)
@@ -275,25 +476,32 @@ MODULE ScrewcalServer
   PROC DoLoad()
     VAR num n;
     VAR num load_seq;
+    VAR num v;
     VAR string lst;
     VAR num bad_code := 0;
     VAR string bad_text := "";
     VAR jointtarget jt;
+    VAR jointtarget near;
     load_seq := seq;
     lst := tok{3};
-    ok := StrToVal(tok{4}, n);
-    IF ntok <> 4 OR NOT ok OR (lst <> "CAL" AND lst <> "PERF") THEN
+    IF ntok <> 4 OR (lst <> "CAL" AND lst <> "PERF") OR NOT IsInt(tok{4}) THEN
       SendErr load_seq, 12, "bad arguments";
       RETURN;
     ENDIF
+    IF StrLen(tok{4}) > 3 THEN
+      SendErr load_seq, 14, "list too long";
+      RETURN;
+    ENDIF
+    ok := StrToVal(tok{4}, n);
     IF n > MAX_LIST THEN
       SendErr load_seq, 14, "list too long";
       RETURN;
     ENDIF
-    IF n < 1 OR n <> Trunc(n) THEN
+    IF n < 1 THEN
       SendErr load_seq, 12, "a list holds 1 to 200 poses";
       RETURN;
     ENDIF
+    near := HOME_JT;
     FOR k FROM 0 TO n - 1 DO
       have_req := FALSE;
       ReceiveRequest;
@@ -305,21 +513,35 @@ MODULE ScrewcalServer
         SendErr load_seq, 13, "LOAD discarded";
         RETURN;
       ENDIF
-      IF seq <> load_seq OR ntok <> 10 OR tok{3} <> NumToStr(Flag(k, n), 0)
+      IF bad_code <> 0 THEN
+        ! the list is refused already: the rest is read, not used
+      ELSEIF seq <> load_seq OR ntok <> 10 OR tok{3} <> NumToStr(Flag(k, n), 0)
           OR tok{4} <> NumToStr(k, 0) THEN
         bad_code := 12;
-        bad_text := "packet out of order";
-      ELSEIF tok{2} = "j" AND TokJoints(5, jt) THEN
-        load_buf{k + 1} := jt;
-      ELSEIF tok{2} = "p" AND TokPose(5, jt) THEN
-        load_buf{k + 1} := jt;
+        bad_text := "packet " + NumToStr(k, 0) + " out of order";
+      ELSEIF tok{2} = "j" AND NOT TokSix(5, 3600, 3600) THEN
+        bad_code := 12;
+        bad_text := "packet " + NumToStr(k, 0) + " bad values";
+      ELSEIF tok{2} = "p" AND NOT TokSix(5, 100000, 360) THEN
+        bad_code := 12;
+        bad_text := "packet " + NumToStr(k, 0) + " bad values";
       ELSE
-        bad_code := 20;
-        bad_text := "pose " + NumToStr(k, 0) + " unreachable";
-      ENDIF
-      IF bad_code = 0 AND NOT InLimits(load_buf{k + 1}) THEN
-        bad_code := 20;
-        bad_text := "pose " + NumToStr(k, 0) + " outside joint limits";
+        IF tok{2} = "j" THEN
+          jt := ValsJoints();
+          ok := TRUE;
+        ELSE
+          ok := PoseJoints(near, jt);
+        ENDIF
+        IF NOT ok THEN
+          bad_code := 20;
+          bad_text := "pose " + NumToStr(k, 0) + " unreachable";
+        ELSEIF NOT InLimits(jt) THEN
+          bad_code := 20;
+          bad_text := "pose " + NumToStr(k, 0) + " outside joint limits";
+        ELSE
+          load_buf{k + 1} := jt;
+          near := jt;
+        ENDIF
       ENDIF
     ENDFOR
     IF bad_code <> 0 THEN
@@ -338,56 +560,65 @@ MODULE ScrewcalServer
     SendAck load_seq, "LOAD";
   ENDPROC
 
-  ! Requests that arrived during the move: STAT answered, ABRT stops.
+  ! A request while a list runs or waits: STAT answered, ABRT ends it
+  ! (FALSE), anything else refused.
+  FUNC bool DuringRun(num run_seq, string busy)
+    IF tok{2} = "ABRT" AND ntok = 2 THEN
+      SendErr run_seq, 22, "aborted";
+      SendAck seq, "ABRT";
+      state := "IDLE";
+      RETURN FALSE;
+    ELSEIF tok{2} = "STAT" AND ntok = 2 THEN
+      SendStat seq;
+    ELSE
+      SendErr seq, 13, busy;
+    ENDIF
+    RETURN TRUE;
+  ENDFUNC
+
+  ! Requests that arrived during the move.
   FUNC bool BetweenMoves(num run_seq)
-    WHILE SocketPeek(client_socket) >= FRAME_LEN DO
+    WHILE SocketPeek(conn{owner}) >= FRAME_LEN DO
       have_req := FALSE;
       ReceiveRequest;
       IF NOT have_req RETURN FALSE;
-      IF tok{2} = "ABRT" THEN
-        SendErr run_seq, 22, "aborted";
-        SendAck seq, "ABRT";
-        RETURN FALSE;
-      ELSEIF tok{2} = "STAT" THEN
-        SendStat seq;
-      ELSE
-        SendErr seq, 13, "a run is active";
-      ENDIF
+      IF NOT DuringRun(run_seq, "a run is active") RETURN FALSE;
     ENDWHILE
     RETURN TRUE;
   ENDFUNC
 
-  ! STEP mode: the operator's go-ahead (thesis: manual mode). The
-  ! client's STAT keep-alive holds the link while the operator decides.
-  FUNC bool WaitGo(num run_seq, num idx)
-    state := "WAITING";
-    SendFrame NumToStr(run_seq, 0) + " WAIT " + NumToStr(idx, 0);
+  ! The go-ahead for pose idx (STEP, and ZERO's operator). The client's
+  ! STAT keep-alive holds the link while the operator decides.
+  FUNC bool AwaitGo(num run_seq, num idx)
     WHILE TRUE DO
       have_req := FALSE;
       ReceiveRequest;
       IF NOT have_req RETURN FALSE;
-      IF tok{2} = "GO" AND tok{3} = NumToStr(idx, 0) RETURN TRUE;
-      IF tok{2} = "ABRT" THEN
-        SendErr run_seq, 22, "aborted";
-        SendAck seq, "ABRT";
-        state := "IDLE";
-        RETURN FALSE;
-      ELSEIF tok{2} = "STAT" THEN
-        SendStat seq;
-      ELSE
-        SendErr seq, 13, "waiting for GO";
-      ENDIF
+      IF tok{2} = "GO" AND ntok = 3 AND tok{3} = NumToStr(idx, 0) RETURN TRUE;
+      IF NOT DuringRun(run_seq, "waiting for GO " + NumToStr(idx, 0)) RETURN FALSE;
     ENDWHILE
+  ENDFUNC
+
+  FUNC bool WaitGo(num run_seq, num idx)
+    state := "WAITING";
+    SendFrame NumToStr(run_seq, 0) + " WAIT " + NumToStr(idx, 0);
+    RETURN AwaitGo(run_seq, idx);
   ENDFUNC
 
   PROC DoRun()
     VAR num run_seq;
-    VAR num n;
+    VAR num n := 0;
+    VAR jointtarget jt;
     run_seq := seq;
+    IF ntok <> 4 OR (tok{3} <> "CAL" AND tok{3} <> "PERF")
+        OR (tok{4} <> "AUTO" AND tok{4} <> "STEP") THEN
+      SendErr run_seq, 12, "bad arguments";
+      RETURN;
+    ENDIF
     IF tok{3} = "CAL" n := cal_count;
     IF tok{3} = "PERF" n := perf_count;
     IF n = 0 THEN
-      SendErr run_seq, 13, "no list loaded";
+      SendErr run_seq, 13, "no " + tok{3} + " list loaded";
       RETURN;
     ENDIF
     mode := tok{4};
@@ -397,19 +628,21 @@ MODULE ScrewcalServer
     SendAck run_seq, "RUN";
     FOR i FROM 0 TO n - 1 DO
       IF NOT BetweenMoves(run_seq) THEN
-        state := "IDLE";
+        IF state <> "FAULT" state := "IDLE";
         RETURN;
       ENDIF
       IF mode = "STEP" THEN
         IF NOT WaitGo(run_seq, i) RETURN;
       ENDIF
-      state := "MOVING";
       IF cur_list = "CAL" THEN
-        MoveAbsJ cal_list{i + 1}, MOVE_SPEED, fine, tool0;
+        jt := cal_list{i + 1};
       ELSE
-        MoveAbsJ perf_list{i + 1}, MOVE_SPEED, fine, tool0;
+        jt := perf_list{i + 1};
       ENDIF
-      state := "IDLE";
+      IF NOT MoveTo(jt) THEN
+        SendErr run_seq, 21, "motion error at pose " + NumToStr(i, 0);
+        RETURN;
+      ENDIF
       SendPose run_seq, Flag(i, n), i;
       cur_idx := i + 1;
     ENDFOR
@@ -422,31 +655,75 @@ MODULE ScrewcalServer
       RETURN;
     ENDIF
     SendAck s, verb;
-    state := "MOVING";
-    MoveAbsJ jt, MOVE_SPEED, fine, tool0;
-    state := "IDLE";
+    IF NOT MoveTo(jt) THEN
+      SendErr s, 21, "motion error";
+      RETURN;
+    ENDIF
     SendPose s, 2, 0;
     SendDone s, verb;
   ENDPROC
 
-  ! Correction (thesis 4.5): move there, wait while the operator updates
-  ! the revolution counters / calibration offsets, GO 0 continues.
+  ! Correction (thesis 4.5): move there, WAIT 0 for the operator's
+  ! go-ahead (GO 0). RAPID cannot write calibration offsets or
+  ! revolution counters: the FlexPendant then shows the offsets, the
+  ! operator enters them and presses Done; only then DONE ZERO. Cancel
+  ! on the pendant or ABRT: ERR 22, nothing reported done.
   PROC DoZero()
-    VAR jointtarget jt;
     VAR num zero_seq;
+    VAR jointtarget jt;
+    VAR num key;
+    VAR errnum fk_err;
     zero_seq := seq;
-    IF ntok <> 8 OR NOT TokJoints(3, jt) THEN
+    IF NOT TokSix(3, 3600, 3600) THEN
       SendErr zero_seq, 12, "bad arguments";
       RETURN;
     ENDIF
+    jt := ValsJoints();
     IF NOT InLimits(jt) THEN
       SendErr zero_seq, 20, "target outside joint limits";
       RETURN;
     ENDIF
     SendAck zero_seq, "ZERO";
-    state := "MOVING";
-    MoveAbsJ jt, MOVE_SPEED, fine, tool0;
+    IF NOT MoveTo(jt) THEN
+      SendErr zero_seq, 21, "motion error";
+      RETURN;
+    ENDIF
     IF NOT WaitGo(zero_seq, 0) RETURN;
+    TPErase;
+    TPWrite "ZERO: make these joint readings the new zero";
+    TPWrite "j1..j6 " + NumToStr(jt.robax.rax_1, 4) + " " + NumToStr(jt.robax.rax_2, 4)
+      + " " + NumToStr(jt.robax.rax_3, 4) + " " + NumToStr(jt.robax.rax_4, 4) + " "
+      + NumToStr(jt.robax.rax_5, 4) + " " + NumToStr(jt.robax.rax_6, 4);
+    TPWrite "Calibration: update the offsets, then press Done.";
+    ClkReset idle_clk;
+    ClkStart idle_clk;
+    key := 0;
+    WHILE key <> 1 DO
+      TPReadFK key, "Offsets entered?", "Done", stEmpty, stEmpty, stEmpty, "Cancel"
+        \MaxTime:=POLL_S \BreakFlag:=fk_err;
+      IF fk_err = 0 AND key = 5 THEN
+        TPErase;
+        SendErr zero_seq, 22, "ZERO cancelled on the FlexPendant";
+        state := "IDLE";
+        RETURN;
+      ENDIF
+      IF SocketPeek(conn{owner}) >= FRAME_LEN THEN
+        have_req := FALSE;
+        ReceiveRequest;
+        IF NOT have_req OR NOT DuringRun(zero_seq, "waiting for the FlexPendant") THEN
+          TPErase;
+          RETURN;
+        ENDIF
+        ClkReset idle_clk;
+        ClkStart idle_clk;
+      ENDIF
+      IF ClkRead(idle_clk) >= IDLE_S THEN
+        TPErase;
+        DropClient;
+        RETURN;
+      ENDIF
+    ENDWHILE
+    TPErase;
     state := "IDLE";
     SendDone zero_seq, "ZERO";
   ENDPROC

@@ -104,7 +104,7 @@ async def test_a_stale_runner_never_repeats_zero(app_http, rig):
     store = app.state.manager.store
     stale = JobRunner(store, app.state.manager.settings,
                       app.state.manager.events.of(job_id), job_id)  # its copy: unfinished
-    job = await wait_state(http, job_id)
+    job = await wait_state(http, job_id, operator=True)
     assert job["state"] == "done", job["reason"]
     truth_after_one_zero = rig.emu.world.truth
     zero_after = np.degrees(truth_after_one_zero.joint_zero).copy()

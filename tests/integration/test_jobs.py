@@ -11,12 +11,18 @@ from tests.integration.conftest import AUTH, FAST, add_robot
 THESIS_OFFSETS = {"J2ry": 1.1, "J3rz": 3.1, "J4rx": -2.0, "J5ry": 3.7, "J6rx": -4.6}
 
 
-async def wait_state(http, job_id, states=("done", "failed", "aborted"), timeout_s=60):
+async def wait_state(http, job_id, states=("done", "failed", "aborted"), timeout_s=60,
+                     operator: bool = False):
+    """The job once in one of `states`; `operator`: a person gives every go-ahead asked for
+    (ZERO's, on a real IRC5, in every mode)."""
     async with asyncio.timeout(timeout_s):
         while True:
             job = (await http.get(f"/jobs/{job_id}")).json()
             if job["state"] in states:
                 return job
+            if operator and job.get("waiting_for"):
+                await http.post(f"/jobs/{job_id}/go", headers=AUTH,
+                                json={"index": job["waiting_for"]["index"]})
             await asyncio.sleep(0.02)
 
 
@@ -69,7 +75,7 @@ async def test_procedure_zero_route_recovers_table11_and_leaves_the_links(servic
     r = await service.post("/jobs", headers=AUTH, json={
         "robot_id": robot, "kind": "procedure",
         "options": {**FAST, "model": "thesis", "correction": "zero"}})
-    job = await wait_state(service, r.json()["id"])
+    job = await wait_state(service, r.json()["id"], operator=True)
     assert job["state"] == "done", job["reason"]
     result = (await service.get(f"/jobs/{job['id']}/result")).json()
     values = {p["name"]: p["value"] for p in result["estimation"]["parameters"]}
@@ -90,7 +96,6 @@ async def test_procedure_zero_route_recovers_table11_and_leaves_the_links(servic
 async def test_zero_wait_needs_the_operator_in_every_mode(service, rig, mode):
     """A real IRC5 stops after ZERO while a person enters the offsets: even an AUTO job waits
     for the operator's go-ahead there, and the robot is not corrected until it is given."""
-    rig.emu.settings.zero_wait = True
     robot = await add_robot(service, rig)
     r = await service.post("/jobs", headers=AUTH, json={
         "robot_id": robot, "kind": "procedure", "mode": mode,
@@ -237,7 +242,7 @@ async def test_a_second_round_refines_the_zero_correction(service, rig):
     job_id = (await service.post("/jobs", headers=AUTH, json={
         "robot_id": robot, "kind": "procedure", "options": {
             **FAST, "rounds": 2, "model": "thesis", "correction": "zero"}})).json()["id"]
-    job = await wait_state(service, job_id)
+    job = await wait_state(service, job_id, operator=True)
     assert job["state"] == "done", job["reason"]
     result = (await service.get(f"/jobs/{job_id}/result")).json()
     second = {p["name"]: p["value"] for p in result["estimation_2"]["parameters"]}

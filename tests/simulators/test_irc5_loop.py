@@ -73,7 +73,7 @@ async def test_keep_alive_holds_a_quiet_owner_and_notices_a_drop(emulator):
     await kept.connect()
     await asyncio.sleep(0.9)  # three idle times, kept by STAT
     assert kept.lost is None and (await kept.stat()).state == "IDLE"
-    assert emulator.last_seq == 1  # STAT does not count as a completed request
+    assert emulator.data("last_seq") == 1  # STAT does not count as a completed request
     kept._writer.transport.abort()  # the link breaks: the keep-alive notices
     await asyncio.sleep(0.3)
     assert kept.lost is not None
@@ -99,7 +99,7 @@ async def test_out_of_limit_targets_are_refused_before_any_motion(client, emulat
         await client.movj([0, 0, -250, 0, 0, 0])
     assert err.value.code == 20
     assert emulator.world.arrivals == before
-    assert emulator.lists["CAL"] == []  # the list was left unchanged: nothing loaded
+    assert emulator.data("cal_count") == 0  # the list was left unchanged: nothing loaded
     with pytest.raises(SequenceError, match="no CAL list loaded"):  # nor does the client run it
         _ = [p async for p in client.run("CAL")]
 
@@ -110,15 +110,18 @@ async def test_movj_home_and_zero(client, emulator):
     home = await client.home()
     np.testing.assert_allclose(home.tool0[:3], [815, 0, 961.5], atol=1e-3)
     zero_before = emulator.world.truth.joint_zero.copy()
-    await client.zero([-2.0, -1.1, -3.1, 2.0, -3.7, 4.6])  # the correction of Table 11
+    await client.zero([-2.0, -1.1, -3.1, 2.0, -3.7, 4.6],  # the correction of Table 11
+                      on_wait=_accept)
     np.testing.assert_allclose(np.degrees(emulator.world.truth.joint_zero - zero_before),
                                [-2.0, -1.1, -3.1, 2.0, -3.7, 4.6], atol=1e-6)
     np.testing.assert_allclose(emulator.world.q_deg, 0, atol=1e-4)  # that position now reads 0
     np.testing.assert_allclose(np.degrees(emulator.world.truth.joint_zero), 0, atol=1e-5)
 
 
-async def test_zero_waits_for_the_operator_like_a_real_irc5(client, emulator):
-    emulator.settings.zero_wait = True  # a real IRC5 stops for the FlexPendant, in every mode
+async def test_zero_waits_for_the_go_ahead_then_the_flexpendant(client, emulator):
+    """A real IRC5 stops after ZERO (WAIT 0); after the go-ahead the FlexPendant shows the
+    offsets, the operator enters them and presses Done: only then DONE ZERO."""
+    emulator.settings.operator = False  # this test is the person at the controller
     zero_before = emulator.world.truth.joint_zero.copy()
     waited = []
 
@@ -127,15 +130,35 @@ async def test_zero_waits_for_the_operator_like_a_real_irc5(client, emulator):
         # nothing applied while the person is at the controller
         np.testing.assert_array_equal(emulator.world.truth.joint_zero, zero_before)
 
+    async def person() -> None:
+        prompt = await asyncio.to_thread(emulator.pendant.wait_prompt, 5.0)
+        assert "j1..j6 0.5000 0.0000 0.0000 0.0000 0.0000 0.0000" in prompt.screen
+        await asyncio.sleep(0.2)  # the operator takes a moment: no DONE meanwhile
+        emulator.pendant.press(emulator.enter_offsets(prompt))
+
+    helper = asyncio.create_task(person())
     await client.zero([0.5, 0, 0, 0, 0, 0], on_wait=operator)
+    await helper
     assert waited == [0]
     assert np.degrees(emulator.world.truth.joint_zero - zero_before)[0] == pytest.approx(0.5)
 
 
-async def test_emulator_applies_zero_itself_without_wait_by_default(client, emulator):
-    await client.load("CAL", targets(1))
-    _ = [p async for p in client.run("CAL", "STEP", on_wait=_accept)]
-    await client.zero([0.5, 0, 0, 0, 0, 0])  # no on_wait: a WAIT would raise SequenceError
+async def test_zero_cancelled_on_the_flexpendant_is_never_reported_done(client, emulator):
+    """Finding 8: RAPID cannot write the offsets; Cancel on the pendant is ERR 22, not DONE."""
+    emulator.settings.operator = False
+    zero_before = emulator.world.truth.joint_zero.copy()
+
+    async def cancel() -> None:
+        prompt = await asyncio.to_thread(emulator.pendant.wait_prompt, 5.0)
+        emulator.pendant.press(prompt.keys.index("Cancel") + 1)
+
+    helper = asyncio.create_task(cancel())
+    with pytest.raises(ControllerError) as err:
+        await client.zero([0.5, 0, 0, 0, 0, 0], on_wait=_accept)
+    await helper
+    assert err.value.code == 22
+    np.testing.assert_array_equal(emulator.world.truth.joint_zero, zero_before)
+    assert (await client.stat()).state == "IDLE"
 
 
 async def _accept(idx: int) -> None:

@@ -1,0 +1,773 @@
+"""The RAPID task: a program module's data and routines executed statement by statement, with
+the controller's error handling (RAPID reference, "Error recovery"):
+
+- an error in a routine runs its ERROR handler with ERRNO set; there RETRY executes the failing
+  instruction again (at most MAX_RETRIES times, then ERR_EXCRTYMAX), TRYNEXT goes on after it,
+  RETURN leaves the routine, RAISE (or reaching the handler's end) propagates the error to the
+  caller's instruction, and so on up the call chain; an error nobody handles stops the program
+  with its event-log message, as does an error inside an error handler;
+- a handled error still writes a warning to the event log, unless the handler runs SkipWarn;
+- UNDO handlers run when a routine is left early: PP to Main (`pp_to_main`), ExitCycle, or an
+  error propagated out of it;
+- an instruction or function the interpreter does not have, or a name nothing declares, is a
+  LoadError naming its line when the module loads: nothing is ever skipped.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from screwcal.rapid import ast as A  # noqa: N812 - the node classes, as A.If, A.Call
+from screwcal.rapid import parse_module
+from simulators.rapid.builtins import BUILTINS, predefined
+from simulators.rapid.errors import LoadError, RapidError, errnum_name
+from simulators.rapid.operator import EventLog, Pendant
+from simulators.rapid.values import (
+    RECORDS,
+    RArray,
+    Record,
+    SocketDev,
+    base_type,
+    convert,
+    copy,
+    default,
+    known_type,
+    num,
+    string,
+)
+
+MAX_RETRIES = 4  # the controller's "No Of Retry"
+
+
+class Var:
+    __slots__ = ("const", "dims", "type", "value")
+
+    def __init__(self, type_: str, value: Any, dims: tuple[int, ...] = (), const: bool = False):
+        self.type, self.value, self.dims, self.const = type_, value, dims, const
+
+    def set(self, v: Any) -> None:
+        self.value = convert(self.type, v, self.dims)
+
+
+class LiveVar:
+    """A datum the controller's configuration sets and may change while the program runs
+    (the emulator's settings behind the module's CONSTs): read-only to the program."""
+
+    __slots__ = ("_read", "const", "dims", "type")
+
+    def __init__(self, type_: str, read: Callable[[], Any]):
+        self.type, self.dims, self.const, self._read = type_, (), True, read
+
+    @property
+    def value(self) -> Any:
+        return convert(self.type, self._read())
+
+    def set(self, v: Any) -> None:
+        raise RapidError("ERR_ARGVALERR", "a CONST cannot be assigned")
+
+
+class ElemRef:
+    __slots__ = ("arr", "i")
+
+    def __init__(self, arr: RArray, i: int):
+        self.arr, self.i = arr, i
+
+    @property
+    def value(self) -> Any:
+        return self.arr.items[self.i]
+
+    @value.setter
+    def value(self, v: Any) -> None:
+        self.arr.items[self.i] = v
+
+    def set(self, v: Any) -> None:
+        self.arr.items[self.i] = convert(self.arr.type, v)
+
+
+class FieldRef:
+    __slots__ = ("name", "rec")
+
+    def __init__(self, rec: Record, name: str):
+        self.rec, self.name = rec, name
+
+    @property
+    def value(self) -> Any:
+        return self.rec.f[self.name]
+
+    @value.setter
+    def value(self, v: Any) -> None:
+        self.rec.f[self.name] = v
+
+    def set(self, v: Any) -> None:
+        ft = dict(RECORDS[self.rec.type])[self.name]
+        self.rec.f[self.name] = convert(ft, v)
+
+
+class Stopped(BaseException):
+    """The program stops (Stop, an unhandled error, the controller's stop or PP to Main)."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+        super().__init__(reason)
+
+
+class _Return(BaseException):
+    def __init__(self, value: Any):
+        self.value = value
+
+
+class _Retry(BaseException):
+    pass
+
+
+class _TryNext(BaseException):
+    pass
+
+
+class _ExitCycle(BaseException):
+    pass
+
+
+class _Propagate(BaseException):
+    """An error on its way to the caller's instruction (not handled by this routine again)."""
+
+    def __init__(self, error: RapidError):
+        self.error = error
+
+
+class _Fatal(BaseException):
+    def __init__(self, error: RapidError):
+        self.error = error
+
+
+@dataclass
+class Frame:
+    routine: A.Routine
+    vars: dict[str, Any]
+    in_handler: bool = False
+    error: RapidError | None = None
+
+
+class Task:
+    """One RAPID task running one program module. `services` are the controller's other parts
+    the built-ins use (sockets, motion); `overrides` replace data declarations' values (the
+    cell's own constants: a port, a bind address, joint limits)."""
+
+    def __init__(self, text: str, path: str = "<module>", *, log: EventLog | None = None,
+                 pendant: Pendant | None = None, services: dict[str, Any] | None = None,
+                 overrides: dict[str, Any] | None = None):
+        from simulators.rapid import library, motion, sockets  # noqa: F401 - register built-ins
+
+        self.path = path
+        self.module = parse_module(text, path)
+        self.log = log or EventLog()
+        self.pendant = pendant or Pendant()
+        self.services = services or {}
+        self.overrides = {k.lower(): v for k, v in (overrides or {}).items()}
+        self.routines = {r.key: r for r in self.module.routines}
+        self.system = {k: Var("any", v, const=True) for k, v in predefined().items()}
+        self.errno = 0.0
+        self.stop_requested = threading.Event()
+        self.state = "stopped"  # running, stopped
+        self.stop_reason = ""
+        self._unwound: list[Frame] = []
+        self._skip = False
+        self._stack: list[Frame] = []
+        self._check()
+        unknown = set(self.overrides) - {d.key for d in self.module.data}
+        if unknown:
+            raise LoadError(path, 1, f"no data named {', '.join(sorted(unknown))} to set")
+        self._exec: dict[type, Callable[[Any, Frame], None]] = {
+            A.Assign: self._assign, A.ProcCall: self._proc_call, A.If: self._if,
+            A.While: self._while, A.For: self._for, A.Test: self._test,
+            A.Return: self._return, A.Raise: self._raise, A.Simple: self._simple,
+        }
+        self._eval: dict[type, Callable[[Any, Frame], Any]] = {
+            A.Num: self._num, A.Str: self._str, A.Name: self._name, A.Index: self._index,
+            A.Component: self._component, A.Aggregate: self._aggregate,
+            A.NumberRow: self._number_row, A.Unary: self._unary, A.Binary: self._binary,
+            A.Call: self._call,
+        }
+        self._nums: dict[int, float] = {}
+        self._rows: dict[int, tuple[A.NumberRow, list[float]]] = {}
+        self.data: dict[str, Any] = {}
+        self.reset_data()
+
+    # ------------------------------------------------------------------ loading
+    def _check(self) -> None:
+        """What a controller refuses at load: unknown instructions, functions, names, types."""
+        module_names = {d.key for d in self.module.data}
+        for d in self.module.data:
+            if not known_type(d.type):
+                raise LoadError(self.path, d.line, f"unknown data type {d.type}")
+        for r in self.module.routines:
+            if r.kind == "TRAP":
+                raise LoadError(self.path, r.line, "TRAP routines are not supported")
+            local = {p.name.lower() for p in r.params} | {d.key for d in r.data}
+            for d in r.data:
+                if not known_type(d.type):
+                    raise LoadError(self.path, d.line, f"unknown data type {d.type}")
+            for node in _walk(r):
+                if isinstance(node, A.For):
+                    local.add(node.var.lower())
+            names = local | module_names | set(self.system) | {"true", "false", "errno"}
+            for node in _walk(r):
+                self._check_node(node, names)
+
+    def _check_node(self, node: Any, names: set[str]) -> None:
+        where = node.line if isinstance(node, A.Node) else 0
+        if isinstance(node, A.ProcCall):
+            if node.late is not None:
+                raise LoadError(self.path, where, "late-bound procedure calls are not supported")
+            r = self.routines.get(node.key)
+            b = BUILTINS.get(node.key)
+            if (r is None or r.kind != "PROC") and (b is None or b.kind != "proc"):
+                raise LoadError(self.path, where,
+                                f"instruction {node.name} is unknown to this controller")
+        elif isinstance(node, A.Call):
+            r = self.routines.get(node.key)
+            b = BUILTINS.get(node.key)
+            if (r is None or r.kind != "FUNC") and (b is None or b.kind != "func"):
+                raise LoadError(self.path, where,
+                                f"function {node.name} is unknown to this controller")
+        elif isinstance(node, A.Name) and node.key not in names:
+            raise LoadError(self.path, where, f"no data named {node.name}")
+        elif isinstance(node, A.Goto | A.Label | A.Connect):
+            raise LoadError(self.path, where, f"{type(node).__name__.upper()} is not supported")
+        elif isinstance(node, A.Str) and len(node.value) > 80:
+            raise LoadError(self.path, where, "string literal longer than 80 characters")
+
+    def reset_data(self) -> None:
+        """The module's data at their declared values (load, PP to Main), overrides applied."""
+        frame = Frame(A.Routine(0, 0, 0, 0, "PROC", "<load>", False, None, (), (), ()), {})
+        self.data = {}
+        for d in self.module.data:
+            dims = tuple(int(self.eval(e, frame)) for e in d.dims)
+            if d.key in self.overrides and callable(self.overrides[d.key]):
+                self.data[d.key] = LiveVar(d.type, self.overrides[d.key])
+                continue
+            if d.key in self.overrides:
+                value = convert(d.type, self.overrides[d.key], dims)
+            elif d.value is not None:
+                value = convert(d.type, self.eval(d.value, frame), dims)
+            else:
+                value = default(d.type, dims)
+            self.data[d.key] = Var(d.type, value, dims, const=d.storage == "CONST")
+
+    # ------------------------------------------------------------------ running
+    def run(self, routine: str = "main") -> None:
+        """Execute `routine` until the program stops (returns then; `stop_reason` says why)."""
+        self.stop_requested.clear()
+        self.state = "running"
+        self.stop_reason = ""
+        try:
+            while True:
+                try:
+                    self.call(self.routines[routine.lower()], [], {}, 0)
+                    self._stopped("program ended (main returned)", kind="info")
+                    return
+                except _ExitCycle:
+                    self.log.write("info", "ExitCycle", "main starts again")
+                    continue
+        except Stopped as s:
+            self._stopped(s.reason, kind="info")
+        except _Fatal as f:
+            self._stopped(self._unhandled(f.error), kind="error")
+        except RapidError as e:
+            self._stopped(self._unhandled(e), kind="error")
+        except _Propagate as p:
+            self._stopped(self._unhandled(p.error), kind="error")
+
+    def _unhandled(self, e: RapidError) -> str:
+        return f"execution error {e.name} at {self.path}:{e.line}: {e.detail}"
+
+    def _stopped(self, reason: str, kind: str) -> None:
+        self.state = "stopped"
+        self.stop_reason = reason
+        self.log.write(kind, "Program stopped", reason)
+
+    def request_stop(self) -> None:
+        self.stop_requested.set()
+
+    def stopping(self) -> bool:
+        return self.stop_requested.is_set()
+
+    def pp_to_main(self) -> None:
+        """PP to Main after a stop: the UNDO handlers of the routines the stop left (innermost
+        first). The module's data keep their values (they are set at load)."""
+        unwound, self._unwound = self._unwound, []
+        self.stop_requested.clear()
+        for frame in unwound:
+            self._undo(frame)
+        self.errno = 0.0
+
+    def _undo(self, frame: Frame) -> None:
+        if frame.routine.undo is None:
+            return
+        try:
+            self.exec_block(frame.routine.undo, frame)
+        except _Return:
+            pass
+        except (RapidError, _Propagate, _Fatal) as err:
+            error = err if isinstance(err, RapidError) else err.error
+            self.log.write("error", "UNDO handler failed", self._unhandled(error))
+
+    # ------------------------------------------------------------------ routines
+    def call(self, r: A.Routine, pos: list[Any], opt: dict[str, Any], line: int) -> Any:
+        """Run a routine: `pos` values or references (VAR/INOUT parameters), `opt` by name."""
+        frame = Frame(r, {})
+        required = [p for p in r.params if not p.optional]
+        if len(pos) != len(required):
+            raise RapidError("ERR_ARGVALERR", f"{r.name} takes {len(required)} arguments",
+                             line)
+        for p, v in zip(required, pos, strict=True):
+            frame.vars[p.name.lower()] = v if p.mode else Var(p.type, copy(v),
+                                                              (0,) * p.dims if False else ())
+        for p in r.params:
+            if p.optional and p.name.lower() in opt:
+                v = opt[p.name.lower()]
+                frame.vars[p.name.lower()] = v if p.mode else Var(p.type, copy(v))
+        for d in r.data:
+            dims = tuple(int(self.eval(e, frame)) for e in d.dims)
+            value = convert(d.type, self.eval(d.value, frame), dims) if d.value is not None \
+                else default(d.type, dims)
+            frame.vars[d.key] = Var(d.type, value, dims, const=d.storage == "CONST")
+        self._stack.append(frame)
+        try:
+            self.exec_block(r.body, frame)
+            if r.kind == "FUNC":
+                raise RapidError("ERR_NORETURN", f"{r.name} ended without RETURN", r.line)
+            return None
+        except _Return as ret:
+            return ret.value
+        except _Propagate as p:
+            self._undo(frame)
+            if p.error.line is None:
+                p.error.line = line
+            raise RapidError(p.error.errno, p.error.detail, line) from None
+        except _ExitCycle:
+            self._undo(frame)
+            raise
+        except Stopped:
+            self._unwound.append(frame)
+            raise
+        finally:
+            self._stack.pop()
+
+    def exec_block(self, stmts: tuple[Any, ...], frame: Frame) -> None:
+        execs = self._exec
+        for st in stmts:
+            retries = 0
+            while True:
+                if self.stop_requested.is_set():
+                    raise Stopped("stopped by the controller")
+                try:
+                    execs[type(st)](st, frame)
+                    break
+                except RapidError as e:
+                    if e.line is None:
+                        e.line = st.line
+                    if self._handle(e, frame):  # RETRY
+                        retries += 1
+                        if retries > MAX_RETRIES:
+                            raise _Propagate(RapidError("ERR_EXCRTYMAX", line=st.line)) \
+                                from None
+                        continue
+                    break  # TRYNEXT
+
+    def _handle(self, e: RapidError, frame: Frame) -> bool:
+        """The routine's ERROR handler for `e`: True for RETRY, False for TRYNEXT; raises to
+        leave the routine (RETURN) or to propagate."""
+        r = frame.routine
+        if frame.in_handler:
+            raise _Fatal(e)
+        if r.error is None or (r.error_numbers and not any(
+                self.eval(n, frame) == e.errno for n in r.error_numbers)):
+            raise _Propagate(e)
+        self.errno = float(e.errno)
+        saved, self._skip = self._skip, False
+        frame.in_handler, frame.error = True, e
+        try:
+            self.exec_block(r.error, frame)
+        except _Retry:
+            return True
+        except _TryNext:
+            return False
+        finally:
+            frame.in_handler = False
+            if not self._skip:  # a recovered error still leaves its warning, unless SkipWarn
+                self.log.write("warning", f"Execution error {e.name}",
+                               f"{self.path}:{e.line}: {e.detail} (recovered in {r.name})")
+            self._skip = saved
+        raise _Propagate(e)  # the handler's end: as RAISE
+
+    def skip_warning(self) -> None:
+        """SkipWarn: the error being handled leaves no warning in the event log."""
+        self._skip = True
+
+    # ------------------------------------------------------------------ statements
+    def _assign(self, st: A.Assign, frame: Frame) -> None:
+        value = self.eval(st.value, frame)
+        target = self.ref(st.target, frame)
+        if isinstance(target, Var) and target.const:
+            raise RapidError("ERR_ARGVALERR", "a CONST cannot be assigned", st.line)
+        target.set(value)
+
+    def _proc_call(self, st: A.ProcCall, frame: Frame) -> None:
+        r = self.routines.get(st.key)
+        if r is not None and r.kind == "PROC":
+            pos, opt = self._bind(st.args, frame, r)
+            self.call(r, pos, opt, st.line)
+            return
+        b = BUILTINS[st.key]
+        pos, opt = self._builtin_args(st.args, frame, b)
+        b.fn(self, pos, opt)
+
+    def _if(self, st: A.If, frame: Frame) -> None:
+        for cond, body in st.branches:
+            if self._bool(cond, frame):
+                self.exec_block(body, frame)
+                return
+        if st.orelse:
+            self.exec_block(st.orelse, frame)
+
+    def _while(self, st: A.While, frame: Frame) -> None:
+        while self._bool(st.condition, frame):
+            self.exec_block(st.body, frame)
+
+    def _for(self, st: A.For, frame: Frame) -> None:
+        start = self.eval(st.start_value, frame)
+        stop = self.eval(st.stop_value, frame)
+        step = self.eval(st.step, frame) if st.step is not None else \
+            (1.0 if start <= stop else -1.0)
+        key = st.var.lower()
+        saved = frame.vars.get(key)
+        var = frame.vars[key] = Var("num", start, const=True)
+        i = start
+        try:
+            while (step > 0 and i <= stop) or (step < 0 and i >= stop):
+                var.value = i
+                self.exec_block(st.body, frame)
+                i = num(i + step)
+        finally:
+            if saved is None:
+                del frame.vars[key]
+            else:
+                frame.vars[key] = saved
+
+    def _test(self, st: A.Test, frame: Frame) -> None:
+        subject = self.eval(st.subject, frame)
+        for case in st.cases:
+            if any(self.eval(label, frame) == subject for label in case.labels):
+                self.exec_block(case.body, frame)
+                return
+        if st.default is not None:
+            self.exec_block(st.default, frame)
+
+    def _return(self, st: A.Return, frame: Frame) -> None:
+        value = None
+        if st.value is not None:
+            value = self.eval(st.value, frame)
+            if frame.routine.type is not None:
+                value = convert(frame.routine.type, value)
+        raise _Return(value)
+
+    def _raise(self, st: A.Raise, frame: Frame) -> None:
+        if frame.in_handler:
+            if st.value is None:
+                raise _Propagate(frame.error)  # type: ignore[arg-type]
+            raise _Propagate(RapidError(int(self.eval(st.value, frame)), "raised", st.line))
+        if st.value is None:
+            raise RapidError("ERR_ILLRAISE", "RAISE without an error number", st.line)
+        n = self.eval(st.value, frame)
+        raise RapidError(int(n), "raised by the program", st.line)
+
+    def _simple(self, st: A.Simple, frame: Frame) -> None:
+        kw = st.keyword.upper()
+        if kw in ("RETRY", "TRYNEXT") and not frame.in_handler:
+            raise RapidError("ERR_ARGVALERR", f"{kw} outside an error handler", st.line)
+        if kw == "RETRY":
+            raise _Retry()
+        if kw == "TRYNEXT":
+            raise _TryNext()
+        raise Stopped(f"EXIT at {self.path}:{st.line}")
+
+    def _bool(self, e: Any, frame: Frame) -> bool:
+        v = self.eval(e, frame)
+        if not isinstance(v, bool):
+            raise RapidError("ERR_ARGVALERR", "a condition must be a bool", e.line)
+        return v
+
+    # ------------------------------------------------------------------ arguments
+    def _bind(self, args: tuple[A.Argument, ...], frame: Frame, r: A.Routine
+              ) -> tuple[list[Any], dict[str, Any]]:
+        required = [p for p in r.params if not p.optional]
+        optional = {p.name.lower(): p for p in r.params if p.optional}
+        pos: list[Any] = []
+        opt: dict[str, Any] = {}
+        for a in args:
+            if a.name is None:
+                p = required[len(pos)] if len(pos) < len(required) else None
+                by_ref = p is not None and p.mode is not None
+                pos.append(self.ref(a.value, frame) if by_ref else self.eval(a.value, frame))
+            else:
+                p = optional.get(a.name.lower())
+                if a.value is None:
+                    opt[a.name.lower()] = True
+                elif p is not None and p.mode is not None:
+                    opt[a.name.lower()] = self.ref(a.value, frame)
+                else:
+                    opt[a.name.lower()] = self.eval(a.value, frame)
+        return pos, opt
+
+    def _builtin_args(self, args: tuple[A.Argument, ...], frame: Frame, b: Any
+                      ) -> tuple[list[Any], dict[str, Any]]:
+        pos: list[Any] = []
+        opt: dict[str, Any] = {}
+        for a in args:
+            if a.name is None:
+                pos.append(self.ref(a.value, frame) if len(pos) in b.refs
+                           else self.eval(a.value, frame))
+            elif a.conditional:
+                raise RapidError("ERR_ARGVALERR", "conditional arguments are not supported",
+                                 a.line)
+            elif a.value is None:
+                opt[a.name.lower()] = True
+            else:
+                key = a.name.lower()
+                opt[key] = self.ref(a.value, frame) if key in b.optrefs \
+                    else self.eval(a.value, frame)
+        return pos, opt
+
+    # ------------------------------------------------------------------ expressions
+    def eval(self, e: Any, frame: Frame) -> Any:
+        return self._eval[type(e)](e, frame)
+
+    def ref(self, e: Any, frame: Frame) -> Any:
+        """The storage an expression names: a Var, an array element, a record component."""
+        if isinstance(e, A.Name):
+            var = self._lookup(e.key, frame, e.line)
+            return var
+        if isinstance(e, A.Index):
+            arr = self.eval(e.base, frame)
+            for k, ie in enumerate(e.indices):
+                if not isinstance(arr, RArray):
+                    raise RapidError("ERR_ARGVALERR", "not an array", e.line)
+                i = arr.index(self.eval(ie, frame))
+                if k == len(e.indices) - 1:
+                    return ElemRef(arr, i)
+                arr = arr.items[i]
+        if isinstance(e, A.Component):
+            rec = self.eval(e.base, frame)
+            if not isinstance(rec, Record) or e.name.lower() not in rec.f:
+                raise RapidError("ERR_ARGVALERR", f"no component {e.name}", e.line)
+            return FieldRef(rec, e.name.lower())
+        raise RapidError("ERR_ARGNOTVAR", "this argument must be a variable", e.line)
+
+    def _lookup(self, key: str, frame: Frame, line: int) -> Any:
+        v = frame.vars.get(key)
+        if v is None:
+            v = self.data.get(key)
+            if v is None:
+                v = self.system.get(key)
+                if v is None:
+                    if key == "errno":
+                        return Var("num", self.errno, const=True)
+                    raise RapidError("ERR_REFUNKDAT", f"no data named {key}", line)
+        return v
+
+    def _num(self, e: A.Num, frame: Frame) -> float:
+        v = self._nums.get(id(e))
+        if v is None:
+            v = self._nums[id(e)] = num(e.value)
+        return v
+
+    def _str(self, e: A.Str, frame: Frame) -> str:
+        return e.value
+
+    def _name(self, e: A.Name, frame: Frame) -> Any:
+        key = e.key
+        if key == "true":
+            return True
+        if key == "false":
+            return False
+        if key == "errno":
+            return self.errno
+        return self._lookup(key, frame, e.line).value
+
+    def _index(self, e: A.Index, frame: Frame) -> Any:
+        arr = self.eval(e.base, frame)
+        for ie in e.indices:
+            if not isinstance(arr, RArray):
+                raise RapidError("ERR_ARGVALERR", "not an array", e.line)
+            try:
+                arr = arr.items[arr.index(self.eval(ie, frame))]
+            except RapidError as err:
+                err.line = e.line
+                raise
+        return arr
+
+    def _component(self, e: A.Component, frame: Frame) -> Any:
+        rec = self.eval(e.base, frame)
+        try:
+            return rec.f[e.name.lower()]
+        except (AttributeError, KeyError):
+            raise RapidError("ERR_ARGVALERR", f"no component {e.name}", e.line) from None
+
+    def _number_row(self, e: A.NumberRow, frame: Frame) -> list[float]:
+        # keyed by the row (a node of the tree); its items are made afresh on each access
+        row = self._rows.get(id(e))
+        if row is None:
+            row = self._rows[id(e)] = (e, [num(n.value) for n in e.items])
+        return list(row[1])
+
+    def _aggregate(self, e: Any, frame: Frame) -> list[Any]:
+        return [self.eval(i, frame) for i in e.items]
+
+    def _unary(self, e: A.Unary, frame: Frame) -> Any:
+        v = self.eval(e.operand, frame)
+        if e.op == "NOT":
+            if not isinstance(v, bool):
+                raise RapidError("ERR_ARGVALERR", "NOT needs a bool", e.line)
+            return not v
+        if not isinstance(v, float):
+            raise RapidError("ERR_ARGVALERR", f"{e.op} needs a num", e.line)
+        return -v if e.op == "-" else v
+
+    def _binary(self, e: A.Binary, frame: Frame) -> Any:
+        a = self.eval(e.left, frame)
+        b = self.eval(e.right, frame)
+        op = e.op
+        try:
+            return _BINARY[op](a, b)
+        except RapidError as err:
+            err.line = e.line
+            raise
+        except (TypeError, KeyError):
+            raise RapidError("ERR_ARGVALERR", f"{op} of {type(a).__name__} and "
+                             f"{type(b).__name__}", e.line) from None
+
+    def _call(self, e: A.Call, frame: Frame) -> Any:
+        r = self.routines.get(e.key)
+        if r is not None and r.kind == "FUNC":
+            pos, opt = self._bind(e.args, frame, r)
+            return self.call(r, pos, opt, e.line)
+        b = BUILTINS[e.key]
+        pos, opt = self._builtin_args(e.args, frame, b)
+        try:
+            return b.fn(self, pos, opt)
+        except RapidError as err:
+            if err.line is None:
+                err.line = e.line
+            raise
+
+
+def _walk(node: Any):  # noqa: ANN202
+    """Every AST node below `node` (statements, expressions, arguments)."""
+    stack = [node]
+    while stack:
+        n = stack.pop()
+        yield n
+        if isinstance(n, A.NumberRow):
+            continue
+        if isinstance(n, A.Node):
+            for name in n.__slots__ if hasattr(n, "__slots__") else ():
+                stack.extend(_children(getattr(n, name, None)))
+
+
+def _children(v: Any) -> list[Any]:
+    if isinstance(v, A.Node):
+        return [v]
+    if isinstance(v, tuple):
+        out: list[Any] = []
+        for x in v:
+            out.extend(_children(x))
+        return out
+    return []
+
+
+def _num_op(f: Callable[[float, float], float]) -> Callable[[Any, Any], Any]:
+    def op(a: Any, b: Any) -> Any:
+        if isinstance(a, float) and isinstance(b, float):
+            return num(f(a, b))
+        raise TypeError
+    return op
+
+
+def _add(a: Any, b: Any) -> Any:
+    if isinstance(a, float) and isinstance(b, float):
+        return num(a + b)
+    if isinstance(a, str) and isinstance(b, str):
+        return string(a + b)
+    if isinstance(a, Record) and isinstance(b, Record) and a.type == b.type == "pos":
+        return Record("pos", {k: num(a.f[k] + b.f[k]) for k in a.f})
+    raise TypeError
+
+
+def _sub(a: Any, b: Any) -> Any:
+    if isinstance(a, float) and isinstance(b, float):
+        return num(a - b)
+    if isinstance(a, Record) and isinstance(b, Record) and a.type == b.type == "pos":
+        return Record("pos", {k: num(a.f[k] - b.f[k]) for k in a.f})
+    raise TypeError
+
+
+def _div(a: Any, b: Any) -> Any:
+    if not (isinstance(a, float) and isinstance(b, float)):
+        raise TypeError
+    if b == 0:
+        raise RapidError("ERR_DIVZERO")
+    return num(a / b)
+
+
+def _int_op(kind: str) -> Callable[[Any, Any], Any]:
+    def op(a: Any, b: Any) -> Any:
+        if not (isinstance(a, float) and isinstance(b, float)):
+            raise TypeError
+        if a != int(a) or b != int(b):
+            raise RapidError("ERR_ARGVALERR", f"{kind} needs integers")
+        if b == 0:
+            raise RapidError("ERR_DIVZERO")
+        q = abs(int(a)) // abs(int(b)) * (1 if (a < 0) == (b < 0) else -1)
+        return float(q) if kind == "DIV" else float(int(a) - q * int(b))
+    return op
+
+
+def _cmp(f: Callable[[Any, Any], bool]) -> Callable[[Any, Any], bool]:
+    def op(a: Any, b: Any) -> bool:
+        if isinstance(a, float) and isinstance(b, float):
+            return f(a, b)
+        raise TypeError
+    return op
+
+
+def _logic(f: Callable[[bool, bool], bool]) -> Callable[[Any, Any], bool]:
+    def op(a: Any, b: Any) -> bool:
+        if isinstance(a, bool) and isinstance(b, bool):
+            return f(a, b)
+        raise TypeError
+    return op
+
+
+def _eq(a: Any, b: Any) -> bool:
+    if type(a) is not type(b):
+        raise TypeError
+    return a == b
+
+
+_BINARY: dict[str, Callable[[Any, Any], Any]] = {
+    "+": _add, "-": _sub, "*": _num_op(lambda a, b: a * b), "/": _div,
+    "DIV": _int_op("DIV"), "MOD": _int_op("MOD"),
+    "<": _cmp(lambda a, b: a < b), "<=": _cmp(lambda a, b: a <= b),
+    ">": _cmp(lambda a, b: a > b), ">=": _cmp(lambda a, b: a >= b),
+    "=": _eq, "<>": lambda a, b: not _eq(a, b),
+    "AND": _logic(lambda a, b: a and b), "OR": _logic(lambda a, b: a or b),
+    "XOR": _logic(lambda a, b: a != b),
+}
+
+__all__ = ["LoadError", "RapidError", "SocketDev", "Stopped", "Task", "base_type",
+           "errnum_name", "math"]

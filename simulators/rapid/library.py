@@ -1,0 +1,351 @@
+"""The RAPID built-ins that are neither sockets nor motion: strings, arithmetic, orientations,
+the operator interface, waiting and stopping, the event log."""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from typing import Any
+
+import numpy as np
+
+from simulators.rapid.builtins import builtin
+from simulators.rapid.errors import RapidError
+from simulators.rapid.values import RArray, Record, is_integer, num, record, string
+
+# ------------------------------------------------------------------ strings
+
+
+def _pos_arg(s: str, pos: float, what: str, allow_end: bool = True) -> int:
+    if not is_integer(pos) or not 1 <= pos <= len(s) + (1 if allow_end else 0):
+        raise RapidError("ERR_ARGVALERR", f"{what} {pos:g} outside the string of {len(s)}")
+    return int(pos)
+
+
+@builtin("StrLen", "func")
+def _strlen(task: Any, pos: list, opt: dict) -> float:
+    return float(len(pos[0]))
+
+
+@builtin("StrPart", "func")
+def _strpart(task: Any, pos: list, opt: dict) -> str:
+    s, start, n = pos
+    if not (is_integer(start) and is_integer(n)) or start < 1 or n < 0 or \
+            start + n - 1 > len(s):
+        raise RapidError("ERR_ARGVALERR",
+                         f"StrPart({start:g}, {n:g}) outside the string of {len(s)}")
+    return s[int(start) - 1:int(start) - 1 + int(n)]
+
+
+@builtin("StrFind", "func")
+def _strfind(task: Any, pos: list, opt: dict) -> float:
+    """The first position from ChPos holding a character of Set (\\NotInSet: not of Set);
+    StrLen + 1 when there is none."""
+    s, start, chars = pos
+    i = _pos_arg(s, start, "StrFind position")
+    outside = bool(opt.get("notinset"))
+    for k in range(i - 1, len(s)):
+        if (s[k] in chars) != outside:
+            return float(k + 1)
+    return float(len(s) + 1)
+
+
+@builtin("StrMemb", "func")
+def _strmemb(task: Any, pos: list, opt: dict) -> bool:
+    s, at, chars = pos
+    return s[_pos_arg(s, at, "StrMemb position", allow_end=False) - 1] in chars
+
+
+@builtin("StrMatch", "func")
+def _strmatch(task: Any, pos: list, opt: dict) -> float:
+    s, start, pattern = pos
+    i = _pos_arg(s, start, "StrMatch position")
+    k = s.find(pattern, i - 1)
+    return float(len(s) + 1 if k < 0 else k + 1)
+
+
+_NUM_TEXT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\Z")
+
+
+@builtin("StrToVal", "func", refs=(1,))
+def _strtoval(task: Any, pos: list, opt: dict) -> bool:
+    """A num's text (RAPID literal syntax) into Val: TRUE, or FALSE and Val unchanged."""
+    s, target = pos
+    if isinstance(target.value, float):
+        if not _NUM_TEXT.match(s):
+            return False
+        try:
+            target.value = num(float(s))
+        except RapidError:
+            return False
+        return True
+    if isinstance(target.value, bool):
+        if s not in ("TRUE", "FALSE"):
+            return False
+        target.value = s == "TRUE"
+        return True
+    if isinstance(target.value, str):
+        target.value = string(s)
+        return True
+    raise RapidError("ERR_ARGVALERR", "StrToVal into this data type is not supported")
+
+
+@builtin("NumToStr", "func")
+def _numtostr(task: Any, pos: list, opt: dict) -> str:
+    value, dec = pos
+    if not is_integer(dec) or dec < 0:
+        raise RapidError("ERR_ARGVALERR", f"NumToStr decimals {dec:g}")
+    text = f"{value:.{int(dec)}f}"
+    if float(text) == 0.0:
+        text = text.lstrip("-")
+    return string(text)
+
+
+@builtin("ValToStr", "func")
+def _valtostr(task: Any, pos: list, opt: dict) -> str:
+    v = pos[0]
+    if isinstance(v, bool):
+        return "TRUE" if v else "FALSE"
+    if isinstance(v, float):
+        return string(f"{v:.9g}" if not is_integer(v) else f"{int(v)}")
+    return string(repr(v) if not isinstance(v, str) else v)
+
+
+# ------------------------------------------------------------------ arithmetic
+
+
+@builtin("Trunc", "func")
+def _trunc(task: Any, pos: list, opt: dict) -> float:
+    dec = int(opt.get("dec", 0.0))
+    f = 10.0 ** dec
+    return num(math.trunc(pos[0] * f) / f)
+
+
+@builtin("Round", "func")
+def _round(task: Any, pos: list, opt: dict) -> float:
+    dec = int(opt.get("dec", 0.0))
+    f = 10.0 ** dec
+    v = pos[0] * f
+    return num(math.floor(abs(v) + 0.5) * math.copysign(1, v) / f)
+
+
+@builtin("Abs", "func")
+def _abs(task: Any, pos: list, opt: dict) -> float:
+    return abs(pos[0])
+
+
+@builtin("Sqrt", "func")
+def _sqrt(task: Any, pos: list, opt: dict) -> float:
+    if pos[0] < 0:
+        raise RapidError("ERR_ARGVALERR", "Sqrt of a negative num")
+    return num(math.sqrt(pos[0]))
+
+
+@builtin("ATan2", "func")
+def _atan2(task: Any, pos: list, opt: dict) -> float:
+    return num(math.degrees(math.atan2(pos[0], pos[1])))
+
+
+@builtin("Incr", "proc", refs=(0,))
+def _incr(task: Any, pos: list, opt: dict) -> None:
+    pos[0].value = num(pos[0].value + 1)
+
+
+@builtin("Decr", "proc", refs=(0,))
+def _decr(task: Any, pos: list, opt: dict) -> None:
+    pos[0].value = num(pos[0].value - 1)
+
+
+@builtin("Add", "proc", refs=(0,))
+def _addp(task: Any, pos: list, opt: dict) -> None:
+    pos[0].value = num(pos[0].value + pos[1])
+
+
+@builtin("Dim", "func")
+def _dim(task: Any, pos: list, opt: dict) -> float:
+    arr, n = pos
+    for _ in range(int(n) - 1):
+        arr = arr.items[0]
+    if not isinstance(arr, RArray):
+        raise RapidError("ERR_ARGVALERR", "Dim of what is no array")
+    return float(len(arr.items))
+
+
+# ------------------------------------------------------------------ orientations (R = Rz Ry Rx)
+
+
+def quaternion_of(R: np.ndarray) -> tuple[float, float, float, float]:
+    """(q1 = w, q2, q3, q4) of a rotation matrix, w >= 0."""
+    w = math.sqrt(max(0.0, 1 + R[0, 0] + R[1, 1] + R[2, 2])) / 2
+    x = math.copysign(math.sqrt(max(0.0, 1 + R[0, 0] - R[1, 1] - R[2, 2])) / 2, R[2, 1] - R[1, 2])
+    y = math.copysign(math.sqrt(max(0.0, 1 - R[0, 0] + R[1, 1] - R[2, 2])) / 2, R[0, 2] - R[2, 0])
+    z = math.copysign(math.sqrt(max(0.0, 1 - R[0, 0] - R[1, 1] + R[2, 2])) / 2, R[1, 0] - R[0, 1])
+    return (w, x, y, z)
+
+
+def matrix_of(q: Record) -> np.ndarray:
+    w, x, y, z = (q.f["q1"], q.f["q2"], q.f["q3"], q.f["q4"])
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    if abs(n - 1) > 1e-4:
+        raise RapidError("ERR_ARGVALERR", f"orient not normalised (|q| = {n:.6f})")
+    w, x, y, z = w / n, x / n, y / n, z / n
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+@builtin("OrientZYX", "func")
+def _orientzyx(task: Any, pos: list, opt: dict) -> Record:
+    """orient from Euler angles (deg) about Z, then Y, then X: R = Rz Ry Rx."""
+    z, y, x = (math.radians(a) for a in pos)
+    cz, sz, cy, sy, cx, sx = math.cos(z), math.sin(z), math.cos(y), math.sin(y), \
+        math.cos(x), math.sin(x)
+    R = np.array([[cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx],
+                  [sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx],
+                  [-sy, cy * sx, cy * cx]])
+    return record("orient", *quaternion_of(R))
+
+
+@builtin("EulerZYX", "func")
+def _eulerzyx(task: Any, pos: list, opt: dict) -> float:
+    """One Euler angle (deg) of an orient: \\X, \\Y or \\Z of R = Rz Ry Rx."""
+    R = matrix_of(pos[0])
+    y = math.degrees(math.asin(max(-1.0, min(1.0, -R[2, 0]))))
+    if opt.get("x"):
+        return num(math.degrees(math.atan2(R[2, 1], R[2, 2])))
+    if opt.get("y"):
+        return num(y)
+    if opt.get("z"):
+        return num(math.degrees(math.atan2(R[1, 0], R[0, 0])))
+    raise RapidError("ERR_ARGVALERR", "EulerZYX needs \\X, \\Y or \\Z")
+
+
+# ------------------------------------------------------------------ operator interface
+
+
+@builtin("TPWrite", "proc")
+def _tpwrite(task: Any, pos: list, opt: dict) -> None:
+    text = pos[0]
+    if "num" in opt:
+        text += _valtostr(task, [opt["num"]], {})
+    task.pendant.write(string(text))
+
+
+@builtin("TPErase", "proc")
+def _tperase(task: Any, pos: list, opt: dict) -> None:
+    task.pendant.erase()
+
+
+@builtin("TPReadFK", "proc", refs=(0,), optrefs=("BreakFlag",))
+def _tpreadfk(task: Any, pos: list, opt: dict) -> None:
+    """TPReadFK answer, text, FK1..FK5 [\\MaxTime] [\\BreakFlag]: the key pressed (1..5); no
+    key within MaxTime is ERR_TP_MAXTIME (into BreakFlag when given, else raised)."""
+    answer, text, *keys = pos
+    if len(keys) != 5:
+        raise RapidError("ERR_ARGVALERR", "TPReadFK takes five function-key texts")
+    max_time = opt.get("maxtime")
+    key = task.pendant.ask(text, tuple(keys), max_time, task.stopping)
+    if key is None and task.stopping():
+        from simulators.rapid.interpreter import Stopped
+        raise Stopped("stopped by the controller")
+    flag = opt.get("breakflag")
+    if key is None:
+        error = RapidError("ERR_TP_MAXTIME", f"no key pressed within {max_time:g} s")
+        if flag is None:
+            raise error
+        flag.value = float(error.errno)
+        answer.value = 0.0
+        return
+    if flag is not None:
+        flag.value = 0.0
+    answer.value = float(key)
+
+
+@builtin("ErrWrite", "proc")
+def _errwrite(task: Any, pos: list, opt: dict) -> None:
+    kind = "warning" if opt.get("w") else "info" if opt.get("i") else "error"
+    header, reason = pos
+    more = [opt[k] for k in ("rl2", "rl3", "rl4") if k in opt]
+    task.log.write(kind, string(header), " ".join(string(r) for r in [reason, *more]))
+
+
+@builtin("SkipWarn", "proc")
+def _skipwarn(task: Any, pos: list, opt: dict) -> None:
+    task.skip_warning()
+
+
+# ------------------------------------------------------------------ waiting, stopping
+
+
+def wait(task: Any, seconds: float) -> None:
+    """Sleep `seconds`, in slices, so that a stop is seen."""
+    from simulators.rapid.interpreter import Stopped
+
+    end = time.monotonic() + max(0.0, seconds)
+    while True:
+        if task.stopping():
+            raise Stopped("stopped by the controller")
+        left = end - time.monotonic()
+        if left <= 0:
+            return
+        time.sleep(min(left, 0.05))
+
+
+@builtin("WaitTime", "proc")
+def _waittime(task: Any, pos: list, opt: dict) -> None:
+    if pos[0] < 0:
+        raise RapidError("ERR_ARGVALERR", "WaitTime of a negative time")
+    if opt.get("inpos") and "motion" in task.services:
+        task.services["motion"].wait_in_position(task)
+    wait(task, pos[0])
+
+
+@builtin("Stop", "proc")
+def _stop(task: Any, pos: list, opt: dict) -> None:
+    from simulators.rapid.interpreter import Stopped
+    raise Stopped("Stop instruction")
+
+
+@builtin("ExitCycle", "proc")
+def _exitcycle(task: Any, pos: list, opt: dict) -> None:
+    from simulators.rapid.interpreter import _ExitCycle
+    raise _ExitCycle()
+
+
+@builtin("GetSysInfo", "func")
+def _getsysinfo(task: Any, pos: list, opt: dict) -> str:
+    info = task.services.get("sysinfo", {})
+    for key in ("lanip", "serialno", "swversion", "robottype", "ctrlid", "systemname"):
+        if opt.get(key):
+            return string(info.get(key, ""))
+    raise RapidError("ERR_ARGVALERR", "GetSysInfo needs one of its switches")
+
+
+# ------------------------------------------------------------------ clocks
+
+
+@builtin("ClkReset", "proc")
+def _clkreset(task: Any, pos: list, opt: dict) -> None:
+    pos[0].total, pos[0].since = 0.0, None
+
+
+@builtin("ClkStart", "proc")
+def _clkstart(task: Any, pos: list, opt: dict) -> None:
+    if pos[0].since is None:
+        pos[0].since = time.monotonic()
+
+
+@builtin("ClkStop", "proc")
+def _clkstop(task: Any, pos: list, opt: dict) -> None:
+    c = pos[0]
+    if c.since is not None:
+        c.total += time.monotonic() - c.since
+        c.since = None
+
+
+@builtin("ClkRead", "func")
+def _clkread(task: Any, pos: list, opt: dict) -> float:
+    c = pos[0]
+    running = 0.0 if c.since is None else time.monotonic() - c.since
+    return num(c.total + running)

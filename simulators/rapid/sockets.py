@@ -1,0 +1,358 @@
+"""The socket instructions (RobotWare option "Socket Messaging", part of "PC Interface") on
+real OS sockets, with the controller's error numbers:
+
+- SocketAccept/SocketReceive wait at most \\Time seconds (default 60; WAIT_MAX: forever; a
+  fraction is accepted), then ERR_SOCK_TIMEOUT;
+- a connection the peer closed or reset is ERR_SOCK_CLOSED (SocketReceive, SocketSend,
+  SocketPeek);
+- SocketBind on an address still in use is ERR_SOCK_ADDR_INUSE, also while a connection the
+  controller closed first is in TIME_WAIT on that port (`Network.time_wait_s`; the OS sockets
+  themselves are opened with SO_REUSEADDR so that the emulator's host is not held up);
+- a SocketSend the peer does not take within `Network.send_timeout_s` drops the connection
+  (the stack gives up): ERR_SOCK_CLOSED.
+
+Closing a socket with unread data resets the connection (the OS does it, as the controller's
+stack does). `Network.faults` injects the emulator's faults into the frames the program sends.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import fcntl
+import select
+import socket
+import struct
+import termios
+import threading
+import time
+from typing import Any
+
+from simulators.faults import FaultPlan
+from simulators.rapid.builtins import builtin
+from simulators.rapid.errors import RapidError
+from simulators.rapid.values import SocketDev, string
+
+DEFAULT_TIME_S = 60.0
+WAIT_MAX = 8388608.0
+_SLICE_S = 0.05
+SOCKET_BUFFER = 16384  # how often a blocked instruction looks for a stop request
+
+
+class Network:
+    """The controller's socket stack: what is in TIME_WAIT, the faults to inject, every socket
+    it holds (closed when the controller shuts down)."""
+
+    def __init__(self, settings: Any = None):
+        self.settings = settings  # faults, send_timeout_s, time_wait_s (the emulator's)
+        self.time_wait: dict[int, float] = {}  # local port -> until (monotonic)
+        self.open: set[socket.socket] = set()
+        self.listening: list[tuple[str, int]] = []
+        self.accepted = 0
+        self.refusals = 0  # "0 ERR 16 busy" frames sent
+        self._held: bytes = b""  # merge_frames: a j frame held for its p frame
+        self._lock = threading.Lock()
+        self.listen_event = threading.Event()
+
+    @property
+    def faults(self) -> FaultPlan:
+        return getattr(self.settings, "faults", None) or FaultPlan()
+
+    @property
+    def send_timeout_s(self) -> float:
+        return getattr(self.settings, "send_timeout_s", 10.0)
+
+    @property
+    def time_wait_s(self) -> float:
+        return getattr(self.settings, "time_wait_s", 60.0)
+
+    def shutdown(self) -> None:
+        with self._lock:
+            socks, self.open = list(self.open), set()
+        for s in socks:
+            with contextlib.suppress(OSError):
+                s.close()
+        self.listening.clear()
+        self.time_wait.clear()  # a controller restart: a new network stack
+
+    def track(self, s: socket.socket) -> None:
+        with self._lock:
+            self.open.add(s)
+
+    def untrack(self, s: socket.socket) -> None:
+        with self._lock:
+            self.open.discard(s)
+
+
+def _net(task: Any) -> Network:
+    return task.services["network"]
+
+
+def _closed(detail: str) -> RapidError:
+    return RapidError("ERR_SOCK_CLOSED", detail)
+
+
+def _wait_readable(task: Any, s: socket.socket, seconds: float, what: str) -> None:
+    from simulators.rapid.interpreter import Stopped
+
+    end = None if seconds >= WAIT_MAX else time.monotonic() + seconds
+    while True:
+        if task.stopping():
+            raise Stopped("stopped by the controller")
+        left = _SLICE_S if end is None else min(_SLICE_S, end - time.monotonic())
+        if left <= 0:
+            raise RapidError("ERR_SOCK_TIMEOUT", f"{what}: nothing within {seconds:g} s")
+        ready, _, _ = select.select([s], [], [], left)
+        if ready:
+            return
+
+
+def _time(opt: dict) -> float:
+    t = opt.get("time", DEFAULT_TIME_S)
+    if t <= 0:
+        raise RapidError("ERR_ARGVALERR", f"\\Time must be positive, got {t:g}")
+    return t
+
+
+@builtin("SocketCreate", "proc")
+def _create(task: Any, pos: list, opt: dict) -> None:
+    dev: SocketDev = pos[0]
+    if dev.state not in ("none", "closed"):
+        raise RapidError("ERR_SOCK_UNSPEC", "socket already created")
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM if opt.get("udp") else socket.SOCK_STREAM)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    # An embedded stack's small buffers (accepted connections inherit them): a peer that
+    # floods or does not read meets back-pressure in kilobytes, not in the host's megabytes.
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, SOCKET_BUFFER)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_BUFFER)
+    _net(task).track(s)
+    dev.sock, dev.state, dev.peer_closed, dev.local = s, "created", False, None
+
+
+@builtin("SocketBind", "proc")
+def _bind(task: Any, pos: list, opt: dict) -> None:
+    dev, address, port = pos
+    net = _net(task)
+    if dev.state != "created":
+        raise RapidError("ERR_SOCK_IS_BOUND" if dev.state != "closed" else "ERR_SOCK_CLOSED",
+                         "SocketBind on a socket that is not newly created")
+    until = net.time_wait.get(int(port))
+    if until is not None and time.monotonic() < until:
+        raise RapidError("ERR_SOCK_ADDR_INUSE",
+                         f"port {int(port)}: a connection closed here is in TIME_WAIT")
+    try:
+        dev.sock.bind((address, int(port)))
+    except OSError as err:
+        if err.errno == errno.EADDRINUSE:
+            raise RapidError("ERR_SOCK_ADDR_INUSE", f"{address}:{int(port)} in use") from None
+        raise RapidError("ERR_SOCK_ADDR_INVALID", f"{address}:{int(port)}: {err}") from None
+    dev.local = dev.sock.getsockname()[:2]
+    dev.state = "bound"
+
+
+@builtin("SocketListen", "proc")
+def _listen(task: Any, pos: list, opt: dict) -> None:
+    dev = pos[0]
+    if dev.state != "bound":
+        raise RapidError("ERR_SOCK_NOT_BOUND", "SocketListen on a socket not bound")
+    dev.sock.listen(8)
+    dev.state = "listening"
+    net = _net(task)
+    net.listening.append(dev.local)
+    net.listen_event.set()
+
+
+@builtin("SocketAccept", "proc", optrefs=("ClientAddress",))
+def _accept(task: Any, pos: list, opt: dict) -> None:
+    dev, client = pos
+    if dev.state != "listening":
+        raise _closed("SocketAccept on a socket that does not listen")
+    if client.state not in ("none", "closed"):
+        raise RapidError("ERR_SOCK_IS_CONN", "SocketAccept into a socket still in use")
+    _wait_readable(task, dev.sock, _time(opt), "SocketAccept")
+    try:
+        conn, addr = dev.sock.accept()
+    except OSError as err:
+        raise _closed(f"accept: {err}") from None
+    net = _net(task)
+    net.track(conn)
+    net.accepted += 1
+    client.sock, client.state, client.peer_closed = conn, "connected", False
+    client.local = conn.getsockname()[:2]
+    if "clientaddress" in opt:
+        opt["clientaddress"].value = string(addr[0])
+
+
+def _connected(dev: SocketDev, what: str) -> socket.socket:
+    if dev.state != "connected" or dev.sock is None:
+        raise _closed(f"{what} on a socket that is not connected")
+    return dev.sock
+
+
+@builtin("SocketPeek", "func")
+def _peek(task: Any, pos: list, opt: dict) -> float:
+    """The bytes waiting to be read; a connection the peer closed with nothing left to read
+    is ERR_SOCK_CLOSED."""
+    s = _connected(pos[0], "SocketPeek")
+    n = struct.unpack("i", fcntl.ioctl(s.fileno(), termios.FIONREAD, b"\0\0\0\0"))[0]
+    if n == 0:
+        ready, _, _ = select.select([s], [], [], 0)
+        if ready:
+            try:
+                data = s.recv(1, socket.MSG_PEEK)
+            except OSError as err:
+                raise _closed(f"SocketPeek: {err}") from None
+            if not data:
+                pos[0].peer_closed = True
+                raise _closed("the peer closed the connection")
+            return float(len(data))
+    return float(n)
+
+
+@builtin("SocketReceive", "proc", optrefs=("Str", "RawData", "NoRecBytes"))
+def _receive(task: Any, pos: list, opt: dict) -> None:
+    dev = pos[0]
+    s = _connected(dev, "SocketReceive")
+    if "str" not in opt:
+        raise RapidError("ERR_ARGVALERR", "only SocketReceive \\Str is supported")
+    want = int(opt.get("readnoofbytes", 80))
+    if not 1 <= want <= 80:
+        raise RapidError("ERR_ARGVALERR", "\\Str receives 1..80 bytes")
+    seconds = _time(opt)
+    end = time.monotonic() + seconds
+    data = b""
+    while True:
+        _wait_readable(task, s, max(1e-3, end - time.monotonic()), "SocketReceive")
+        try:
+            chunk = s.recv(want - len(data)) if "readnoofbytes" in opt else s.recv(want)
+        except OSError as err:
+            raise _closed(f"SocketReceive: {err}") from None
+        if not chunk:
+            dev.peer_closed = True
+            raise _closed("the peer closed the connection")
+        data += chunk
+        if "readnoofbytes" not in opt or len(data) >= want:
+            break
+    opt["str"].value = data.decode("latin-1")
+    if "norecbytes" in opt:
+        opt["norecbytes"].value = float(len(data))
+
+
+@builtin("SocketSend", "proc")
+def _send(task: Any, pos: list, opt: dict) -> None:
+    dev = pos[0]
+    s = _connected(dev, "SocketSend")
+    if "str" not in opt:
+        raise RapidError("ERR_ARGVALERR", "only SocketSend \\Str is supported")
+    data = opt["str"].encode("latin-1")
+    net = _net(task)
+    if data.startswith(b"0 ERR 16 "):
+        net.refusals += 1
+    for piece, pause in _faulted(net, data, task):
+        if piece == b"__DROP__":
+            _cut(dev, net)
+            raise _closed("connection dropped (injected fault)")
+        _send_all(task, dev, s, piece, net)
+        if pause:
+            time.sleep(0.001)
+
+
+def _faulted(net: Network, data: bytes, task: Any) -> list[tuple[bytes, bool]]:
+    """The emulator's faults, applied to an outgoing 80-byte frame."""
+    f = net.faults
+    parts = data.split(b" ", 3)
+    idx = int(parts[3].split(b" ", 1)[0]) if len(parts) > 3 and parts[1] == b"j" \
+        and parts[3][:1].isdigit() else None
+    if idx is not None and parts[1] == b"j":
+        if f.take("stall_at_pose", idx):
+            from simulators.rapid.library import wait
+            wait(task, f.stall_s)
+        if f.take("drop_at_pose", idx):
+            return [(b"__DROP__", False)]
+        if f.take("garble_at_pose", idx):
+            data = data.replace(b"#", b" ")
+    if f.merge_frames:
+        is_j = len(parts) > 1 and parts[1] == b"j"
+        if is_j:
+            net._held = data
+            return []
+        data, net._held = net._held + data, b""
+    if f.split_frames:
+        return [(data[:33], True), (data[33:], False)]
+    return [(data, False)]
+
+
+def _send_all(task: Any, dev: SocketDev, s: socket.socket, data: bytes, net: Network) -> None:
+    from simulators.rapid.interpreter import Stopped
+
+    end = time.monotonic() + net.send_timeout_s
+    view = memoryview(data)
+    while view:
+        if task.stopping():
+            raise Stopped("stopped by the controller")
+        left = end - time.monotonic()
+        if left <= 0:
+            _abort(dev, net)
+            raise _closed(f"the peer took nothing for {net.send_timeout_s:g} s")
+        _, writable, _ = select.select([], [s], [], min(left, _SLICE_S))
+        if not writable:
+            continue
+        try:
+            n = s.send(view, socket.MSG_NOSIGNAL)
+        except OSError as err:
+            raise _closed(f"SocketSend: {err}") from None
+        view = view[n:]
+
+
+def _cut(dev: SocketDev, net: Network) -> None:
+    """The link goes (the injected drop): what was sent still arrives, then the close."""
+    s = dev.sock
+    if s is not None:
+        with contextlib.suppress(OSError):
+            s.setblocking(False)
+            while s.recv(65536):
+                pass
+        with contextlib.suppress(OSError):
+            s.shutdown(socket.SHUT_WR)
+            s.close()
+        net.untrack(s)
+    dev.sock, dev.state = None, "closed"
+
+
+def _abort(dev: SocketDev, net: Network) -> None:
+    """Reset the connection (RST), as a stack that gives up does."""
+    if dev.sock is not None:
+        with contextlib.suppress(OSError):
+            dev.sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+            dev.sock.close()
+        net.untrack(dev.sock)
+    dev.sock, dev.state = None, "closed"
+
+
+@builtin("SocketClose", "proc")
+def _close(task: Any, pos: list, opt: dict) -> None:
+    """Close; a connection this side closes first leaves its port in TIME_WAIT."""
+    dev = pos[0]
+    net = _net(task)
+    if dev.sock is None:
+        dev.state = "closed"
+        return
+    if dev.state == "connected" and not dev.peer_closed:
+        peer_gone = False
+        with contextlib.suppress(OSError):
+            ready, _, _ = select.select([dev.sock], [], [], 0)
+            peer_gone = bool(ready) and dev.sock.recv(1, socket.MSG_PEEK) == b""
+        if not peer_gone and dev.local is not None:
+            net.time_wait[int(dev.local[1])] = time.monotonic() + net.time_wait_s
+    if dev.state == "listening" and dev.local in net.listening:
+        net.listening.remove(dev.local)
+    with contextlib.suppress(OSError):
+        dev.sock.close()
+    net.untrack(dev.sock)
+    dev.sock, dev.state = None, "closed"
+
+
+@builtin("SocketGetStatus", "func")
+def _status(task: Any, pos: list, opt: dict) -> float:
+    return {"none": 0.0, "created": 1.0, "connected": 2.0, "bound": 3.0, "listening": 4.0,
+            "closed": 5.0}[pos[0].state]
