@@ -156,7 +156,12 @@ MODULE ScrewcalServer
       ENDIF
     ENDWHILE
     SocketReceive conn{owner} \Str:=frm \ReadNoOfBytes:=FRAME_LEN \Time:=1;
-    IF NOT FrameOk() OR NOT Tokenize() THEN
+    ! Two tests, not one OR: RAPID evaluates both sides of an OR.
+    IF NOT FrameOk() THEN
+      DropClient;
+      RETURN;
+    ENDIF
+    IF NOT Tokenize() THEN
       DropClient;
       RETURN;
     ENDIF
