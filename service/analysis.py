@@ -237,8 +237,17 @@ def iso_test_conditions(robot: Mapping[str, Any], model: SerialModel,
         "cube centre (P1) mm": ", ".join(f"{v:.1f}" for v in centre),
         "cycles": int(options.cycles),
         "speed": "v100, fine (the RAPID server module's MoveAbsJ)",
+        "payload (performance lists)": _payload_text(list_payload(options, "perf")),
+        "payload (calibration list)": _payload_text(list_payload(options, "cal")),
+        "model beyond the geometry": f"compliance {options.compliance}, read-back lag "
+                                     f"{options.lag}",
         "date (UTC)": time.strftime("%Y-%m-%d %H:%M", time.gmtime(created)) if created else "",
     }
+
+
+def _payload_text(payload: Payload) -> str:
+    return (f"{payload.kg:g} kg at ({', '.join(f'{v:g}' for v in payload.cog_mm)}) mm in the "
+            "flange frame" if payload.kg else "none")
 
 
 def job_warnings(result: ResultDocument) -> list[str]:

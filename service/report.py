@@ -24,6 +24,7 @@ from service.document import (
     ResultDocument,
 )
 from service.phases import PERF_PHASE_NAMES, ROUND_SUFFIXES
+from service.result_text import beyond_geometry, home_moved
 from service.summary import before_after
 
 # Thesis Table 13: minutes per activity of a whole calibration.
@@ -98,6 +99,9 @@ def report_html(job: JobRecord, robot: dict[str, Any]) -> str:
             out.write(f"<p>{html.escape(result.frame_note)}</p>")
     if result.home_check is not None:
         out.write(home_section(result.home_check))
+        moved = home_moved(result)
+        if moved:
+            out.write(f"<p>{html.escape(moved[0].upper() + moved[1:])}.</p>")
     if result.test_conditions:
         out.write("<h2>Test conditions</h2>" + _table(
             ["condition", "value"],
@@ -136,6 +140,8 @@ def estimation_section(est: EstimationSummary, figures: dict[str, bytes]) -> str
               f"chi2/dof {est.chi2_reduced:.2f}; calibration residual "
               f"{est.residual_before_mm:.3f} mm before, "
               f"{est.residual_after_mm:.3f} mm after.</p>")
+    out.write("".join(f"<p>{html.escape(line[0].upper() + line[1:])}.</p>"
+                      for line in beyond_geometry(est)))
     if "calibration_residuals.png" in figures:
         out.write(_img("calibration residual per pose", figures["calibration_residuals.png"]))
     return out.getvalue()

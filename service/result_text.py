@@ -3,7 +3,7 @@ identified, the home check, the correction route, the warnings."""
 
 from __future__ import annotations
 
-from service.document import CorrectionPlan, EstimationSummary
+from service.document import CorrectionPlan, EstimationSummary, ResultDocument
 from service.phases import PERF_PHASE_NAMES, ROUND_SUFFIXES
 from service.schemas import JobResult
 from service.summary import before_after
@@ -31,11 +31,9 @@ def result_table(result: JobResult, times: bool = True) -> str:
             e = measured.error_mm
             lines.append(f"  home position error {when} (Table 14): x {e[0]:+.3f}, y {e[1]:+.3f}, "
                          f"z {e[2]:+.3f} mm, |e| {measured.distance_mm:.3f} mm")
-    if home and home.before and home.after and result.correction is not None and \
-            result.correction.zero_command_deg is None:
-        moved = [a - b for a, b in zip(home.after.error_mm, home.before.error_mm, strict=True)]
-        lines.append(f"  home moved over the job (drift, backlash; nothing was sent to the "
-                     f"controller): {sum(v * v for v in moved) ** 0.5:.3f} mm")
+    moved = home_moved(result)
+    if moved:
+        lines.append(f"  {moved}")
     for suffix in ROUND_SUFFIXES:
         lines += _route_lines(result.correction_of(suffix), suffix)
     for warning in result.warnings or []:
@@ -59,17 +57,14 @@ def _estimation_lines(est: EstimationSummary) -> list[str]:
     if est.removed:
         lines.append("    not separable from these data (not corrected): " + ", ".join(
             r.name for r in est.removed))
-    lines += _gravity_lines(est)
-    if est.explained_share is not None:
-        lines.append(f"    the model explains {100 * est.explained_share:.3f} % of the error "
-                     f"before (mean square of the calibration residual; mean "
-                     f"{est.residual_before_mm:.3f} -> {est.residual_after_mm:.3f} mm left)")
+    lines += [f"    {line}" for line in beyond_geometry(est)]
     return lines
 
 
-def _gravity_lines(est: EstimationSummary) -> list[str]:
-    """The joint compliance identified (or why none), the payload it was under, the read-back
-    lag."""
+def beyond_geometry(est: EstimationSummary) -> list[str]:
+    """The joint compliance identified (or why none) with the payload it was under, the
+    read-back lag, and how much of the error before the model explains (the terminal's and the
+    report's sentences)."""
     lines = []
     gravity = est.compliance or {}
     payload = gravity.get("payload") or {}
@@ -77,17 +72,32 @@ def _gravity_lines(est: EstimationSummary) -> list[str]:
         joints = gravity.get("joints") or []
         note = f" ({gravity['note']})" if gravity.get("note") else ""
         cog = ", ".join(f"{v:g}" for v in payload.get("cog_mm", (0.0, 0.0, 0.0)))
-        lines.append("    joint compliance: " + (", ".join(
+        lines.append("joint compliance: " + (", ".join(
             f"{j['name']} {j['compliance_deg_per_knm']:.3f} ± {j['std_error']:.3f} deg/kNm"
             for j in joints) if joints else "none") + f"{note}; calibrated carrying "
             f"{payload.get('kg', 0.0):g} kg at ({cog}) mm")
     lag = est.reading_lag or {}
     if lag:
         per_joint = lag.get("per_joint")
-        lines.append("    read-back lag: " + (", ".join(
+        lines.append("read-back lag: " + (", ".join(
             f"J{k + 1} {v:.5f}" for k, v in enumerate(per_joint) if abs(v) >= 1e-5)
             + " (fraction of the previous move)" if per_joint else (lag.get("note") or "none")))
+    if est.explained_share is not None:
+        lines.append(f"the model explains {100 * est.explained_share:.3f} % of the error before "
+                     f"(mean square of the calibration residual; mean "
+                     f"{est.residual_before_mm:.3f} -> {est.residual_after_mm:.3f} mm left)")
     return lines
+
+
+def home_moved(result: ResultDocument) -> str | None:
+    """How far home moved over a job that sent nothing to the controller (drift, backlash)."""
+    home = result.home_check
+    if not (home and home.before and home.after and result.correction is not None
+            and result.correction.zero_command_deg is None):
+        return None
+    moved = [a - b for a, b in zip(home.after.error_mm, home.before.error_mm, strict=True)]
+    return (f"home moved over the job (drift, backlash; nothing was sent to the controller): "
+            f"{sum(v * v for v in moved) ** 0.5:.3f} mm")
 
 
 def _route_lines(corr: CorrectionPlan | None, suffix: str) -> list[str]:

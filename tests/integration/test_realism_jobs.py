@@ -85,6 +85,12 @@ async def test_procedure_carrying_10_kg_names_the_compliance_and_lag_it_identifi
     assert re.search(r"the model explains 99\.9\d\d % of the error before .* -> 0\.0\d\d mm "
                      "left", table), table
     assert "home moved over the job" in table, table
+    report = (await service.get(f"/jobs/{job['id']}/report")).text
+    for said in ("Joint compliance: J2c 0.1", "Read-back lag: J1", "The model explains 99.9",
+                 "Home moved over the job", "payload (calibration list)</td><td>10 kg at (0, 0, "
+                 "100) mm", "payload (performance lists)</td><td>none",
+                 "compliance auto, read-back lag auto"):
+        assert said in report, said
     after = result["performance"]["perf_after"]["overall"]["ap_mm_mean"]
     before = result["performance"]["perf_before"]["overall"]["ap_mm_mean"]
     print(f"AP mean {before:.3f} -> {after:.3f} mm; compliance {compliance}; lag {lag[:3]}")
@@ -145,3 +151,22 @@ async def test_job_start_cli_takes_compliance_lag_and_payloads(tmp_path, rig, ca
         with pytest.raises(SystemExit):  # refused by name before anything is sent
             main([*common, "--payload-kg", "-1"])
         assert "--payload-kg" in capsys.readouterr().err
+
+
+async def test_robot_records_keep_their_mass_table(service, rig):
+    """A robot posted with its own masses (a model file's gravity section) keeps them: the
+    compliance a job identifies is loaded by these masses."""
+    from dataclasses import replace as changed
+
+    from screwcal.kinematics.compliance import LumpedMass
+    from screwcal.kinematics.modelfile import model_document, parse_model
+    from screwcal.kinematics.robots import irb1600
+
+    masses = (LumpedMass(1, 45.0, (160.0, 0.0, 700.0)), LumpedMass(2, 30.0, (300.0, 0.0, 950.0)))
+    host, port = rig.address
+    r = await service.post("/robots", json={
+        "name": "own masses", "controller_host": host, "controller_port": port,
+        "arm_url": rig.arm.url, "model": model_document(changed(irb1600(), masses=masses))})
+    assert r.status_code == 201, r.text
+    stored = (await service.get(f"/robots/{r.json()['id']}")).json()["model"]
+    assert parse_model(stored, "stored").masses == masses
