@@ -44,6 +44,7 @@ class EmulatorSettings:
     time_wait_s: float = 60.0  # a port whose connection the controller closed first
     program: Path | None = None  # a cell's adapted copy of the module
     operator: bool = True  # the pendant's operator answers ZERO prompts (enters the offsets)
+    lan_ip: str | None = None  # GetSysInfo(\LanIp); None: the address it listens on
 
 
 class ProgramStoppedError(RuntimeError):
@@ -92,7 +93,7 @@ class IRC5Emulator:
                     self.task.data[name].value = value
         self.task.services.update(
             network=self.network, motion=Motion(self.world, loop, self.settings),
-            sysinfo={"lanip": host, "systemname": "screwcal-virtual-irc5",
+            sysinfo={"lanip": self.settings.lan_ip or host, "systemname": "screwcal-virtual-irc5",
                      "robottype": "IRB 1600"})
         self.network.listen_event.clear()
         self._thread = threading.Thread(target=self.task.run, name="rapid-task", daemon=True)
@@ -115,6 +116,15 @@ class IRC5Emulator:
         self.task.pp_to_main()
         self.network.shutdown()
         self._thread = None
+
+    async def pp_to_main(self) -> tuple[str, int]:
+        """The operator stops the program, moves PP to Main (its UNDO handlers run) and starts
+        it again; what the program left open stays open (no controller restart)."""
+        assert self.task is not None and self._thread is not None and self.address is not None
+        self.task.request_stop()
+        await asyncio.to_thread(self._thread.join, 10.0)
+        self.task.pp_to_main()
+        return await self.start(*self.address)
 
     @property
     def running(self) -> bool:

@@ -48,6 +48,7 @@ class RapidError(Exception):
         self.name = errnum_name(self.errno)
         self.detail = detail or TEXTS.get(self.name, "")
         self.line = line
+        self.origin: int | None = line  # where it arose (line is where it is handled)
         super().__init__(f"{self.name}: {self.detail}")
 
 

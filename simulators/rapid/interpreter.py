@@ -283,7 +283,7 @@ class Task:
             self._stopped(self._unhandled(p.error), kind="error")
 
     def _unhandled(self, e: RapidError) -> str:
-        return f"execution error {e.name} at {self.path}:{e.line}: {e.detail}"
+        return f"execution error {e.name} at {self.path}:{e.origin or e.line}: {e.detail}"
 
     def _stopped(self, reason: str, kind: str) -> None:
         self.state = "stopped"
@@ -346,9 +346,9 @@ class Task:
             return ret.value
         except _Propagate as p:
             self._undo(frame)
-            if p.error.line is None:
-                p.error.line = line
-            raise RapidError(p.error.errno, p.error.detail, line) from None
+            error = RapidError(p.error.errno, p.error.detail, line)
+            error.origin = p.error.origin or p.error.line
+            raise error from None
         except _ExitCycle:
             self._undo(frame)
             raise
@@ -371,6 +371,8 @@ class Task:
                 except RapidError as e:
                     if e.line is None:
                         e.line = st.line
+                    if e.origin is None:
+                        e.origin = e.line
                     if self._handle(e, frame):  # RETRY
                         retries += 1
                         if retries > MAX_RETRIES:
