@@ -189,6 +189,24 @@ class Acquisition:
                                           done=done, total=len(plan))
             self._count_discarded()
 
+    async def move_through(self, phase: str, plan: list[PlannedPose]) -> None:
+        """Run the robot through `plan` without measuring (a warm-up), in lists of at most
+        MAX_LIST; the operator's gate before each move, as for a measured list."""
+        assert self.client is not None
+        for p in plan:
+            if not self.model.within_limits(np.radians(p.joints_deg)):
+                raise SafetyError(f"{phase} pose {p.idx} is outside the joint limits")
+        for start in range(0, len(plan), MAX_LIST):
+            chunk = plan[start:start + MAX_LIST]
+            await self.client.load("PERF", [p.joints_deg for p in chunk])
+
+            async def gate(k: int, chunk: list[PlannedPose] = chunk) -> None:
+                await self._before_move(phase, chunk[k])
+
+            async for got in self.client.run("PERF", "STEP", on_wait=gate, count=len(chunk)):
+                await self.events.publish("moved", phase=phase, index=chunk[got.idx].idx,
+                                          done=start + got.idx + 1, total=len(plan))
+
     async def zero(self, phase: str, zero_deg: Sequence[float]) -> None:
         """ZERO to `zero_deg`; its WAIT (a person enters the offsets) needs the operator's
         go-ahead in every mode, AUTO included."""

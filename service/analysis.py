@@ -236,6 +236,8 @@ def iso_test_conditions(robot: Mapping[str, Any], model: SerialModel,
         "cube edge mm": float(options.cube_edge_mm),
         "cube centre (P1) mm": ", ".join(f"{v:.1f}" for v in centre),
         "cycles": int(options.cycles),
+        "warm-up": f"{options.warmup_cycles} test cycles run unmeasured before the test"
+                   if options.warmup_cycles else "none",
         "speed": "v100, fine (the RAPID server module's MoveAbsJ)",
         "payload (performance lists)": _payload_text(list_payload(options, "perf")),
         "payload (calibration list)": _payload_text(list_payload(options, "cal")),

@@ -247,7 +247,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_model_options(p: argparse.ArgumentParser) -> None:
-    """`job start`'s options of what the calibration identifies and what the robot carries."""
+    """`job start`'s options of what the calibration identifies, what the robot carries, and
+    the warm-up."""
+    p.add_argument("--warmup-cycles", type=int, default=0,
+                   help="ISO 9283 warm-up: test cycles run unmeasured before the first "
+                   "performance list (default 0)")
     p.add_argument("--compliance", choices=["auto", "none", "j23", "j23-free", "wrist"],
                     default="auto", help="joint compliance identified with the geometry "
                     "(default auto: joints 2-3 when the data support them; none: geometric "
@@ -268,7 +272,7 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
 
 def _model_options(args: argparse.Namespace) -> dict[str, Any]:
     options = {"compliance": args.compliance, "lag": args.lag, "payload_kg": args.payload_kg,
-               "payload_cog_mm": args.payload_cog_mm}
+               "payload_cog_mm": args.payload_cog_mm, "warmup_cycles": args.warmup_cycles}
     if args.calibration_payload_kg is not None:
         options |= {"calibration_payload_kg": args.calibration_payload_kg,
                     "calibration_payload_cog_mm": args.calibration_payload_cog_mm}

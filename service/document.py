@@ -77,6 +77,9 @@ class JobOptions(BaseModel):
     calibration_payload_cog_mm: tuple[float, float, float] | None = Field(
         None, description="its centre of gravity in the flange frame, mm (default: "
         "payload_cog_mm)")
+    warmup_cycles: int = Field(0, ge=0, le=60, description="ISO 9283 warm-up: cycles of the "
+                               "test cycle (P1, P5, P4, P3, P2) run unmeasured before the first "
+                               "performance list")
     frame_from_job: Id | None = Field(
         None, description="performance: measure accuracy in the robot base frame that this "
         "earlier job's calibration identified (default: a frame fitted to the job's own data, "

@@ -142,7 +142,7 @@ class Operator:
                     if waiting and not ask_for(waiting, None):
                         out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
                         return "waiting"
-                elif kind == "measured":
+                elif kind in ("measured", "moved"):  # moved: a warm-up pose
                     bar = "#" * int(30 * event["done"] / event["total"])
                     out(f"{event['phase']:<12} [{bar:<30}] pose {event['done']} of "
                         f"{event['total']}")

@@ -17,6 +17,8 @@ STEPS: Final = {
     # a short pose test with the robot's current model, no estimation (service/verify.py)
     "verify": ("perf_verify", "evaluation"),
 }
+# ISO 9283 (6.2): the robot warmed up before the test, by running the test cycle (unmeasured).
+WARMUP: Final = "warmup"
 # Table 14's check: the robot sent home (all joints 0) before and after, its flange measured.
 HOME_PHASES: Final = ("home_before", "home_after")
 # The thesis's "Calibracao 2" (4.7): acquire again, estimate, correct, evaluate.
@@ -32,12 +34,17 @@ ESTIMATION_FOR: Final[dict[str, Round]] = {"perf_after": "", "perf_after_2": "_2
 ROUND_SUFFIXES: Final[tuple[Round, Round]] = ("", "_2")  # the first and the second round
 
 
-def job_steps(kind: str, rounds: int = 1) -> tuple[str, ...]:
+def job_steps(kind: str, rounds: int = 1, warmup: bool = False) -> tuple[str, ...]:
     """The steps of a job of `kind`; a procedure of 2 rounds adds the second round before its
-    evaluation."""
+    evaluation; `warmup` puts ISO 9283's warm-up (the test cycle run unmeasured, "warmup")
+    before the first performance list."""
     steps = STEPS[kind]
     if kind == "procedure" and rounds == 2:
         steps = (*steps[:-1], *SECOND_ROUND, steps[-1])
+    if warmup:
+        first = next((k for k, step in enumerate(steps) if step in PERF_PHASES), None)
+        if first is not None:
+            steps = (*steps[:first], WARMUP, *steps[first:])
     return steps
 
 

@@ -52,6 +52,7 @@ from service.phases import (
     ESTIMATION_FOR,
     HOME_PHASES,
     PERF_PHASES,
+    WARMUP,
     Round,
     compensated_list,
     job_steps,
@@ -117,8 +118,15 @@ class JobRunner:
         robot = parse_model(doc["model"], f"job {self.job_id} calibration{suffix}")
         return replace(robot, payload=analysis.list_payload(self.options, "perf"))
 
+    def warmup_plan(self) -> list[PlannedPose]:
+        """ISO 9283's warm-up: the performance list's first cycle (return points and targets),
+        `warmup_cycles` times."""
+        cycle = [p for p in self.plan("perf") if p.cycle == 1]
+        return [replace(p, idx=k * len(cycle) + i) for k in range(self.options.warmup_cycles)
+                for i, p in enumerate(cycle)]
+
     def steps(self) -> tuple[str, ...]:
-        return job_steps(self.job.kind, self.options.rounds)
+        return job_steps(self.job.kind, self.options.rounds, self.options.warmup_cycles > 0)
 
     # -- the job -------------------------------------------------------------------------------
     async def run(self) -> None:
@@ -214,6 +222,8 @@ class JobRunner:
         suffix = round_suffix(step)
         if step == "setup":
             await self.acquisition.connect()
+        elif step == WARMUP:
+            await self.acquisition.move_through(step, self.warmup_plan())
         elif step.startswith(("perf", "cal", "home")):
             await self.acquisition.measure(step, self.targets(step))
         elif step.startswith("estimation"):

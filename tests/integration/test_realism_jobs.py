@@ -140,12 +140,12 @@ async def test_job_start_cli_takes_compliance_lag_and_payloads(tmp_path, rig, ca
         code = await asyncio.to_thread(main, [
             *common, "--compliance", "none", "--lag", "none", "--payload-kg", "2",
             "--payload-cog-mm", "0,0,50", "--calibration-payload-kg", "10",
-            "--calibration-payload-cog-mm", "0,0,100"])
+            "--calibration-payload-cog-mm", "0,0,100", "--warmup-cycles", "2"])
         assert code == 0
         job = (await asyncio.to_thread(op.jobs))[-1]
         await asyncio.to_thread(op.abort, job["id"])
         options = JobOptions(**job["options"])
-        assert (options.compliance, options.lag) == ("none", "none")
+        assert (options.compliance, options.lag, options.warmup_cycles) == ("none", "none", 2)
         assert list_payload(options, "cal") == Payload(10.0, (0.0, 0.0, 100.0))
         assert list_payload(options, "perf") == Payload(2.0, (0.0, 0.0, 50.0))
         with pytest.raises(SystemExit):  # refused by name before anything is sent
@@ -170,3 +170,21 @@ async def test_robot_records_keep_their_mass_table(service, rig):
     assert r.status_code == 201, r.text
     stored = (await service.get(f"/robots/{r.json()['id']}")).json()["model"]
     assert parse_model(stored, "stored").masses == masses
+
+
+async def test_iso_warmup_runs_the_test_cycle_unmeasured_before_the_test(service, rig):
+    robot = await add_robot(service, rig)
+    world = rig.emu.world
+    start_arrivals, start_running = world.arrivals, world.running_s
+    r = await service.post("/jobs", json={"robot_id": robot, "kind": "performance", "options": {
+        "cycles": 2, "cube_edge_mm": 250.0, "arm_position_mm": ARM_POSITION,
+        "warmup_cycles": 3}})
+    assert r.status_code == 202, r.text
+    job = await _finish(service, r.json()["id"])
+    assert job["state"] == "done", job["reason"]
+    assert list(job["phases"])[:3] == ["setup", "warmup", "perf_before"], job["phases"]
+    measured = (await service.get(f"/jobs/{job['id']}/measurements")).json()
+    assert {m["phase"] for m in measured} == {"perf_before"}
+    cycle = 10  # P1, P5, P4, P3, P2, each a return point and the target
+    assert world.arrivals - start_arrivals == 3 * cycle + len(measured)
+    assert world.running_s > start_running
