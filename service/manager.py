@@ -3,14 +3,17 @@
 A service runs the jobs it holds the lease of (service/store.py): those it created, and those it
 adopts, at start and then every third of a lease: unfinished jobs nobody holds, or whose
 holder's lease expired (a service on the same PostgreSQL database that died). While it lives it
-renews its leases at the same pace; a job found held by another service (this one froze past its
-lease) has its runner cancelled at once, before it moves the robot again."""
+renews its leases at the same pace from a thread of its own (LeaseRenewer), not from the event
+loop: a loop busy for seconds (plans, compensation, a loaded host) must not let a live service's
+leases lapse and its jobs pass back and forth. A job found held by another service (this one
+froze past its lease) has its runner cancelled at once, before it moves the robot again."""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
 import sys
+import threading
 from collections.abc import Callable
 
 from screwcal.errors import ScrewcalError
@@ -18,7 +21,32 @@ from service.errors import ConflictError, ServiceError, StoreError, StoreLostErr
 from service.events import EventBus
 from service.runner import JobRunner
 from service.settings import ServiceSettings
-from service.store import UNFINISHED, Store
+from service.store import Store
+
+
+class LeaseRenewer(threading.Thread):
+    """Renews the service's leases every third of a lease while the process lives; `held` the
+    jobs it held at the last renewal, `error` the last failure (None once one succeeds)."""
+
+    def __init__(self, store: Store):
+        super().__init__(name="lease renewer", daemon=True)
+        self.store = store
+        self.held: set[int] = set()
+        self.error: StoreError | None = None
+        self.stopped = threading.Event()
+
+    def run(self) -> None:
+        while not self.stopped.wait(self.store.lease_s / 3):
+            try:
+                self.held, self.error = self.store.renew(), None
+            except StoreError as err:  # said by the keeper on the event loop
+                self.error = err
+            except Exception as err:  # a thread must not die silently: leases would lapse
+                self.error = StoreLostError(f"cannot renew the leases: {err!r}")
+
+    def stop(self) -> None:
+        self.stopped.set()
+        self.join(timeout=10)
 
 
 class JobManager:
@@ -31,6 +59,7 @@ class JobManager:
         self._on_fatal = on_fatal
         self.fatal_reason: str | None = None
         self._keeper: asyncio.Task[None] | None = None
+        self._renewer: LeaseRenewer | None = None
 
     def fatal(self, reason: str) -> None:
         """The database is gone: say why and stop the service (once)."""
@@ -59,6 +88,8 @@ class JobManager:
         its store says; start-up never dies on one bad record. Then the leases are kept."""
         resumed = self.adopt()
         if self._keeper is None:
+            self._renewer = LeaseRenewer(self.store)
+            self._renewer.start()
             self._keeper = asyncio.create_task(self._keep(), name="leases")
         return resumed
 
@@ -72,25 +103,25 @@ class JobManager:
                 if not self.running(j) and self.store.take(j) and self.start(j)]
 
     def keep_leases(self) -> None:
-        """Renew this service's leases, stop the runners of jobs another service holds now,
-        adopt the jobs whose holder died."""
-        held = self.store.renew()
-        for job_id, task in self.tasks.items():
-            if not task.done() and job_id not in held and \
-                    self.store.job(job_id).state in UNFINISHED:
-                task.cancel()  # held by another service now: this runner must not move on
+        """Stop the runners of jobs another service holds now (this one froze past their
+        leases), adopt the jobs whose holder died. (The renewal is LeaseRenewer's.)"""
+        live = [job_id for job_id, task in self.tasks.items() if not task.done()]
+        for job_id in self.store.held_elsewhere(live):
+            self.tasks[job_id].cancel()  # held by another service now: must not move on
         self.adopt()
 
     async def _keep(self) -> None:
         while True:
             await asyncio.sleep(self.store.lease_s / 3)
             try:
+                if self._renewer is not None and self._renewer.error is not None:
+                    raise self._renewer.error
                 self.keep_leases()
             except StoreLostError as err:
                 self.fatal(str(err))
                 return
             except StoreError as err:  # a full disk: the jobs pause by themselves; try again
-                print(f"screwcal service: cannot renew leases: {err}", file=sys.stderr)
+                print(f"screwcal service: cannot keep its leases: {err}", file=sys.stderr)
 
     def busy_with(self, robot_id: int) -> int | None:
         """The unfinished job of this robot, if any."""
@@ -128,6 +159,8 @@ class JobManager:
             self._keeper.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await self._keeper
+        if self._renewer is not None:
+            self._renewer.stop()
         for task in self.tasks.values():
             task.cancel()
         for task in self.tasks.values():

@@ -293,6 +293,15 @@ class Store:
             f"SELECT id FROM jobs WHERE state IN {_UNFINISHED_SQL} AND (holder IS NULL OR "
             f"lease_expires < {self.db.now_sql}) ORDER BY id")]
 
+    def held_elsewhere(self, job_ids: list[int]) -> set[int]:
+        """Of these unfinished jobs, those this service no longer holds."""
+        if not job_ids:
+            return set()
+        marks = ", ".join("?" * len(job_ids))
+        return {int(r["id"]) for r in self.db.rows(
+            f"SELECT id FROM jobs WHERE id IN ({marks}) AND state IN {_UNFINISHED_SQL} AND "
+            "(holder IS NULL OR holder <> ?)", (*job_ids, self.holder))}
+
     def lease_of(self, job_id: int) -> tuple[str | None, float]:
         """Who holds the job and for how many more seconds (negative: expired)."""
         row = _row(self.db.row(
