@@ -12,7 +12,8 @@ import pytest
 from service.database import SQLiteDatabase, open_database
 from service.document import ResultDocument
 from service.errors import ConflictError, LeaseLostError, SchemaTooNewError, StoreBusyError
-from service.store import _MIGRATIONS, SCHEMA_VERSION, Store
+from service.migrations import MIGRATIONS, SCHEMA_VERSION
+from service.store import Store
 
 HOLES = [[0, 0, 0], [10, 0, 0], [0, 10, 0]]
 POSE = ([0.0] * 6, [0.0] * 7, [[0.0] * 3] * 3, [0.0] * 6)
@@ -196,7 +197,7 @@ def test_a_database_of_the_previous_release_opens_and_migrates(tmp_path):
 
 def test_a_schema_2_database_migrates_on_either_database(db_target):
     db = open_database(db_target)
-    db.migrate(_MIGRATIONS, 2)  # as the previous release left it
+    db.migrate(MIGRATIONS, 2)  # as the previous release left it
     with db.tx():
         db.execute("INSERT INTO robots (name, controller_host, controller_port, arm_url, model, "
                    "holes_mm, created) VALUES ('cell', 'h', 1, 'loop://', '{}', '[]', 1.0)")
