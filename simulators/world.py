@@ -93,11 +93,19 @@ class World:
     async def set_joints(self, q_deg: Array) -> None:
         """The robot has arrived at these commanded joints (rounded to a RAPID num); `q_deg`
         reports them (with the read-back lag, when the robot has one)."""
+        self.arrive(q_deg)
+        await self.notify_arrival()
+
+    def arrive(self, q_deg: Array) -> None:
+        """set_joints's change of state, from any thread (the RAPID task's): waiters are woken
+        by `notify_arrival` in the loop that waits."""
         self._arrive(np.asarray(q_deg, dtype=np.float32))
         self.moving = False
         self.arrivals += 1
         for observer in self.observers:
             observer(self)
+
+    async def notify_arrival(self) -> None:
         async with self._condition():
             self._condition().notify_all()
 

@@ -50,6 +50,9 @@ class Var:
         self.type, self.value, self.dims, self.const = type_, value, dims, const
 
     def set(self, v: Any) -> None:
+        if type(v) is float and self.type == "num" and not self.dims:
+            self.value = v  # already a num (every result is rounded to 32 bits)
+            return
         self.value = convert(self.type, v, self.dims)
 
 
@@ -172,6 +175,7 @@ class Task:
         self.system = {k: Var("any", v, const=True) for k, v in predefined().items()}
         self.errno = 0.0
         self.stop_requested = threading.Event()
+        self._stop = False
         self.state = "stopped"  # running, stopped
         self.stop_reason = ""
         self._unwound: list[Frame] = []
@@ -193,6 +197,8 @@ class Task:
             A.Call: self._call,
         }
         self._nums: dict[int, float] = {}
+        self._keys: dict[int, str] = {}
+        self._strs: dict[int, str] = {}  # a Name node's lower-case key (nodes live as long)
         self._rows: dict[int, tuple[A.NumberRow, list[float]]] = {}
         self.data: dict[str, Any] = {}
         self.reset_data()
@@ -262,6 +268,7 @@ class Task:
     def run(self, routine: str = "main") -> None:
         """Execute `routine` until the program stops (returns then; `stop_reason` says why)."""
         self.stop_requested.clear()
+        self._stop = False
         self.state = "running"
         self.stop_reason = ""
         try:
@@ -292,15 +299,17 @@ class Task:
 
     def request_stop(self) -> None:
         self.stop_requested.set()
+        self._stop = True
 
     def stopping(self) -> bool:
-        return self.stop_requested.is_set()
+        return self._stop
 
     def pp_to_main(self) -> None:
         """PP to Main after a stop: the UNDO handlers of the routines the stop left (innermost
         first). The module's data keep their values (they are set at load)."""
         unwound, self._unwound = self._unwound, []
         self.stop_requested.clear()
+        self._stop = False
         for frame in unwound:
             self._undo(frame)
         self.errno = 0.0
@@ -363,7 +372,7 @@ class Task:
         for st in stmts:
             retries = 0
             while True:
-                if self.stop_requested.is_set():
+                if self._stop:
                     raise Stopped("stopped by the controller")
                 try:
                     execs[type(st)](st, frame)
@@ -420,12 +429,15 @@ class Task:
         target.set(value)
 
     def _proc_call(self, st: A.ProcCall, frame: Frame) -> None:
-        r = self.routines.get(st.key)
+        key = self._keys.get(id(st))
+        if key is None:
+            key = self._keys[id(st)] = st.key
+        r = self.routines.get(key)
         if r is not None and r.kind == "PROC":
             pos, opt = self._bind(st.args, frame, r)
             self.call(r, pos, opt, st.line)
             return
-        b = BUILTINS[st.key]
+        b = BUILTINS[key]
         pos, opt = self._builtin_args(st.args, frame, b)
         b.fn(self, pos, opt)
 
@@ -540,7 +552,9 @@ class Task:
             elif a.value is None:
                 opt[a.name.lower()] = True
             else:
-                key = a.name.lower()
+                key = self._keys.get(id(a))
+                if key is None:
+                    key = self._keys[id(a)] = a.name.lower()
                 opt[key] = self.ref(a.value, frame) if key in b.optrefs \
                     else self.eval(a.value, frame)
         return pos, opt
@@ -589,10 +603,21 @@ class Task:
         return v
 
     def _str(self, e: A.Str, frame: Frame) -> str:
-        return e.value
+        v = self._strs.get(id(e))
+        if v is None:
+            v = self._strs[id(e)] = e.value
+        return v
 
     def _name(self, e: A.Name, frame: Frame) -> Any:
-        key = e.key
+        key = self._keys.get(id(e))
+        if key is None:
+            key = self._keys[id(e)] = e.key
+        v = frame.vars.get(key)
+        if v is not None:
+            return v.value
+        v = self.data.get(key)
+        if v is not None:
+            return v.value
         if key == "true":
             return True
         if key == "false":
@@ -654,11 +679,14 @@ class Task:
                              f"{type(b).__name__}", e.line) from None
 
     def _call(self, e: A.Call, frame: Frame) -> Any:
-        r = self.routines.get(e.key)
+        key = self._keys.get(id(e))
+        if key is None:
+            key = self._keys[id(e)] = e.key
+        r = self.routines.get(key)
         if r is not None and r.kind == "FUNC":
             pos, opt = self._bind(e.args, frame, r)
             return self.call(r, pos, opt, e.line)
-        b = BUILTINS[e.key]
+        b = BUILTINS[key]
         pos, opt = self._builtin_args(e.args, frame, b)
         try:
             return b.fn(self, pos, opt)

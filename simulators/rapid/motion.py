@@ -18,6 +18,7 @@ true robot moves.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 import time
 from typing import Any
@@ -90,14 +91,14 @@ class Motion:
             self._settle_end = time.monotonic() + self._settle_len
 
     def _arrive(self, q_deg: np.ndarray) -> None:
-        coro = self.world.set_joints(np.asarray(q_deg, dtype=np.float32))
-        if self.loop is None:
-            asyncio.run(coro)
-            return
-        try:
-            asyncio.run_coroutine_threadsafe(coro, self.loop).result(10.0)
-        except RuntimeError:  # the emulator's loop has closed: the test is over
-            coro.close()
+        """The world has the robot there now; its waiters (in the emulator's loop) are told."""
+        self.world.arrive(np.asarray(q_deg, dtype=np.float32))
+        if self.loop is not None:
+            with contextlib.suppress(RuntimeError):  # the loop has closed: the test is over
+                self.loop.call_soon_threadsafe(self._notify)
+
+    def _notify(self) -> None:
+        self.loop.create_task(self.world.notify_arrival())  # type: ignore[union-attr]
 
     # -- kinematics (the controller's nominal model)
     def tool0(self, q_deg: np.ndarray) -> np.ndarray:
