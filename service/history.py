@@ -16,6 +16,7 @@ gearbox or motor change, thermal change): re-calibrate.
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 from pydantic import BaseModel, Field
@@ -39,6 +40,10 @@ class HistoryEntry(BaseModel):
         None, description="serial, controller software, tool, payload when the job was made")
     poses: dict[str, int] = Field(description="the data: poses measured per list")
     route: str | None = Field(None, description="the correction route applied (procedures)")
+    confirmed: list[dict[str, Any]] = Field(
+        default_factory=list, description="the correction's go-aheads: phase, pose, who, when "
+        "(a ZERO waits for a person in every mode)")
+    go_aheads: int = Field(0, description="go-aheads given by people in all (STEP mode)")
     model_version: int | None = Field(None, description="the n-th model of this robot: set "
                                       "when the job's estimation produced one")
     ap_before_mm: float | None = Field(None, description="AP before the correction")
@@ -78,7 +83,8 @@ def _accuracy(job: JobRecord) -> tuple[float | None, float | None, float | None]
     return before, last.get("ap_mm_mean"), last.get("rp_mm_mean")
 
 
-def _entry(job: JobRecord, extra: dict[str, Any], version: int | None) -> HistoryEntry:
+def _entry(job: JobRecord, extra: dict[str, Any], version: int | None,
+           confirmations: list[dict[str, Any]]) -> HistoryEntry:
     before, ap, rp = _accuracy(job) if job.state == FINISHED_OK else (None, None, None)
     route = job.result.correction.route if job.result.correction is not None else None
     return HistoryEntry(
@@ -87,6 +93,8 @@ def _entry(job: JobRecord, extra: dict[str, Any], version: int | None) -> Histor
         software=extra["software"] or "unknown (made before provenance was kept)",
         service=extra["service"], robot_identity=extra["robot_identity"],
         poses=extra["poses"], route=route, model_version=version, ap_before_mm=before,
+        confirmed=[c for c in confirmations if c["phase"].startswith("correction")],
+        go_aheads=len(confirmations),
         ap_mm=ap, rp_mm=rp)
 
 
@@ -122,7 +130,8 @@ def robot_history(store: Store, robot_id: int, threshold_mm: float) -> RobotHist
     for job, extra in store.robot_jobs(robot_id):
         made = job.state == FINISHED_OK and job.result.estimation is not None
         version += made
-        entries.append(_entry(job, extra, version if made else None))
+        entries.append(_entry(job, extra, version if made else None,
+                              store.confirmations(job.id)))
     trend = [(e.job, e.finished or e.created, e.ap_mm) for e in entries
              if e.ap_mm is not None]
     return RobotHistory(robot=robot_id, name=robot["name"],
@@ -146,6 +155,9 @@ def history_text(doc: RobotHistory) -> str:
             f"{'v' + str(e.model_version) if e.model_version else '-':<6}{e.route or '-':<17}"
             f"{_mm(e.ap_before_mm):>10}{_mm(e.ap_mm):>8}{_mm(e.rp_mm):>8}  "
             f"{sum(e.poses.values()):>5}  {e.software}, {e.service or '-'}")
+        lines += [f"{'':>6}{c['phase']} confirmed by {c['operator']} at "
+                  f"{time.strftime('%Y-%m-%d %H:%M:%S', time.localtime(c['at']))}"
+                  for c in e.confirmed]
     lines.append(f"DRIFT ALARM: {doc.alarm.message}" if doc.alarm is not None else
                  "no drift alarm")
     return "\n".join(lines)

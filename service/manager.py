@@ -137,12 +137,15 @@ class JobManager:
             raise ConflictError(f"job {job_id} is not running")
         return runner
 
-    async def go(self, job_id: int, index: int) -> None:
+    async def go(self, job_id: int, index: int, operator: str = "") -> None:
+        """The operator's go-ahead for pose `index`, kept with who gave it (provenance)."""
         gate = self.runner(job_id).gate
         waiting = gate.waiting_for
         if not gate.take(index):  # consumed now: a second go-ahead for this pose is refused
             raise ConflictError(f"job {job_id} is not waiting for pose {index} "
                                 f"(waiting for {waiting})")
+        if waiting is not None:
+            self.store.add_confirmation(job_id, waiting[0], index, operator or "not named")
 
     async def abort(self, job_id: int) -> None:
         await self.runner(job_id).abort()

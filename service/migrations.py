@@ -4,7 +4,7 @@ service/database.py). A database records the last one it ran; a newer release ad
 never edits one that was released, so a database written by this version opens in the next.
 """
 
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 # Each migration is written once for both databases: {pk}, {int} and {real} are the column
 # types of the database it runs on (service/database.py). Never edit one that was released:
 # add the next.
@@ -55,5 +55,11 @@ MIGRATIONS = {
     ALTER TABLE robots ADD COLUMN payload_kg {real};
     ALTER TABLE jobs ADD COLUMN software TEXT NOT NULL DEFAULT '';
     ALTER TABLE jobs ADD COLUMN robot_identity TEXT;
+    """,
+    # Version 5: who gave which go-ahead, when (a ZERO applied: who confirmed it).
+    5: """
+    CREATE TABLE confirmations (
+        id {pk}, job_id {int} NOT NULL REFERENCES jobs(id), phase TEXT NOT NULL,
+        idx {int} NOT NULL, operator TEXT NOT NULL, at {real} NOT NULL);
     """,
 }

@@ -77,7 +77,8 @@ class Operator:
         return self._check(self.http.get(f"/robots/{robot_id}/history"))
 
     def go(self, job_id: int, index: int) -> None:
-        self._check(self.http.post(f"/jobs/{job_id}/go", json={"index": index}))
+        self._check(self.http.post(f"/jobs/{job_id}/go",
+                                   json={"index": index, "operator": _who()}))
 
     def abort(self, job_id: int) -> None:
         self._check(self.http.post(f"/jobs/{job_id}/abort"))
@@ -169,3 +170,13 @@ def _invalid(error: dict) -> str:
         error["input"], dict) else ""
     rule = str(error.get("msg", "invalid")).removeprefix("Value error, ")
     return f"{loc}{value}: {rule}"
+
+
+def _who() -> str:
+    """The person at this terminal, as the go-aheads' provenance names them."""
+    import getpass
+
+    try:
+        return getpass.getuser()
+    except (KeyError, OSError):
+        return "unknown"

@@ -126,6 +126,8 @@ class GoAhead(BaseModel):
     model_config = ConfigDict(extra="forbid")
     index: int = Field(ge=0, le=100_000, description="the pose the operator lets the robot "
                        "move to")
+    operator: str = Field("", max_length=80, description="who gives it: kept in the job's "
+                          "provenance (who confirmed a ZERO, and when)")
 
 
 class MeasurementPublic(BaseModel):

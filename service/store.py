@@ -352,6 +352,16 @@ class Store:
             db.execute("UPDATE jobs SET phases = ?, updated = ? WHERE id = ?",
                        (json.dumps(phases), time.time(), job_id))
 
+    def add_confirmation(self, job_id: int, phase: str, idx: int, operator: str) -> None:
+        """An operator's go-ahead for a pose of a job (a ZERO's included), kept as provenance."""
+        with self.db.tx() as db:
+            db.execute("INSERT INTO confirmations (job_id, phase, idx, operator, at) VALUES "
+                       "(?, ?, ?, ?, ?)", (job_id, phase, idx, operator, time.time()))
+
+    def confirmations(self, job_id: int) -> list[dict]:
+        return self.db.rows("SELECT phase, idx, operator, at FROM confirmations WHERE job_id = ? "
+                            "ORDER BY id", (job_id,))
+
     # -- measurements ----------------------------------------------------------------------------
     def add_measurement(self, job_id: int, phase: str, idx: int, joints_deg: list,
                         tool0: list, holes_mm: list, flange_pose: list) -> None:

@@ -76,7 +76,7 @@ def get_job(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep) -> Job
 
 @router.post("/{job_id}/go", status_code=204)
 async def go_ahead(job_id: JobId, body: GoAhead, _: Auth, manager: ManagerDep) -> None:
-    await manager.go(job_id, body.index)
+    await manager.go(job_id, body.index, body.operator)
 
 @router.post("/{job_id}/abort", status_code=204)
 async def abort(job_id: JobId, _: Auth, manager: ManagerDep) -> None:

@@ -3,6 +3,9 @@ provenance, its model versions, its accuracy trend, and the drift alarm when a v
 measures the robot worse than its newest model left it (a "collision" moves a joint's zero in
 the emulated robot)."""
 
+import asyncio
+import time
+
 import numpy as np
 
 from service.history import RobotHistory, history_text
@@ -24,7 +27,7 @@ async def test_history_keeps_provenance_and_raises_the_drift_alarm(service, rig)
         r = await service.post("/jobs", json={"robot_id": robot["id"], "kind": kind,
                                               "options": {**FAST, **options}})
         assert r.status_code == 202, r.text
-        job = await wait_state(service, r.json()["id"])
+        job = await wait_state(service, r.json()["id"], operator=True)  # a ZERO waits
         assert job["state"] == "done", job["reason"]
         return job["id"]
 
@@ -39,6 +42,7 @@ async def test_history_keeps_provenance_and_raises_the_drift_alarm(service, rig)
     assert h.alarm is None
     first, check = h.entries
     assert (first.job, first.model_version, first.route) == (calibrated, 1, "zero")
+    assert [(c["phase"], c["operator"]) for c in first.confirmed] == [("correction", "not named")]
     assert first.software.startswith("screwcal ") and first.service
     assert first.robot_identity == {"serial": "6400-501234", "controller_software": "RW 6.15",
                                     "tool": "gripper A", "payload_kg": 4.5}
@@ -87,3 +91,26 @@ async def test_verify_sends_the_targets_compensated_by_the_newest_model(service,
             for j, p in ((proc, "perf_after"), (job["id"], "perf_verify"))}
     assert perf["perf_verify"]["ap_mm_mean"] < 0.1  # compensated (uncorrected: > 40 mm)
     assert abs(perf["perf_verify"]["ap_mm_mean"] - perf["perf_after"]["ap_mm_mean"]) < 0.05
+
+
+async def test_who_confirmed_a_zero_is_kept_in_the_history(service, rig):
+    """A ZERO waits for a person in every mode; their go-ahead names them, and the robot's
+    history says who applied the correction, and when."""
+    robot = await add_robot(service, rig)
+    job_id = (await service.post("/jobs", json={
+        "robot_id": robot, "kind": "procedure",
+        "options": {**FAST, "correction": "zero+compensate"}})).json()["id"]
+    async with asyncio.timeout(90):
+        while (waiting := (await service.get(f"/jobs/{job_id}")).json()["waiting_for"]) is None \
+                or waiting["phase"] != "correction":
+            await asyncio.sleep(0.01)
+    before = time.time()
+    r = await service.post(f"/jobs/{job_id}/go", json={"index": 0, "operator": "alice"})
+    assert r.status_code == 204
+    assert (await wait_state(service, job_id))["state"] == "done"
+    h = RobotHistory.model_validate((await service.get(f"/robots/{robot}/history")).json())
+    (entry,) = h.entries
+    assert [(c["phase"], c["idx"], c["operator"]) for c in entry.confirmed] == \
+        [("correction", 0, "alice")]
+    assert before <= entry.confirmed[0]["at"] <= time.time() and entry.go_aheads == 1
+    assert "correction confirmed by alice" in history_text(h)
