@@ -143,10 +143,17 @@ def run(args: argparse.Namespace) -> int:
     import asyncio  # here, not at the top: `screwcal --help` builds this parser too
     import errno
 
+    from screwcal.rapid import RapidSyntaxError
+    from simulators.irc5 import ProgramStoppedError
+    from simulators.rapid.errors import LoadError
+
     try:
         asyncio.run(_serve_irc5(args) if args.which == "irc5" else _serve_arm(args))
     except KeyboardInterrupt:
         pass
+    except (LoadError, RapidSyntaxError, ProgramStoppedError) as err:
+        print(f"screwcal emulator {args.which}: the RAPID program: {err}", file=sys.stderr)
+        return 2
     except OSError as err:
         if err.errno != errno.EADDRINUSE:
             raise

@@ -14,6 +14,7 @@ operator, by default, does what a ZERO prompt asks (enters the offsets, presses 
 from __future__ import annotations
 
 import asyncio
+import errno
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -96,12 +97,16 @@ class IRC5Emulator:
             sysinfo={"lanip": self.settings.lan_ip or host, "systemname": "screwcal-virtual-irc5",
                      "robottype": "IRB 1600"})
         self.network.listen_event.clear()
+        self.network.host_port_in_use = False
         self._thread = threading.Thread(target=self.task.run, name="rapid-task", daemon=True)
         self._thread.start()
         while not self.network.listen_event.is_set():
             if not self._thread.is_alive():
                 raise ProgramStoppedError(f"the RAPID program stopped before listening: "
                                           f"{self.task.stop_reason}")
+            if self.network.host_port_in_use:  # another program holds it: not the module's wait
+                await self.stop()
+                raise OSError(errno.EADDRINUSE, f"{host}:{port} is in use on this host")
             await asyncio.sleep(0.002)
         self.address = self.network.listening[-1]
         return self.address

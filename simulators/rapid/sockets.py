@@ -50,6 +50,7 @@ class Network:
         self.listening: list[tuple[str, int]] = []
         self.accepted = 0
         self.refusals = 0  # "0 ERR 16 busy" frames sent
+        self.host_port_in_use = False
         self._held: bytes = b""  # merge_frames: a j frame held for its p frame
         self._lock = threading.Lock()
         self.listen_event = threading.Event()
@@ -144,6 +145,7 @@ def _bind(task: Any, pos: list, opt: dict) -> None:
         dev.sock.bind((address, int(port)))
     except OSError as err:
         if err.errno == errno.EADDRINUSE:
+            net.host_port_in_use = True  # another program of the host holds it
             raise RapidError("ERR_SOCK_ADDR_INUSE", f"{address}:{int(port)} in use") from None
         raise RapidError("ERR_SOCK_ADDR_INVALID", f"{address}:{int(port)}: {err}") from None
     dev.local = dev.sock.getsockname()[:2]

@@ -98,3 +98,27 @@ def test_started_in_the_background_the_emulators_still_stop(sig):
     for args in (["arm", "--port", "0"], ["irc5", "--port", "0", "--arm-port", "0"]):
         proc, _ = start(args, preexec_fn=_as_a_background_job)
         stop(proc, sig)
+
+
+def test_a_program_the_controller_would_refuse_is_named_with_its_line(tmp_path):
+    bad = tmp_path / "Cell.mod"
+    bad.write_text("MODULE Cell\nPROC main()\n  SetDO do1, 1;\nENDPROC\nENDMODULE\n")
+    r = subprocess.run([*EXE, "irc5", "--port", "0", "--program", str(bad)],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "Cell.mod:3: instruction SetDO is unknown" in r.stderr
+
+
+def test_verbose_prints_the_controllers_event_log(tmp_path):
+    proc, line = start(["irc5", "--port", "0", "--time-scale", "0", "--verbose"])
+    host, port = re.search(r"on ([\d.]+):(\d+)", line).groups()
+
+    async def talk() -> None:
+        c = ControllerClient(host, int(port))
+        await c.connect()
+        await c.bye()
+        await c.close()
+
+    asyncio.run(talk())
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=30)
+    assert proc.returncode == 0 and "event log: info: Program stopped" in out
