@@ -92,8 +92,8 @@ class Store:
             self._migrate()
             if self.db.holders_gone():
                 with self.db.tx() as db:
-                    db.execute("UPDATE jobs SET holder = NULL, lease_expires = NULL "
-                               "WHERE holder IS NOT NULL")
+                    db.execute("UPDATE jobs SET holder = NULL, lease_expires = NULL WHERE "
+                               f"holder IS NOT NULL AND state IN {_UNFINISHED_SQL}")
         except BaseException:
             self.db.close()
             raise
@@ -231,9 +231,9 @@ class Store:
     def release(self) -> None:
         """Let go of every job this service holds (a clean stop: another service may adopt
         them at once instead of after the lease)."""
-        with self.db.tx() as db:
-            db.execute("UPDATE jobs SET holder = NULL, lease_expires = NULL WHERE holder = ?",
-                       (self.holder,))
+        with self.db.tx() as db:  # a finished job keeps its holder: the service that ran it
+            db.execute("UPDATE jobs SET holder = NULL, lease_expires = NULL WHERE holder = ? "
+                       f"AND state IN {_UNFINISHED_SQL}", (self.holder,))
 
     def adoptable(self) -> list[int]:
         """The unfinished jobs nobody holds: no holder, or the holder's lease expired."""

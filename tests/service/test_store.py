@@ -77,7 +77,9 @@ def test_a_pose_is_stored_once_and_a_step_is_claimed_once(db_target):
 
 # -- several services on one database ------------------------------------------------------------
 def test_sqlite_keeps_one_service_per_file_and_its_successor_takes_the_jobs_at_once(tmp_path):
-    first = Store(tmp_path / "jobs.db")
+    first = Store(tmp_path / "jobs.db", holder="first")
+    _, done = robot_and_job(first, "done cell")
+    first.set_state(done, "done", "")
     _, job_id = robot_and_job(first)
     with pytest.raises(StoreBusyError):
         second_service(tmp_path / "jobs.db")
@@ -85,6 +87,9 @@ def test_sqlite_keeps_one_service_per_file_and_its_successor_takes_the_jobs_at_o
     successor = Store(tmp_path / "jobs.db")
     assert successor.lease_of(job_id)[0] is None
     assert successor.adoptable() == [job_id] and successor.take(job_id)
+    assert successor.lease_of(done)[0] == "first"  # provenance: who ran the finished job
+    successor.release()
+    assert successor.lease_of(done)[0] == "first" and successor.lease_of(job_id)[0] is None
     successor.close()
 
 
