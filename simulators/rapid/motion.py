@@ -31,7 +31,7 @@ from screwcal.kinematics.ik import closed_form_ik
 from simulators.rapid.builtins import builtin
 from simulators.rapid.errors import RapidError
 from simulators.rapid.library import matrix_of, quaternion_of, wait
-from simulators.rapid.values import Record, num, record
+from simulators.rapid.values import Record, convert, num, record
 
 _NINE_E9 = 9e9
 
@@ -168,7 +168,9 @@ def _jointtarget(q_deg: np.ndarray) -> Record:
     return record("jointtarget", [num(float(v)) for v in q_deg], [_NINE_E9] * 6)
 
 
-def _robax(jt: Record) -> np.ndarray:
+def _robax(jt: Record | list) -> np.ndarray:
+    if isinstance(jt, list):  # an aggregate written in the call: [[j1..j6], [e1..e6]]
+        jt = convert("jointtarget", jt)
     return np.array([jt.f["robax"].f[f"rax_{i}"] for i in range(1, 7)])
 
 
