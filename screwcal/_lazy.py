@@ -3,6 +3,9 @@
 A subpackage's `__init__` lists its public names and the module that defines each; the module is
 imported on first use (PEP 562), so `from screwcal.kinematics import forward_kinematics` costs
 only `forward`'s imports and `screwcal --help` imports none of the numeric code.
+
+The list is the public API: what users call (functions and types, each with a docstring). Tuning
+constants and helpers stay in their modules, importable from there by those who need them.
 """
 
 from __future__ import annotations

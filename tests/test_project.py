@@ -80,6 +80,22 @@ def test_subpackage_public_names_resolve():
             assert getattr(module, name) is not None, f"screwcal.{layer}.{name}"
 
 
+def test_subpackage_public_names_are_what_users_call():
+    """A layer exports its functions and types, each documented; tuning constants and helpers
+    stay in their modules (few enough to read: at most 40 names a layer)."""
+    import importlib
+    import inspect
+
+    for layer in LAYERS:
+        module = importlib.import_module(f"screwcal.{layer}")
+        assert len(module.__all__) <= 40, f"screwcal.{layer}: {len(module.__all__)} names"
+        for name in module.__all__:
+            value = getattr(module, name)
+            assert not name.startswith("_"), f"screwcal.{layer}.{name}"
+            if inspect.isfunction(value) or inspect.isclass(value):
+                assert (value.__doc__ or "").strip(), f"screwcal.{layer}.{name} has no docstring"
+
+
 def test_study_names_for_help_match_the_studies():
     from screwcal.commands.study import STUDY_NAMES
     from screwcal.studies.study import STUDIES

@@ -103,6 +103,7 @@ def summarise(metrics: dict[str, PoseMetrics]) -> dict:
 
 
 def read_path_csv(path: str | Path) -> Array:
+    """(N, 3) the attained positions (mm) of a straight-line path file, at least 3 rows."""
     return read_numeric_csv(path, ATTAINED_POSITION, min_rows=3).take(ATTAINED_POSITION)
 
 
@@ -129,6 +130,8 @@ def _section(data: PerformanceData, line: Straightness | None) -> dict[str, Any]
 def build_report(after: PerformanceData, before: PerformanceData | None = None,
                  line: Straightness | None = None, line_before: Straightness | None = None
                  ) -> dict:
+    """The performance report document: ISO 9283 per point after (and before, when given),
+    the straightness of a path, the overall figures."""
     report = {
         "standard": "ISO 9283:1998 pose accuracy (AP) and repeatability (RP); straightness by "
                     "ISO 12780-1 least-squares line",

@@ -43,6 +43,8 @@ def true_robot(seed: int | None) -> SerialModel:
 
 
 def run_demo(seed: int | None = None, n_poses: int = 40, n_validation: int = 200) -> DemoResult:
+    """A simulated offline calibration (`screwcal simulate`): a true robot measured at `n_poses`,
+    the screw model fitted, both models compared on `n_validation` unseen poses."""
     rng = np.random.default_rng(12345 if seed is None else seed)
     start = time.perf_counter()
     truth = true_robot(seed)
@@ -65,6 +67,7 @@ def run_demo(seed: int | None = None, n_poses: int = 40, n_validation: int = 200
 
 
 def format_report(r: DemoResult, n_poses: int, n_validation: int) -> str:
+    """The before/after table of a simulated calibration, in mm and degrees."""
     def row(label: str, b: float, a: float, unit: str) -> str:
         return f"  {label:<28}{b:>10.3f} {unit:<4}{a:>10.3f} {unit}"
 

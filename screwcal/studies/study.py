@@ -88,6 +88,7 @@ def _selected(study: Study, rows: list[Row]) -> list[Row]:
 
 
 def study_table(name: str, rows: list[Row]) -> str:
+    """The Markdown table of a study's rows: each case's mean errors beside the thesis's."""
     study = STUDIES[name]
     rows = _selected(study, rows)
     cases = list(dict.fromkeys(r[study.group] for r in rows))
@@ -152,6 +153,7 @@ def plot(name: str, rows: list[Row], path: Path) -> None:
 
 def run_study(name: str, seed: int, samples: int, workers: int, out: Path,
               scheduler: str | None = None) -> str:
+    """Run study `name` and write its CSV, table and plot into `out`; returns the table."""
     out.mkdir(parents=True, exist_ok=True)
     rows = run_samples(name, seed, samples, workers, scheduler)
     fields = list(dict.fromkeys(k for r in rows for k in r))
