@@ -6,7 +6,7 @@ STAT round trip, and the software overhead per pose of a 200-pose list at time s
 motion time: what remains is the interpreted RAPID module, transport, the controller's
 kinematics and the client). Target (issue 24, the module run by the RAPID interpreter):
 <= 5 ms per pose (the Python protocol double it replaced: 0.6 ms; issue 4's 2 ms was its
-target). The STAT round trip includes the module's newcomer poll (POLL_S, 5 ms here).
+target).
 """
 
 from __future__ import annotations

@@ -39,9 +39,9 @@ class EmulatorSettings:
     faults: FaultPlan = field(default_factory=FaultPlan)
     idle_timeout_s: float = 60.0  # the module's IDLE_S: the owner's silence while it waits
     send_timeout_s: float = 10.0  # the socket stack gives up on a peer that takes nothing
-    # The module's POLL_S: how long it waits for a newcomer between looks at its client. A
-    # real cell keeps the module's 0.1 s; the emulator answers sooner.
-    poll_s: float = 0.005
+    # The module's POLL_S: how long it waits for a request's first byte before it looks for a
+    # newcomer and at its idle time (a request is read the moment it arrives).
+    poll_s: float = 0.1
     time_wait_s: float = 60.0  # a port whose connection the controller closed first
     program: Path | None = None  # a cell's adapted copy of the module
     operator: bool = True  # the pendant's operator answers ZERO prompts (enters the offsets)

@@ -20,6 +20,7 @@ MODULE ScrewcalServer
   CONST num MAX_SEQ := 999999;
   CONST num IDLE_S := 60;
   CONST num POLL_S := 0.1;
+  CONST num NEWCOMER_S := 0.01;
   CONST num J_MIN{6} := [-180,-90,-245,-200,-115,-400];
   CONST num J_MAX{6} := [180,150,65,200,115,400];
   CONST speeddata MOVE_SPEED := v100;
@@ -142,20 +143,28 @@ MODULE ScrewcalServer
   ENDPROC
 
   ! The one place that reads the client: one 80-char frame -> payload
-  ! and tokens. Until a whole frame is there, a newcomer is told busy
-  ! and an owner silent for IDLE_S is dropped (half a frame is silence).
+  ! and tokens. It waits at most POLL_S at a time for the frame's first
+  ! byte (a request is read the moment it arrives); between waits a
+  ! newcomer is told busy and an owner silent for IDLE_S is dropped.
+  ! Half a frame is silence: the rest must come within the idle time.
   ! A bad frame (docs/protocol.md) drops the link: no guessing.
   PROC ReceiveRequest()
+    VAR string first;
+    VAR string rest;
     ClkReset idle_clk;
     ClkStart idle_clk;
-    WHILE SocketPeek(conn{owner}) < FRAME_LEN DO
+    WHILE NOT FirstByte(first) DO
       RefuseNewcomer;
       IF ClkRead(idle_clk) >= IDLE_S THEN
         DropClient;
         RETURN;
       ENDIF
     ENDWHILE
-    SocketReceive conn{owner} \Str:=frm \ReadNoOfBytes:=FRAME_LEN \Time:=1;
+    IF NOT RestOfFrame(rest) THEN
+      DropClient;
+      RETURN;
+    ENDIF
+    frm := first + rest;
     ! Two tests, not one OR: RAPID evaluates both sides of an OR.
     IF NOT FrameOk() THEN
       DropClient;
@@ -176,6 +185,31 @@ MODULE ScrewcalServer
     ENDIF
     have_req := TRUE;
   ENDPROC
+
+  ! The next frame's first byte, waiting at most POLL_S for it.
+  FUNC bool FirstByte(INOUT string first)
+    SocketReceive conn{owner} \Str:=first \ReadNoOfBytes:=1 \Time:=POLL_S;
+    RETURN TRUE;
+  ERROR
+    IF ERRNO = ERR_SOCK_TIMEOUT THEN
+      SkipWarn;
+      RETURN FALSE;
+    ENDIF
+  ENDFUNC
+
+  ! The frame's other 79 bytes, within what is left of the idle time.
+  FUNC bool RestOfFrame(INOUT string rest)
+    VAR num left;
+    left := IDLE_S - ClkRead(idle_clk);
+    IF left < 0.01 left := 0.01;
+    SocketReceive conn{owner} \Str:=rest \ReadNoOfBytes:=FRAME_LEN - 1 \Time:=left;
+    RETURN TRUE;
+  ERROR
+    IF ERRNO = ERR_SOCK_TIMEOUT THEN
+      SkipWarn;
+      RETURN FALSE;
+    ENDIF
+  ENDFUNC
 
   ! 80 bytes, each printable, "#" after 1..79 of them, then spaces.
   FUNC bool FrameOk()
@@ -263,14 +297,14 @@ MODULE ScrewcalServer
 
   ! Another client while one owns the controller: told busy, what it
   ! sent read and dropped (a close with unread data resets the link and
-  ! the refusal would be lost), then closed. Waits at most POLL_S. If
+  ! the refusal would be lost), then closed. Waits NEWCOMER_S. If
   ! the owner has left meanwhile, the newcomer is the next owner.
   PROC RefuseNewcomer()
     VAR string junk;
     VAR num n := 0;
     VAR num other;
     other := 3 - owner;
-    SocketAccept server_socket, conn{other} \Time:=POLL_S;
+    SocketAccept server_socket, conn{other} \Time:=NEWCOMER_S;
     busy_open := TRUE;
     IF OwnerGone() THEN
       SocketClose conn{owner};
@@ -284,7 +318,7 @@ MODULE ScrewcalServer
     ENDIF
     SendTo conn{other}, "0 ERR 16 busy";
     WHILE n < 64 DO
-      SocketReceive conn{other} \Str:=junk \Time:=0.1;
+      SocketReceive conn{other} \Str:=junk \Time:=0.02;
       Incr n;
     ENDWHILE
     SocketClose conn{other};

@@ -26,8 +26,9 @@ from screwcal.rapid import parse_module
 from simulators.rapid.builtins import BUILTINS, predefined
 from simulators.rapid.errors import LoadError, RapidError, errnum_name
 from simulators.rapid.operator import EventLog, Pendant
+from simulators.rapid.operators import BINARY
+from simulators.rapid.storage import ElemRef, FieldRef, LiveVar, Var
 from simulators.rapid.values import (
-    RECORDS,
     RArray,
     Record,
     SocketDev,
@@ -37,77 +38,9 @@ from simulators.rapid.values import (
     default,
     known_type,
     num,
-    string,
 )
 
 MAX_RETRIES = 4  # the controller's "No Of Retry"
-
-
-class Var:
-    __slots__ = ("const", "dims", "type", "value")
-
-    def __init__(self, type_: str, value: Any, dims: tuple[int, ...] = (), const: bool = False):
-        self.type, self.value, self.dims, self.const = type_, value, dims, const
-
-    def set(self, v: Any) -> None:
-        if type(v) is float and self.type == "num" and not self.dims:
-            self.value = v  # already a num (every result is rounded to 32 bits)
-            return
-        self.value = convert(self.type, v, self.dims)
-
-
-class LiveVar:
-    """A datum the controller's configuration sets and may change while the program runs
-    (the emulator's settings behind the module's CONSTs): read-only to the program."""
-
-    __slots__ = ("_read", "const", "dims", "type")
-
-    def __init__(self, type_: str, read: Callable[[], Any]):
-        self.type, self.dims, self.const, self._read = type_, (), True, read
-
-    @property
-    def value(self) -> Any:
-        return convert(self.type, self._read())
-
-    def set(self, v: Any) -> None:
-        raise RapidError("ERR_ARGVALERR", "a CONST cannot be assigned")
-
-
-class ElemRef:
-    __slots__ = ("arr", "i")
-
-    def __init__(self, arr: RArray, i: int):
-        self.arr, self.i = arr, i
-
-    @property
-    def value(self) -> Any:
-        return self.arr.items[self.i]
-
-    @value.setter
-    def value(self, v: Any) -> None:
-        self.arr.items[self.i] = v
-
-    def set(self, v: Any) -> None:
-        self.arr.items[self.i] = convert(self.arr.type, v)
-
-
-class FieldRef:
-    __slots__ = ("name", "rec")
-
-    def __init__(self, rec: Record, name: str):
-        self.rec, self.name = rec, name
-
-    @property
-    def value(self) -> Any:
-        return self.rec.f[self.name]
-
-    @value.setter
-    def value(self, v: Any) -> None:
-        self.rec.f[self.name] = v
-
-    def set(self, v: Any) -> None:
-        ft = dict(RECORDS[self.rec.type])[self.name]
-        self.rec.f[self.name] = convert(ft, v)
 
 
 class Stopped(BaseException):
@@ -670,7 +603,7 @@ class Task:
         b = self.eval(e.right, frame)
         op = e.op
         try:
-            return _BINARY[op](a, b)
+            return BINARY[op](a, b)
         except RapidError as err:
             err.line = e.line
             raise
@@ -720,84 +653,5 @@ def _children(v: Any) -> list[Any]:
     return []
 
 
-def _num_op(f: Callable[[float, float], float]) -> Callable[[Any, Any], Any]:
-    def op(a: Any, b: Any) -> Any:
-        if isinstance(a, float) and isinstance(b, float):
-            return num(f(a, b))
-        raise TypeError
-    return op
-
-
-def _add(a: Any, b: Any) -> Any:
-    if isinstance(a, float) and isinstance(b, float):
-        return num(a + b)
-    if isinstance(a, str) and isinstance(b, str):
-        return string(a + b)
-    if isinstance(a, Record) and isinstance(b, Record) and a.type == b.type == "pos":
-        return Record("pos", {k: num(a.f[k] + b.f[k]) for k in a.f})
-    raise TypeError
-
-
-def _sub(a: Any, b: Any) -> Any:
-    if isinstance(a, float) and isinstance(b, float):
-        return num(a - b)
-    if isinstance(a, Record) and isinstance(b, Record) and a.type == b.type == "pos":
-        return Record("pos", {k: num(a.f[k] - b.f[k]) for k in a.f})
-    raise TypeError
-
-
-def _div(a: Any, b: Any) -> Any:
-    if not (isinstance(a, float) and isinstance(b, float)):
-        raise TypeError
-    if b == 0:
-        raise RapidError("ERR_DIVZERO")
-    return num(a / b)
-
-
-def _int_op(kind: str) -> Callable[[Any, Any], Any]:
-    def op(a: Any, b: Any) -> Any:
-        if not (isinstance(a, float) and isinstance(b, float)):
-            raise TypeError
-        if a != int(a) or b != int(b):
-            raise RapidError("ERR_ARGVALERR", f"{kind} needs integers")
-        if b == 0:
-            raise RapidError("ERR_DIVZERO")
-        q = abs(int(a)) // abs(int(b)) * (1 if (a < 0) == (b < 0) else -1)
-        return float(q) if kind == "DIV" else float(int(a) - q * int(b))
-    return op
-
-
-def _cmp(f: Callable[[Any, Any], bool]) -> Callable[[Any, Any], bool]:
-    def op(a: Any, b: Any) -> bool:
-        if isinstance(a, float) and isinstance(b, float):
-            return f(a, b)
-        raise TypeError
-    return op
-
-
-def _logic(f: Callable[[bool, bool], bool]) -> Callable[[Any, Any], bool]:
-    def op(a: Any, b: Any) -> bool:
-        if isinstance(a, bool) and isinstance(b, bool):
-            return f(a, b)
-        raise TypeError
-    return op
-
-
-def _eq(a: Any, b: Any) -> bool:
-    if type(a) is not type(b):
-        raise TypeError
-    return a == b
-
-
-_BINARY: dict[str, Callable[[Any, Any], Any]] = {
-    "+": _add, "-": _sub, "*": _num_op(lambda a, b: a * b), "/": _div,
-    "DIV": _int_op("DIV"), "MOD": _int_op("MOD"),
-    "<": _cmp(lambda a, b: a < b), "<=": _cmp(lambda a, b: a <= b),
-    ">": _cmp(lambda a, b: a > b), ">=": _cmp(lambda a, b: a >= b),
-    "=": _eq, "<>": lambda a, b: not _eq(a, b),
-    "AND": _logic(lambda a, b: a and b), "OR": _logic(lambda a, b: a or b),
-    "XOR": _logic(lambda a, b: a != b),
-}
-
-__all__ = ["LoadError", "RapidError", "SocketDev", "Stopped", "Task", "base_type",
+__all__ = ["LiveVar", "LoadError", "RapidError", "SocketDev", "Stopped", "Task", "base_type",
            "errnum_name", "math"]

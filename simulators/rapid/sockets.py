@@ -35,8 +35,9 @@ from simulators.rapid.values import SocketDev, string
 
 DEFAULT_TIME_S = 60.0
 WAIT_MAX = 8388608.0
-_SLICE_S = 0.05
-SOCKET_BUFFER = 16384  # how often a blocked instruction looks for a stop request
+_SLICE_S = 0.05  # how often a blocked instruction looks for a stop request
+SEND_BUFFER = 16384
+RECEIVE_BUFFER = 65536  # a whole 200-pose LOAD (16 kB) arrives at once
 
 
 class Network:
@@ -124,8 +125,8 @@ def _create(task: Any, pos: list, opt: dict) -> None:
     s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     # An embedded stack's small buffers (accepted connections inherit them): a peer that
     # floods or does not read meets back-pressure in kilobytes, not in the host's megabytes.
-    s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, SOCKET_BUFFER)
-    s.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_BUFFER)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SEND_BUFFER)
     _net(task).track(s)
     dev.sock, dev.state, dev.peer_closed, dev.local = s, "created", False, None
 

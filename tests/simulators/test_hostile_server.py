@@ -159,6 +159,9 @@ async def test_random_bytes_connect_storms_and_many_clients(emulator):
     emulator.settings.idle_timeout_s = 1.0
     await asyncio.gather(*(hostile(k) for k in range(60)))
     assert emulator.world.arrivals == moves  # nothing moved
+    # The module refuses newcomers one after another (a RAPID task, as on a real IRC5): the
+    # owner must not time out meanwhile.
+    emulator.settings.idle_timeout_s = 60.0
     clients = [ControllerClient(*emulator.address, Timeouts(reply_s=2)) for _ in range(12)]
     results = await asyncio.gather(*(c.connect() for c in clients), return_exceptions=True)
     assert sum(r is None for r in results) == 1, results  # one owner at a time
