@@ -154,9 +154,9 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
         elif args.action == "history":
             from service.history import RobotHistory, history_text
 
-            doc = RobotHistory.model_validate(op.history(op.robot_id(args.robot)))
-            print(history_text(doc))
-            return 2 if doc.alarm is not None else 0
+            history = RobotHistory.model_validate(op.history(op.robot_id(args.robot)))
+            print(history_text(history))
+            return 2 if history.alarm is not None else 0
         elif args.action == "abort":
             op.abort(args.id)
             print(f"job {args.id}: abort requested")

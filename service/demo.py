@@ -174,8 +174,7 @@ def honest_lines(seed: int | None, realism_name: str, options: dict, result: dic
         label = (f"ours (geometry{' + compliance' if compliance else ''}"
                  f"{' + lag' if (est.get('reading_lag') or {}).get('per_joint') else ''})")
         lines.append(f"    {label:<44}{ours:>8.3f} mm")
-    if geometric is not None and _ap_after(geometric) is not None:
-        geo = _ap_after(geometric)
+    if geometric is not None and (geo := _ap_after(geometric)) is not None:
         lines.append(f"    {'geometric only (compliance none, lag none)':<44}{geo:>8.3f} mm"
                      + (f"   {geo / ours:.1f}x ours" if ours else ""))
     lines.append(f"    {'oracle floor':<44}{floor:>8.3f} mm"
