@@ -177,6 +177,9 @@ def _accept(task: Any, pos: list, opt: dict) -> None:
         conn, addr = dev.sock.accept()
     except OSError as err:
         raise _closed(f"accept: {err}") from None
+    # Each SocketSend leaves at once (no Nagle delay: a pose's p frame would otherwise wait
+    # for the peer's delayed ACK of its j frame, 40 ms on Linux).
+    conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
     net = _net(task)
     net.track(conn)
     net.accepted += 1
