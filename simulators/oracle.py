@@ -46,7 +46,7 @@ def oracle_attained(world: World, before_deg: Sequence[Sequence[float]], perf_de
     targets = flange_kinematics(world.nominal, q_nominal)
     comp = compensate(robot, world.nominal, targets, q_nominal, frame="base")
     world.set_payload(payload)
-    sent = np.round(np.degrees(comp.q_rad), 4)
+    sent: Array = np.round(np.degrees(comp.q_rad), 4).astype(float)
 
     async def run() -> Array:
         if len(before_deg):

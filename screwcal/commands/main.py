@@ -30,7 +30,7 @@ COMMANDS = {
     "study": "screwcal.commands.study",
     "robot": "screwcal.commands.robot",
     "rapid": "screwcal.commands.rapid",
-    "demo": "service.demo",
+    "demo": "screwcal.commands.demo",
     "emulator": "simulators.cli",
     "serve": "service.cli",
     "job": "service.cli",
