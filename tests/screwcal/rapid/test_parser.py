@@ -46,10 +46,12 @@ def test_the_shipped_server_module_parses():
     module = parse_module(module_text(), "ScrewcalServer.mod")
     assert module.name == "ScrewcalServer"
     names = {r.name for r in module.routines}
-    assert {"main", "Dispatch", "TokPose", "InLimits"} <= names
-    tok_pose = next(r for r in module.routines if r.name == "TokPose")
-    assert tok_pose.kind == "FUNC" and tok_pose.error  # an ERROR handler in a FUNC
-    assert tok_pose.params[1].mode == "INOUT"
+    assert {"main", "Dispatch", "PoseJoints", "InLimits"} <= names
+    pose_joints = next(r for r in module.routines if r.name == "PoseJoints")
+    assert pose_joints.kind == "FUNC" and pose_joints.error  # an ERROR handler in a FUNC
+    assert pose_joints.params[1].mode == "INOUT"
+    main = next(r for r in module.routines if r.name == "main")
+    assert main.undo  # an UNDO handler
     dispatch = next(r for r in module.routines if r.name == "Dispatch")
     test = next(s for s in dispatch.body if isinstance(s, rapid_ast.Test))
     assert test.default and [c.labels[0].value for c in test.cases][:3] == ["HELO", "STAT",
