@@ -1,5 +1,6 @@
-"""Issue 22's targets for the core (every package of screwcal and its root modules) and the
-controller protocol: modules of at most 450 lines, functions of at most 80, no `type: ignore`."""
+"""Issue 22's target particular to the core and the controller protocol: module constants defined
+before the code that uses them. Sizes, import cycles, `type: ignore` and mypy for every package:
+tests/test_house.py."""
 
 import ast
 from pathlib import Path
@@ -9,23 +10,6 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 AREAS = [ROOT / "screwcal", ROOT / "protocol"]
 FILES = sorted(f for a in AREAS for f in ([a] if a.is_file() else a.rglob("*.py")))
-MAX_MODULE, MAX_FUNCTION = 450, 80
-
-
-@pytest.mark.parametrize("path", FILES, ids=lambda p: str(p.relative_to(ROOT)))
-def test_small_modules_and_functions(path):
-    text = path.read_text()
-    assert len(text.splitlines()) <= MAX_MODULE
-    long = [f"{node.name}: {node.end_lineno - node.lineno + 1} lines"
-            for node in ast.walk(ast.parse(text))
-            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
-            and node.end_lineno - node.lineno + 1 > MAX_FUNCTION]
-    assert not long
-
-
-@pytest.mark.parametrize("path", FILES, ids=lambda p: str(p.relative_to(ROOT)))
-def test_no_type_ignore(path):
-    assert "type: ignore" not in path.read_text()
 
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: str(p.relative_to(ROOT)))
