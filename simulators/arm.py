@@ -230,8 +230,10 @@ class ArmEmulator:
             os.write(self._pty_master, data)
 
     def _pty_request(self) -> None:
+        if self._pty_master is None:  # closed: the reader is removed with it
+            return
         with contextlib.suppress(BlockingIOError, OSError):
-            if b"\n" in os.read(self._pty_master, 1024):  # type: ignore[arg-type]
+            if b"\n" in os.read(self._pty_master, 1024):
                 self._send_pty(self.probe())
 
     async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:

@@ -15,24 +15,28 @@ the controller's error handling (RAPID reference, "Error recovery"):
 
 from __future__ import annotations
 
-import math
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 from screwcal.rapid import ast as A  # noqa: N812 - the node classes, as A.If, A.Call
 from screwcal.rapid import parse_module
 from simulators.rapid.builtins import BUILTINS, predefined
-from simulators.rapid.errors import LoadError, RapidError, errnum_name
+from simulators.rapid.control import (
+    ExitCycle,
+    Fatal,
+    Propagate,
+    Retry,
+    Return,
+    Stopped,
+    TryNext,
+)
+from simulators.rapid.errors import LoadError, RapidError
+from simulators.rapid.evaluation import Evaluator
+from simulators.rapid.frame import Frame
 from simulators.rapid.operator import EventLog, Pendant
-from simulators.rapid.operators import BINARY
-from simulators.rapid.storage import ElemRef, FieldRef, LiveVar, Var
+from simulators.rapid.storage import LiveVar, Var
 from simulators.rapid.values import (
-    RArray,
-    Record,
-    SocketDev,
-    base_type,
     convert,
     copy,
     default,
@@ -43,52 +47,7 @@ from simulators.rapid.values import (
 MAX_RETRIES = 4  # the controller's "No Of Retry"
 
 
-class Stopped(BaseException):
-    """The program stops (Stop, an unhandled error, the controller's stop or PP to Main)."""
-
-    def __init__(self, reason: str):
-        self.reason = reason
-        super().__init__(reason)
-
-
-class _Return(BaseException):
-    def __init__(self, value: Any):
-        self.value = value
-
-
-class _Retry(BaseException):
-    pass
-
-
-class _TryNext(BaseException):
-    pass
-
-
-class _ExitCycle(BaseException):
-    pass
-
-
-class _Propagate(BaseException):
-    """An error on its way to the caller's instruction (not handled by this routine again)."""
-
-    def __init__(self, error: RapidError):
-        self.error = error
-
-
-class _Fatal(BaseException):
-    def __init__(self, error: RapidError):
-        self.error = error
-
-
-@dataclass
-class Frame:
-    routine: A.Routine
-    vars: dict[str, Any]
-    in_handler: bool = False
-    error: RapidError | None = None
-
-
-class Task:
+class Task(Evaluator):
     """One RAPID task running one program module. `services` are the controller's other parts
     the built-ins use (sockets, motion); `overrides` replace data declarations' values (the
     cell's own constants: a port, a bind address, joint limits)."""
@@ -98,6 +57,7 @@ class Task:
                  overrides: dict[str, Any] | None = None):
         from simulators.rapid import library, motion, sockets  # noqa: F401 - register built-ins
 
+        super().__init__()
         self.path = path
         self.module = parse_module(text, path)
         self.log = log or EventLog()
@@ -123,16 +83,6 @@ class Task:
             A.While: self._while, A.For: self._for, A.Test: self._test,
             A.Return: self._return, A.Raise: self._raise, A.Simple: self._simple,
         }
-        self._eval: dict[type, Callable[[Any, Frame], Any]] = {
-            A.Num: self._num, A.Str: self._str, A.Name: self._name, A.Index: self._index,
-            A.Component: self._component, A.Aggregate: self._aggregate,
-            A.NumberRow: self._number_row, A.Unary: self._unary, A.Binary: self._binary,
-            A.Call: self._call,
-        }
-        self._nums: dict[int, float] = {}
-        self._keys: dict[int, str] = {}
-        self._strs: dict[int, str] = {}  # a Name node's lower-case key (nodes live as long)
-        self._rows: dict[int, tuple[A.NumberRow, list[float]]] = {}
         self.data: dict[str, Any] = {}
         self.reset_data()
 
@@ -210,16 +160,16 @@ class Task:
                     self.call(self.routines[routine.lower()], [], {}, 0)
                     self._stopped("program ended (main returned)", kind="info")
                     return
-                except _ExitCycle:
+                except ExitCycle:
                     self.log.write("info", "ExitCycle", "main starts again")
                     continue
         except Stopped as s:
             self._stopped(s.reason, kind="info")
-        except _Fatal as f:
+        except Fatal as f:
             self._stopped(self._unhandled(f.error), kind="error")
         except RapidError as e:
             self._stopped(self._unhandled(e), kind="error")
-        except _Propagate as p:
+        except Propagate as p:
             self._stopped(self._unhandled(p.error), kind="error")
 
     def _unhandled(self, e: RapidError) -> str:
@@ -252,9 +202,9 @@ class Task:
             return
         try:
             self.exec_block(frame.routine.undo, frame)
-        except _Return:
+        except Return:
             pass
-        except (RapidError, _Propagate, _Fatal) as err:
+        except (RapidError, Propagate, Fatal) as err:
             error = err if isinstance(err, RapidError) else err.error
             self.log.write("error", "UNDO handler failed", self._unhandled(error))
 
@@ -284,14 +234,14 @@ class Task:
             if r.kind == "FUNC":
                 raise RapidError("ERR_NORETURN", f"{r.name} ended without RETURN", r.line)
             return None
-        except _Return as ret:
+        except Return as ret:
             return ret.value
-        except _Propagate as p:
+        except Propagate as p:
             self._undo(frame)
             error = RapidError(p.error.errno, p.error.detail, line)
             error.origin = p.error.origin or p.error.line
             raise error from None
-        except _ExitCycle:
+        except ExitCycle:
             self._undo(frame)
             raise
         except Stopped:
@@ -318,7 +268,7 @@ class Task:
                     if self._handle(e, frame):  # RETRY
                         retries += 1
                         if retries > MAX_RETRIES:
-                            raise _Propagate(RapidError("ERR_EXCRTYMAX", line=st.line)) \
+                            raise Propagate(RapidError("ERR_EXCRTYMAX", line=st.line)) \
                                 from None
                         continue
                     break  # TRYNEXT
@@ -328,18 +278,18 @@ class Task:
         leave the routine (RETURN) or to propagate."""
         r = frame.routine
         if frame.in_handler:
-            raise _Fatal(e)
+            raise Fatal(e)
         if r.error is None or (r.error_numbers and not any(
                 self.eval(n, frame) == e.errno for n in r.error_numbers)):
-            raise _Propagate(e)
+            raise Propagate(e)
         self.errno = float(e.errno)
         saved, self._skip = self._skip, False
         frame.in_handler, frame.error = True, e
         try:
             self.exec_block(r.error, frame)
-        except _Retry:
+        except Retry:
             return True
-        except _TryNext:
+        except TryNext:
             return False
         finally:
             frame.in_handler = False
@@ -347,7 +297,7 @@ class Task:
                 self.log.write("warning", f"Execution error {e.name}",
                                f"{self.path}:{e.line}: {e.detail} (recovered in {r.name})")
             self._skip = saved
-        raise _Propagate(e)  # the handler's end: as RAISE
+        raise Propagate(e)  # the handler's end: as RAISE
 
     def skip_warning(self) -> None:
         """SkipWarn: the error being handled leaves no warning in the event log."""
@@ -421,13 +371,15 @@ class Task:
             value = self.eval(st.value, frame)
             if frame.routine.type is not None:
                 value = convert(frame.routine.type, value)
-        raise _Return(value)
+        raise Return(value)
 
     def _raise(self, st: A.Raise, frame: Frame) -> None:
         if frame.in_handler:
+            if st.value is None and frame.error is not None:
+                raise Propagate(frame.error)
             if st.value is None:
-                raise _Propagate(frame.error)  # type: ignore[arg-type]
-            raise _Propagate(RapidError(int(self.eval(st.value, frame)), "raised", st.line))
+                raise RapidError("ERR_ILLRAISE", "RAISE without an error being handled", st.line)
+            raise Propagate(RapidError(int(self.eval(st.value, frame)), "raised", st.line))
         if st.value is None:
             raise RapidError("ERR_ILLRAISE", "RAISE without an error number", st.line)
         n = self.eval(st.value, frame)
@@ -438,9 +390,9 @@ class Task:
         if kw in ("RETRY", "TRYNEXT") and not frame.in_handler:
             raise RapidError("ERR_ARGVALERR", f"{kw} outside an error handler", st.line)
         if kw == "RETRY":
-            raise _Retry()
+            raise Retry()
         if kw == "TRYNEXT":
-            raise _TryNext()
+            raise TryNext()
         raise Stopped(f"EXIT at {self.path}:{st.line}")
 
     def _bool(self, e: Any, frame: Frame) -> bool:
@@ -448,185 +400,6 @@ class Task:
         if not isinstance(v, bool):
             raise RapidError("ERR_ARGVALERR", "a condition must be a bool", e.line)
         return v
-
-    # ------------------------------------------------------------------ arguments
-    def _bind(self, args: tuple[A.Argument, ...], frame: Frame, r: A.Routine
-              ) -> tuple[list[Any], dict[str, Any]]:
-        required = [p for p in r.params if not p.optional]
-        optional = {p.name.lower(): p for p in r.params if p.optional}
-        pos: list[Any] = []
-        opt: dict[str, Any] = {}
-        for a in args:
-            if a.name is None:
-                p = required[len(pos)] if len(pos) < len(required) else None
-                by_ref = p is not None and p.mode is not None
-                pos.append(self.ref(a.value, frame) if by_ref else self.eval(a.value, frame))
-            else:
-                p = optional.get(a.name.lower())
-                if a.value is None:
-                    opt[a.name.lower()] = True
-                elif p is not None and p.mode is not None:
-                    opt[a.name.lower()] = self.ref(a.value, frame)
-                else:
-                    opt[a.name.lower()] = self.eval(a.value, frame)
-        return pos, opt
-
-    def _builtin_args(self, args: tuple[A.Argument, ...], frame: Frame, b: Any
-                      ) -> tuple[list[Any], dict[str, Any]]:
-        pos: list[Any] = []
-        opt: dict[str, Any] = {}
-        for a in args:
-            if a.name is None:
-                pos.append(self.ref(a.value, frame) if len(pos) in b.refs
-                           else self.eval(a.value, frame))
-            elif a.conditional:
-                raise RapidError("ERR_ARGVALERR", "conditional arguments are not supported",
-                                 a.line)
-            elif a.value is None:
-                opt[a.name.lower()] = True
-            else:
-                key = self._keys.get(id(a))
-                if key is None:
-                    key = self._keys[id(a)] = a.name.lower()
-                opt[key] = self.ref(a.value, frame) if key in b.optrefs \
-                    else self.eval(a.value, frame)
-        return pos, opt
-
-    # ------------------------------------------------------------------ expressions
-    def eval(self, e: Any, frame: Frame) -> Any:
-        return self._eval[type(e)](e, frame)
-
-    def ref(self, e: Any, frame: Frame) -> Any:
-        """The storage an expression names: a Var, an array element, a record component."""
-        if isinstance(e, A.Name):
-            var = self._lookup(e.key, frame, e.line)
-            return var
-        if isinstance(e, A.Index):
-            arr = self.eval(e.base, frame)
-            for k, ie in enumerate(e.indices):
-                if not isinstance(arr, RArray):
-                    raise RapidError("ERR_ARGVALERR", "not an array", e.line)
-                i = arr.index(self.eval(ie, frame))
-                if k == len(e.indices) - 1:
-                    return ElemRef(arr, i)
-                arr = arr.items[i]
-        if isinstance(e, A.Component):
-            rec = self.eval(e.base, frame)
-            if not isinstance(rec, Record) or e.name.lower() not in rec.f:
-                raise RapidError("ERR_ARGVALERR", f"no component {e.name}", e.line)
-            return FieldRef(rec, e.name.lower())
-        raise RapidError("ERR_ARGNOTVAR", "this argument must be a variable", e.line)
-
-    def _lookup(self, key: str, frame: Frame, line: int) -> Any:
-        v = frame.vars.get(key)
-        if v is None:
-            v = self.data.get(key)
-            if v is None:
-                v = self.system.get(key)
-                if v is None:
-                    if key == "errno":
-                        return Var("num", self.errno, const=True)
-                    raise RapidError("ERR_REFUNKDAT", f"no data named {key}", line)
-        return v
-
-    def _num(self, e: A.Num, frame: Frame) -> float:
-        v = self._nums.get(id(e))
-        if v is None:
-            v = self._nums[id(e)] = num(e.value)
-        return v
-
-    def _str(self, e: A.Str, frame: Frame) -> str:
-        v = self._strs.get(id(e))
-        if v is None:
-            v = self._strs[id(e)] = e.value
-        return v
-
-    def _name(self, e: A.Name, frame: Frame) -> Any:
-        key = self._keys.get(id(e))
-        if key is None:
-            key = self._keys[id(e)] = e.key
-        v = frame.vars.get(key)
-        if v is not None:
-            return v.value
-        v = self.data.get(key)
-        if v is not None:
-            return v.value
-        if key == "true":
-            return True
-        if key == "false":
-            return False
-        if key == "errno":
-            return self.errno
-        return self._lookup(key, frame, e.line).value
-
-    def _index(self, e: A.Index, frame: Frame) -> Any:
-        arr = self.eval(e.base, frame)
-        for ie in e.indices:
-            if not isinstance(arr, RArray):
-                raise RapidError("ERR_ARGVALERR", "not an array", e.line)
-            try:
-                arr = arr.items[arr.index(self.eval(ie, frame))]
-            except RapidError as err:
-                err.line = e.line
-                raise
-        return arr
-
-    def _component(self, e: A.Component, frame: Frame) -> Any:
-        rec = self.eval(e.base, frame)
-        try:
-            return rec.f[e.name.lower()]
-        except (AttributeError, KeyError):
-            raise RapidError("ERR_ARGVALERR", f"no component {e.name}", e.line) from None
-
-    def _number_row(self, e: A.NumberRow, frame: Frame) -> list[float]:
-        # keyed by the row (a node of the tree); its items are made afresh on each access
-        row = self._rows.get(id(e))
-        if row is None:
-            row = self._rows[id(e)] = (e, [num(n.value) for n in e.items])
-        return list(row[1])
-
-    def _aggregate(self, e: Any, frame: Frame) -> list[Any]:
-        return [self.eval(i, frame) for i in e.items]
-
-    def _unary(self, e: A.Unary, frame: Frame) -> Any:
-        v = self.eval(e.operand, frame)
-        if e.op == "NOT":
-            if not isinstance(v, bool):
-                raise RapidError("ERR_ARGVALERR", "NOT needs a bool", e.line)
-            return not v
-        if not isinstance(v, float):
-            raise RapidError("ERR_ARGVALERR", f"{e.op} needs a num", e.line)
-        return -v if e.op == "-" else v
-
-    def _binary(self, e: A.Binary, frame: Frame) -> Any:
-        a = self.eval(e.left, frame)
-        b = self.eval(e.right, frame)
-        op = e.op
-        try:
-            return BINARY[op](a, b)
-        except RapidError as err:
-            err.line = e.line
-            raise
-        except (TypeError, KeyError):
-            raise RapidError("ERR_ARGVALERR", f"{op} of {type(a).__name__} and "
-                             f"{type(b).__name__}", e.line) from None
-
-    def _call(self, e: A.Call, frame: Frame) -> Any:
-        key = self._keys.get(id(e))
-        if key is None:
-            key = self._keys[id(e)] = e.key
-        r = self.routines.get(key)
-        if r is not None and r.kind == "FUNC":
-            pos, opt = self._bind(e.args, frame, r)
-            return self.call(r, pos, opt, e.line)
-        b = BUILTINS[key]
-        pos, opt = self._builtin_args(e.args, frame, b)
-        try:
-            return b.fn(self, pos, opt)
-        except RapidError as err:
-            if err.line is None:
-                err.line = e.line
-            raise
 
 
 def _walk(node: Any):  # noqa: ANN202
@@ -653,5 +426,4 @@ def _children(v: Any) -> list[Any]:
     return []
 
 
-__all__ = ["LiveVar", "LoadError", "RapidError", "SocketDev", "Stopped", "Task", "base_type",
-           "errnum_name", "math"]
+__all__ = ["LoadError", "RapidError", "Stopped", "Task"]

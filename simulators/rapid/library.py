@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from simulators.rapid.builtins import builtin
+from simulators.rapid.control import ExitCycle, Stopped
 from simulators.rapid.errors import RapidError
 from simulators.rapid.values import RArray, Record, is_integer, num, record, string
 
@@ -247,7 +248,6 @@ def _tpreadfk(task: Any, pos: list, opt: dict) -> None:
     max_time = opt.get("maxtime")
     key = task.pendant.ask(text, tuple(keys), max_time, task.stopping)
     if key is None and task.stopping():
-        from simulators.rapid.interpreter import Stopped
         raise Stopped("stopped by the controller")
     flag = opt.get("breakflag")
     if key is None:
@@ -280,7 +280,6 @@ def _skipwarn(task: Any, pos: list, opt: dict) -> None:
 
 def wait(task: Any, seconds: float) -> None:
     """Sleep `seconds`, in slices, so that a stop is seen."""
-    from simulators.rapid.interpreter import Stopped
 
     end = time.monotonic() + max(0.0, seconds)
     while True:
@@ -303,14 +302,12 @@ def _waittime(task: Any, pos: list, opt: dict) -> None:
 
 @builtin("Stop", "proc")
 def _stop(task: Any, pos: list, opt: dict) -> None:
-    from simulators.rapid.interpreter import Stopped
     raise Stopped("Stop instruction")
 
 
 @builtin("ExitCycle", "proc")
 def _exitcycle(task: Any, pos: list, opt: dict) -> None:
-    from simulators.rapid.interpreter import _ExitCycle
-    raise _ExitCycle()
+    raise ExitCycle()
 
 
 @builtin("GetSysInfo", "func")

@@ -98,7 +98,8 @@ class Motion:
                 self.loop.call_soon_threadsafe(self._notify)
 
     def _notify(self) -> None:
-        self.loop.create_task(self.world.notify_arrival())  # type: ignore[union-attr]
+        if self.loop is not None:  # called back on that loop (`arrive`), which never unsets it
+            self.loop.create_task(self.world.notify_arrival())
 
     # -- kinematics (the controller's nominal model)
     def tool0(self, q_deg: np.ndarray) -> np.ndarray:
@@ -169,9 +170,9 @@ def _jointtarget(q_deg: np.ndarray) -> Record:
 
 
 def _robax(jt: Record | list) -> np.ndarray:
-    if isinstance(jt, list):  # an aggregate written in the call: [[j1..j6], [e1..e6]]
-        jt = convert("jointtarget", jt)
-    return np.array([jt.f["robax"].f[f"rax_{i}"] for i in range(1, 7)])
+    # an aggregate written in the call, [[j1..j6], [e1..e6]], is a jointtarget once converted
+    target: Record = convert("jointtarget", jt) if isinstance(jt, list) else jt
+    return np.array([target.f["robax"].f[f"rax_{i}"] for i in range(1, 7)])
 
 
 @builtin("CJointT", "func")

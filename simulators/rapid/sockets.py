@@ -30,7 +30,9 @@ from typing import Any
 
 from simulators.faults import FaultPlan
 from simulators.rapid.builtins import builtin
+from simulators.rapid.control import Stopped
 from simulators.rapid.errors import RapidError
+from simulators.rapid.library import wait
 from simulators.rapid.values import SocketDev, string
 
 DEFAULT_TIME_S = 60.0
@@ -95,7 +97,6 @@ def _closed(detail: str) -> RapidError:
 
 
 def _wait_readable(task: Any, s: socket.socket, seconds: float, what: str) -> None:
-    from simulators.rapid.interpreter import Stopped
 
     end = None if seconds >= WAIT_MAX else time.monotonic() + seconds
     while True:
@@ -271,7 +272,6 @@ def _faulted(net: Network, data: bytes, task: Any) -> list[tuple[bytes, bool]]:
         and parts[3][:1].isdigit() else None
     if idx is not None and parts[1] == b"j":
         if f.take("stall_at_pose", idx):
-            from simulators.rapid.library import wait
             wait(task, f.stall_s)
         if f.take("drop_at_pose", idx):
             return [(b"__DROP__", False)]
@@ -289,7 +289,6 @@ def _faulted(net: Network, data: bytes, task: Any) -> list[tuple[bytes, bool]]:
 
 
 def _send_all(task: Any, dev: SocketDev, s: socket.socket, data: bytes, net: Network) -> None:
-    from simulators.rapid.interpreter import Stopped
 
     end = time.monotonic() + net.send_timeout_s
     view = memoryview(data)

@@ -9,6 +9,7 @@ that cannot be copied (a reference to the controller's socket).
 from __future__ import annotations
 
 import math
+import socket
 import struct
 from typing import Any
 
@@ -122,7 +123,7 @@ class SocketDev:
     __slots__ = ("local", "peer_closed", "sock", "state")
 
     def __init__(self) -> None:
-        self.sock = None
+        self.sock: socket.socket | None = None
         self.state = "none"
         self.peer_closed = False
         self.local: tuple[str, int] | None = None

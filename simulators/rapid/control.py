@@ -1,0 +1,46 @@
+"""How RAPID leaves a block: the interpreter's control transfers (not RAPID errors, which are
+`errors.RapidError`). The built-ins raise `Stopped` (Stop, EXIT, the controller's stop) and
+`ExitCycle`; the interpreter raises and catches the others."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from simulators.rapid.errors import RapidError
+
+
+class Stopped(BaseException):
+    """The program stops (Stop, an unhandled error, the controller's stop or PP to Main)."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+        super().__init__(reason)
+
+
+class Return(BaseException):
+    def __init__(self, value: Any):
+        self.value = value
+
+
+class Retry(BaseException):
+    pass
+
+
+class TryNext(BaseException):
+    pass
+
+
+class ExitCycle(BaseException):
+    pass
+
+
+class Propagate(BaseException):
+    """An error on its way to the caller's instruction (not handled by this routine again)."""
+
+    def __init__(self, error: RapidError):
+        self.error = error
+
+
+class Fatal(BaseException):
+    def __init__(self, error: RapidError):
+        self.error = error
