@@ -36,7 +36,7 @@ import json
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -100,12 +100,12 @@ class Realism:
 
     def scaled(self, factor: float, name: str) -> Realism:
         """Every non-geometric effect times `factor` (the masses' draw and the clock kept)."""
-        changes: dict[str, object] = {"name": name}
+        changes: dict[str, Any] = {"name": name}  # each field its own type: tuples or floats
         for key in _EFFECTS:
             value = getattr(self, key)
             changes[key] = tuple(factor * v for v in value) if isinstance(value, tuple) else \
                 factor * value
-        return replace(self, **changes)  # type: ignore[arg-type]
+        return replace(self, **changes)
 
     @property
     def payload(self) -> Payload:
@@ -207,8 +207,8 @@ def own_masses(nominal: tuple[LumpedMass, ...], realism: Realism,
     for m in nominal:
         kg = m.kg * (1.0 + rng.uniform(-realism.mass_spread, realism.mass_spread))
         shift = rng.uniform(-realism.centre_shift_mm, realism.centre_shift_mm, 3)
-        out.append(LumpedMass(m.link, float(kg),
-                              tuple(float(v) for v in np.asarray(m.home_mm) + shift)))  # type: ignore[arg-type]
+        x, y, z = (float(v) for v in np.asarray(m.home_mm) + shift)
+        out.append(LumpedMass(m.link, float(kg), (x, y, z)))
     return tuple(out)
 
 
@@ -242,9 +242,12 @@ def parse_list_payload(text: str) -> tuple[str, Payload]:
     try:
         if not sep or name.strip().upper() not in ("CAL", "PERF"):
             raise ValueError
-        xyz = tuple(float(v) for v in cog.split(",")) if cog else (0.0, 0.0, 0.0)
-        payload = Payload(float(kg), xyz)  # type: ignore[arg-type]
-        if len(xyz) != 3 or payload.kg < 0 or not np.all(np.isfinite([payload.kg, *xyz])):
+        values = [float(v) for v in cog.split(",")] if cog else [0.0, 0.0, 0.0]
+        if len(values) != 3:
+            raise ValueError
+        xyz = (values[0], values[1], values[2])
+        payload = Payload(float(kg), xyz)
+        if payload.kg < 0 or not np.all(np.isfinite([payload.kg, *xyz])):
             raise ValueError
     except ValueError:
         raise ValueError(f"'{text}': give LIST=KG or LIST=KG:X,Y,Z, LIST CAL or PERF, KG >= 0, "
