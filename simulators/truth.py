@@ -11,13 +11,16 @@ from pathlib import Path
 
 import numpy as np
 
-from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.calibration.virtual_joints import (
+    THESIS_TABLE11,
+    apply_virtual_joints,
+    perturbed_axes,
+)
 from screwcal.errors import ModelError
 from screwcal.instrument import STAND_MM
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.modelfile import parse_model
 from screwcal.kinematics.robots import irb1600
-from screwcal.kinematics.se3 import exp_twist
 from simulators.realism import IDEAL, Realism, with_realism
 from simulators.world import World
 
@@ -39,13 +42,7 @@ def random_errors(nominal: SerialModel, seed: int) -> SerialModel:
     names = ["J1rz", "J2ry", "J3rz", "J4rx", "J5ry", "J6rx"]
     errors = {n: float(rng.uniform(-3, 3)) for n in names}
     errors |= {n: float(rng.uniform(-0.5, 0.5)) for n in ("J1pz", "J1px", "J2pz", "J4px")}
-    model = apply_virtual_joints(nominal, errors)
-    dirs = model.axis_dirs + rng.normal(0, np.radians(0.05), (6, 3))
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    return replace(model, axis_dirs=dirs,
-                   axis_points_mm=model.axis_points_mm + rng.normal(0, 0.2, (6, 3)),
-                   home_flange=exp_twist(np.r_[rng.normal(0, 1e-3, 3), rng.normal(0, 0.2, 3)])
-                   @ model.home_flange)
+    return perturbed_axes(apply_virtual_joints(nominal, errors), rng)
 
 
 def true_robot(errors_file: str | None, seed: int | None) -> SerialModel:

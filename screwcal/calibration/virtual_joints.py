@@ -17,7 +17,7 @@ import numpy as np
 
 from screwcal.errors import ModelError
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.se3 import transform_from_rotation_translation
+from screwcal.kinematics.se3 import exp_twist, transform_from_rotation_translation
 
 # Table 11: the errors imposed on the simulated IRB 1600 (degrees for r, mm for p).
 THESIS_TABLE11: dict[str, float] = {
@@ -59,3 +59,14 @@ def apply_virtual_joints(model: SerialModel, errors: Mapping[str, float]) -> Ser
     flange = transform_from_rotation_translation(model.home_flange[:3, :3],
                                                  model.home_flange[:3, 3] + shift_flange)
     return replace(model, joint_zero=zero, axis_points_mm=points, home_flange=flange)
+
+
+def perturbed_axes(model: SerialModel, rng: np.random.Generator) -> SerialModel:
+    """`model` with the small errors no virtual joint describes, drawn from `rng`: every axis
+    tilted by ~0.05 deg and shifted by ~0.2 mm (1 sigma), the home flange moved by ~0.06 deg and
+    ~0.2 mm. The true robots of the simulated studies and of the emulators are drawn so."""
+    dirs = model.axis_dirs + rng.normal(0, np.radians(0.05), model.axis_dirs.shape)
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    points = model.axis_points_mm + rng.normal(0, 0.2, model.axis_points_mm.shape)
+    flange = exp_twist(np.r_[rng.normal(0, 1e-3, 3), rng.normal(0, 0.2, 3)]) @ model.home_flange
+    return replace(model, axis_dirs=dirs, axis_points_mm=points, home_flange=flange)

@@ -1,6 +1,6 @@
 """The `screwcal` console script: a thin face that only dispatches to each command's module.
 
-It is the one place that imports across packages (ARCHITECTURE.md): the core owns calibrate,
+It is the one place that imports across packages (docs/architecture.md): the core owns calibrate,
 predict, evaluate, ...; the simulators own `emulator`.
 """
 

@@ -3,18 +3,22 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from screwcal.calibration.identify import CalibrationResult, identify
 from screwcal.calibration.posesets import random_configurations
-from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.calibration.virtual_joints import (
+    THESIS_TABLE11,
+    apply_virtual_joints,
+    perturbed_axes,
+)
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import rotation_angle_deg
 from screwcal.kinematics.robots import irb1600
-from screwcal.kinematics.se3 import Array, exp_twist
+from screwcal.kinematics.se3 import Array
 from screwcal.studies.simulated_measurements import JOINT_NOISE_DEG, NOISE_MM, simulate_measurements
 
 
@@ -32,14 +36,7 @@ class DemoResult:
 def true_robot(seed: int | None) -> SerialModel:
     """The nominal IRB 1600 with Table 11's errors, plus random axis errors when seeded."""
     model = apply_virtual_joints(irb1600(), THESIS_TABLE11)
-    if seed is None:
-        return model
-    rng = np.random.default_rng(seed)
-    dirs = model.axis_dirs + rng.normal(0, np.radians(0.05), model.axis_dirs.shape)
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    points = model.axis_points_mm + rng.normal(0, 0.2, model.axis_points_mm.shape)
-    flange = exp_twist(np.r_[rng.normal(0, 1e-3, 3), rng.normal(0, 0.2, 3)]) @ model.home_flange
-    return replace(model, axis_dirs=dirs, axis_points_mm=points, home_flange=flange)
+    return model if seed is None else perturbed_axes(model, np.random.default_rng(seed))
 
 
 def run_demo(seed: int | None = None, n_poses: int = 40, n_validation: int = 200) -> DemoResult:
