@@ -21,6 +21,7 @@ that is reported and never used as a measurement. `ArmReader` reads it through
 from __future__ import annotations
 
 import re
+import socket
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -179,7 +180,12 @@ class ArmReader:
             raise ArmLineError(f"the measuring arm's port {self.url} failed: {err}") from err
 
     def close(self) -> None:
+        # pyserial's socket:// close() shuts the socket down first and skips its close() when
+        # that fails (the arm already hung up: ENOTCONN), leaving the descriptor open
+        sock: socket.socket | None = getattr(self.port, "_socket", None)
         self.port.close()
+        if sock is not None:
+            sock.close()
 
     def __enter__(self) -> ArmReader:
         return self

@@ -11,6 +11,7 @@ only when `service/readings.py` accepts it.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import time
 from collections import Counter
 from collections.abc import Sequence
@@ -102,6 +103,7 @@ class Acquisition:
         self.discarded: Counter[str] = Counter()  # arm readings refused, by kind
         self.client: ControllerClient | None = None
         self.arm: ArmReader | None = None
+        self._opening: asyncio.Future[ArmReader] | None = None  # the arm's port, opening
 
     # -- links ---------------------------------------------------------------------------------
     async def connect(self) -> None:
@@ -113,17 +115,24 @@ class Acquisition:
             await self.client.reconnect(attempts=3, first_delay_s=0.05)
         if self.arm is None:
             url = check_arm_url(self.robot["arm_url"])  # a record older than the check too
-            opening = asyncio.ensure_future(asyncio.to_thread(ArmReader, url))
-            try:
-                self.arm = await asyncio.shield(opening)
-            except asyncio.CancelledError:  # aborted while the port opened: close it when open
-                opening.add_done_callback(_close_opened)
-                raise
+            # the port opens in a thread that a cancellation cannot stop: `disconnect` (which
+            # every runner's end calls) waits for it and closes what it opened
+            self._opening = asyncio.ensure_future(asyncio.to_thread(ArmReader, url))
+            self.arm = await asyncio.shield(self._opening)
+            self._opening = None
 
     async def disconnect(self) -> None:
         if self.client is not None:
             await self.client.close()
             self.client = None
+        if self._opening is not None:  # aborted while the arm's port opened: close it once open
+            opening, self._opening = self._opening, None
+            try:
+                with contextlib.suppress(Exception):  # a failed opening has nothing to close
+                    self.arm = await asyncio.shield(opening)
+            except asyncio.CancelledError:  # cancelled again: the loop closes it when open
+                opening.add_done_callback(_close_opened)
+                raise
         if self.arm is not None:
             # pyserial's socket:// close() sleeps 0.3 s: never on the event loop.
             await asyncio.to_thread(self.arm.close)

@@ -1,0 +1,43 @@
+"""The arm's port is closed for good even when the arm hung up first (pyserial's socket:// close
+skips closing a socket whose shutdown fails: a descriptor leaked per aborted job)."""
+
+import socket
+import struct
+import threading
+import time
+
+from protocol.arm import ArmReader
+
+
+def _server_that_resets() -> tuple[socket.socket, threading.Thread]:
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+
+    def reset_the_first_client() -> None:
+        conn, _ = server.accept()
+        conn.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+        conn.close()  # a reset, not a FIN: the client's socket is no longer connected
+
+    thread = threading.Thread(target=reset_the_first_client)
+    thread.start()
+    return server, thread
+
+
+def test_close_after_the_arm_reset_the_connection_closes_the_socket():
+    server, thread = _server_that_resets()
+    try:
+        reader = ArmReader(f"socket://127.0.0.1:{server.getsockname()[1]}")
+        thread.join(5)
+        sock = reader.port._socket
+        time.sleep(0.05)  # the reset arrives
+        try:
+            sock.shutdown(socket.SHUT_RDWR)  # what pyserial's close() tries first
+            reset_seen = False
+        except OSError:
+            reset_seen = True
+        reader.close()
+        assert reset_seen, "the connection was not reset: the test shows nothing"
+        assert sock.fileno() == -1, "the socket was left open"
+    finally:
+        server.close()
