@@ -208,18 +208,23 @@ class Evaluator:
                              f"{type(b).__name__}", e.line) from None
 
     def _call(self, e: A.Call, frame: Frame) -> Any:
-        key = self._keys.get(id(e))
+        return self.invoke(e, frame, "FUNC")
+
+    def invoke(self, node: A.Call | A.ProcCall, frame: Frame, kind: str) -> Any:
+        """A function call's value, or a procedure call's effect: the module's routine of that
+        `kind` (FUNC or PROC) when there is one, else the built-in of that name."""
+        key = self._keys.get(id(node))
         if key is None:
-            key = self._keys[id(e)] = e.key
+            key = self._keys[id(node)] = node.key
         r = self.routines.get(key)
-        if r is not None and r.kind == "FUNC":
-            pos, opt = self._bind(e.args, frame, r)
-            return self.call(r, pos, opt, e.line)
+        if r is not None and r.kind == kind:
+            pos, opt = self._bind(node.args, frame, r)
+            return self.call(r, pos, opt, node.line)
         b = BUILTINS[key]
-        pos, opt = self._builtin_args(e.args, frame, b)
+        pos, opt = self._builtin_args(node.args, frame, b)
         try:
             return b.fn(self, pos, opt)
         except RapidError as err:
             if err.line is None:
-                err.line = e.line
+                err.line = node.line
             raise

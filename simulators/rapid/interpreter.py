@@ -312,17 +312,7 @@ class Task(Evaluator):
         target.set(value)
 
     def _proc_call(self, st: A.ProcCall, frame: Frame) -> None:
-        key = self._keys.get(id(st))
-        if key is None:
-            key = self._keys[id(st)] = st.key
-        r = self.routines.get(key)
-        if r is not None and r.kind == "PROC":
-            pos, opt = self._bind(st.args, frame, r)
-            self.call(r, pos, opt, st.line)
-            return
-        b = BUILTINS[key]
-        pos, opt = self._builtin_args(st.args, frame, b)
-        b.fn(self, pos, opt)
+        self.invoke(st, frame, "PROC")
 
     def _if(self, st: A.If, frame: Frame) -> None:
         for cond, body in st.branches:
