@@ -60,13 +60,17 @@ def test_joint_directions_and_tool0_follow_each_maker():
     assert LIBRARY["m20ia"].model().axis_dirs[5].tolist() == [-1, 0, 0]
 
 
-def test_a_wrong_dimension_fails_the_reach_check():
-    """The check is not built from the figure it holds: a forearm 20 mm short misses it."""
-    from screwcal.kinematics.robots import wrist_arm
-
-    short = wrist_arm("x", base_mm=330, shoulder_mm=50, upper_arm_mm=330, forearm_offset_mm=35,
-                      forearm_mm=315, flange_mm=80, limits_deg=[[-170, 170]] * 6)
-    assert abs(reach_mm(short) - 717.0) > LIBRARY["lrmate200id"].check.tol_mm
+@pytest.mark.parametrize("name", [e.name for e in ENTRIES if e.check.what == "reach_mm"])
+def test_a_robot_3_percent_too_small_fails_its_reach_check(name):
+    """The check discriminates: the library's own arm with every length 3 % short (axis points
+    and flange scaled about the base) misses its datasheet figure, by about 3 % of the reach."""
+    entry = LIBRARY[name]
+    model = entry.model()
+    flange = model.home_flange.copy()
+    flange[:3, 3] *= 0.97
+    small = replace(model, axis_points_mm=0.97 * model.axis_points_mm, home_flange=flange)
+    assert reach_mm(small) == pytest.approx(0.97 * reach_mm(model), rel=1e-3)
+    assert abs(reach_mm(small) - entry.check.value[0]) > entry.check.tol_mm
 
 
 def test_unknown_robot_names_what_is_accepted():
