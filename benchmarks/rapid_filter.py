@@ -54,7 +54,7 @@ def main() -> None:
         folder = Path(tmp)
         (folder / "in.mod").write_text(module_text(args.targets, np.random.default_rng(0)))
         save_model(apply_virtual_joints(irb1600(), THESIS_TABLE11), folder / "model.json")
-        cmd = [sys.executable, "-m", "screwcal", "compensate", "--model",
+        cmd = [sys.executable, "-m", "screwcal", "compensate", "--result",
                str(folder / "model.json"), "--robot", "irb1600", "--rapid",
                str(folder / "in.mod"), "--out", str(folder / "out.mod")]
         done = subprocess.run(cmd, capture_output=True, text=True)

@@ -2,7 +2,7 @@
 
     screwcal serve [--db screwcal.db | postgresql://...] [--host 127.0.0.1] [--port 8080]
                    [--token T]
-    screwcal job robot-add --name N --controller HOST:PORT --arm URL [--model irb1600]
+    screwcal job robot-add --name N --controller HOST:PORT --arm URL [--robot irb1600]
     screwcal job start --robot ID --kind procedure|calibration|performance [--mode STEP]
     screwcal job watch ID        # progress; in STEP mode asks before every move
     screwcal job abort ID
@@ -23,7 +23,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from screwcal.commands.options import finite_float, non_negative_float, vec3
+from screwcal.commands.options import (
+    ERROR_MODELS,
+    add_option,
+    add_vector,
+    non_negative_float,
+    positive_int,
+)
 from service.errors import ServiceError
 
 if TYPE_CHECKING:  # imported where used: `screwcal --help` pays for neither
@@ -113,7 +119,7 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                                    f"{args.controller!r}")
             robot = op.add_robot(name=args.name, controller_host=host,
                                  controller_port=int(port), arm_url=args.arm,
-                                 model=_model_argument(args.model), serial=args.serial,
+                                 model=_model_argument(args.robot), serial=args.serial,
                                  controller_software=args.controller_software,
                                  tool=args.tool, payload_kg=args.payload_kg)
             print(f"robot {robot['id']}: {robot['name']}")
@@ -131,10 +137,11 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                                    "to answer: run it from a terminal, or start it with "
                                    "--no-watch and answer with `screwcal job watch ID` there")
             options: dict[str, Any] = {"cycles": args.cycles,
-                                       "calibration_poses": args.poses, "model": args.model,
+                                       "calibration_poses": args.poses,
+                                       "model": args.error_model,
                                        "correction": args.correction}
-            if args.arm_position:
-                options["arm_position_mm"] = args.arm_position
+            if args.arm_position_mm:
+                options["arm_position_mm"] = list(args.arm_position_mm)
             if args.frame_from_job:
                 options["frame_from_job"] = args.frame_from_job
             options |= _model_options(args)
@@ -183,7 +190,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "postgresql://user@host/name URL: several services may share a PostgreSQL "
                    "database, each job held by one of them (SCREWCAL_LEASE_S)")
     s.add_argument("--host", default=None, help="bind address (default 127.0.0.1)")
-    s.add_argument("--port", type=int, default=None, help="port (default 8080; 0: free one)")
+    s.add_argument("--port", type=int, default=None, help="TCP port (default 8080; 0: a free "
+                   "one)")
     s.add_argument("--token", default=None, help="bearer token (or SCREWCAL_TOKEN)")
     s.set_defaults(func=run_serve)
 
@@ -198,15 +206,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     actions.add_parser("robot-list", parents=[common], help="the robots the service knows")
     actions.add_parser("list", parents=[common], help="the jobs, newest last")
     r = actions.add_parser("robot-add", parents=[common], help="register a robot cell")
-    r.add_argument("--name", required=True)
+    r.add_argument("--name", required=True, help="the cell's name (unique on the service)")
     r.add_argument("--controller", required=True, help="HOST:PORT of the controller")
     r.add_argument("--arm", required=True, help="pyserial URL of the measuring arm")
-    r.add_argument("--model", default="irb1600", help="built-in robot, or a model file read "
-                   "here (relative to this directory) and sent to the service")
+    add_option(r, "--robot", renamed=["--model"], default="irb1600",
+               help="library robot (screwcal robot list), or a robot or calibrated model file "
+               "read here (relative to this directory) and sent to the service")
     r.add_argument("--serial", default="", help="the robot's serial number")
     r.add_argument("--controller-software", default="", help="e.g. 'RobotWare 6.15'")
     r.add_argument("--tool", default="", help="the tool mounted")
-    r.add_argument("--payload-kg", type=finite_float, default=None)
+    r.add_argument("--payload-kg", type=non_negative_float, default=None,
+                   help="the mass the robot usually carries on its flange")
     h = actions.add_parser("history", parents=[common], help="a robot's jobs and models with "
                            "their provenance, its accuracy trend and drift alarm (exit 2 when "
                            "the alarm is on)")
@@ -216,32 +226,37 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     st.add_argument("--kind", choices=["procedure", "calibration", "performance", "verify"],
                     default="procedure", help="verify: a short ISO 9283 test with the robot's "
                     "newest model (10 cycles unless --cycles), no estimation")
-    st.add_argument("--mode", choices=["AUTO", "STEP"], default="AUTO")
-    st.add_argument("--cycles", type=int, default=30, help="ISO 9283 cycles")
-    st.add_argument("--poses", type=int, default=40, help="calibration poses")
-    st.add_argument("--model", choices=["thesis", "full", "joints"], default="full",
-                    help="error model (default full)")
+    st.add_argument("--mode", choices=["AUTO", "STEP"], default="AUTO",
+                    help="AUTO (default) runs through; STEP asks before every move")
+    st.add_argument("--cycles", type=positive_int, default=30,
+                    help="ISO 9283 cycles (default 30)")
+    st.add_argument("--poses", type=positive_int, default=40,
+                    help="calibration poses (default 40)")
+    add_option(st, "--error-model", renamed=["--model"], choices=ERROR_MODELS, default="full",
+               help="error model identified (default full)")
     st.add_argument("--correction", choices=["compensate", "zero", "zero+compensate"],
                     default="compensate", help="procedure's correction route (default "
                     "compensate: the later lists' joint targets; zero: ZERO, thesis 4.5)")
-    st.add_argument("--arm-position", type=finite_float, nargs=3, metavar=("X", "Y", "Z"))
+    add_vector(st, "--arm-position-mm", renamed=["--arm-position"],
+               help="the measuring arm's base in the robot base frame (default: the plan's)")
     st.add_argument("--frame-from-job", type=int, metavar="JOB",
                     help="performance: measure in the base frame an earlier job identified")
     _add_model_options(st)
-    st.add_argument("--no-watch", action="store_true")
+    st.add_argument("--no-watch", action="store_true",
+                    help="start the job and return (follow it with screwcal job watch ID)")
     for name, text in (("watch", "follow a job (STEP: answer the prompts)"),
                        ("abort", "abort a job"), ("result", "print a job's result table")):
         a = actions.add_parser(name, parents=[common], help=text)
-        a.add_argument("id", type=int)
+        a.add_argument("id", type=int, help="the job's id (screwcal job list)")
     mod = actions.add_parser("model", parents=[common],
                              help="save a job's calibrated model (result document)")
-    mod.add_argument("id", type=int)
+    mod.add_argument("id", type=int, help="the job's id (screwcal job list)")
     mod.add_argument("--out", required=True, help="JSON file to write")
     mod.add_argument("--round", type=int, choices=[1, 2], default=1,
                      help="the second calibration round's model (procedure with rounds 2)")
     rep = actions.add_parser("report", parents=[common], help="save a job's report page")
-    rep.add_argument("id", type=int)
-    rep.add_argument("--out", required=True)
+    rep.add_argument("id", type=int, help="the job's id (screwcal job list)")
+    rep.add_argument("--out", required=True, help="HTML file to write")
     for a in actions.choices.values():
         a.set_defaults(func=run_job)
 
@@ -262,12 +277,12 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--payload-kg", type=non_negative_float, default=0.0,
                     help="mass on the flange during the performance lists, and the calibration "
                     "list unless --calibration-payload-kg (kg, default 0)")
-    p.add_argument("--payload-cog-mm", type=vec3, default=(0.0, 0.0, 0.0), metavar="X,Y,Z",
-                    help="its centre of gravity in the flange (tool0) frame, mm")
+    add_vector(p, "--payload-cog-mm", default=(0.0, 0.0, 0.0),
+               help="its centre of gravity in the flange (tool0) frame (default 0 0 0)")
     p.add_argument("--calibration-payload-kg", type=non_negative_float, default=None,
                     help="mass on the flange during the calibration list (kg)")
-    p.add_argument("--calibration-payload-cog-mm", type=vec3, default=(0.0, 0.0, 0.0),
-                    metavar="X,Y,Z", help="its centre of gravity in the flange frame, mm")
+    add_vector(p, "--calibration-payload-cog-mm", default=(0.0, 0.0, 0.0),
+               help="its centre of gravity in the flange frame (default 0 0 0)")
 
 
 def _model_options(args: argparse.Namespace) -> dict[str, Any]:

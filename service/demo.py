@@ -112,7 +112,7 @@ def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool) -> DemoR
     out_dir.mkdir(parents=True, exist_ok=True)
     options = {"cycles": args.cycles, "calibration_poses": poses,
                "arm_position_mm": list(ARM_POSITION_MM), "correction": args.correction,
-               "model": args.model}
+               "model": args.error_model}
     with tempfile.TemporaryDirectory() as tmp:
         token = secrets.token_urlsafe(16)
         settings = ServiceSettings(db_path=Path(tmp) / "screwcal.db", token=token,

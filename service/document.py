@@ -26,6 +26,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from screwcal.calibration.error_parameters import ModelKind
 from screwcal.performance.iso9283 import PoseMetrics
 from service.phases import Round
 
@@ -46,9 +47,10 @@ class Section(BaseModel):
 # -- a job, its options and its phases ------------------------------------------------------------
 class JobOptions(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    model: Literal["thesis", "full", "joints"] = Field(
+    model: ModelKind = Field(
         "full", description="error model identified: full (every identifiable parameter, "
-        "frames identified) or the thesis's virtual joints")
+        "frames identified), thesis (the thesis's virtual joints), joints (the joint offsets) "
+        "or frames (the nominal robot, only the frames fitted)")
     correction: Literal["compensate", "zero", "zero+compensate"] = Field(
         "compensate", description="procedure: compensate the later lists' joint targets "
         "(nothing changes in the controller), ZERO the joint offsets (thesis 4.5), or both")

@@ -171,14 +171,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     irc5 = which.add_parser("irc5", help="the robot controller (wire protocol v1)",
                             description=__doc__,
                             formatter_class=argparse.RawDescriptionHelpFormatter)
-    irc5.add_argument("--host", default="127.0.0.1")
-    irc5.add_argument("--port", type=int, default=4012)
+    irc5.add_argument("--host", default="127.0.0.1", help="bind address (default 127.0.0.1)")
+    irc5.add_argument("--port", type=int, default=4012,
+                      help="TCP port of the wire protocol (default 4012; 0: a free one)")
     errors = irc5.add_mutually_exclusive_group()
     errors.add_argument("--errors", help="JSON of virtual-joint errors, or a true model file")
     errors.add_argument("--seed", type=int, default=None, help="random true errors")
     irc5.add_argument("--time-scale", type=float, default=1.0,
                       help="motion time factor (0: instant)")
-    irc5.add_argument("--speed-deg-s", type=float, default=60.0, help="joint speed")
+    irc5.add_argument("--speed-deg-s", type=float, default=60.0,
+                      help="joint speed (default 60)")
     irc5.add_argument("--program", type=Path, default=None, metavar="FILE.mod",
                       help="the RAPID module to run (default: the shipped ScrewcalServer.mod)")
     irc5.add_argument("--verbose", action="store_true",
@@ -198,8 +200,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     irc5.set_defaults(func=run)
     arm = which.add_parser("arm", help="the measuring arm ($PT lines)", description=__doc__,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
-    arm.add_argument("--host", default="127.0.0.1")
-    arm.add_argument("--port", type=int, required=True)
+    arm.add_argument("--host", default="127.0.0.1", help="bind address (default 127.0.0.1)")
+    arm.add_argument("--port", type=int, required=True, help="TCP port of the $PT lines")
     arm.add_argument("--world", help="the world file a running irc5 emulator printed")
     arm.add_argument("--pty", action="store_true", help="also serve a pty (a serial device)")
     arm.add_argument("--seed", type=int, default=None, help="noise seed")

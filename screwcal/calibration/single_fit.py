@@ -39,7 +39,7 @@ from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
 POSE_ROWS = {"pose": 6, "position": 3}  # equations per pose (distances: per pair)
-NOT_CONVERGED_HINT = ("; NOT converged: try a simpler model (--model thesis or joints), more "
+NOT_CONVERGED_HINT = ("; NOT converged: try a simpler model (--error-model thesis or joints), more "
                       "poses spread over the joint ranges, or a starting base frame "
                       "(--base-guess)")
 

@@ -2,8 +2,9 @@
 (COMPENSATE_DOC, ALIGN_DOC); docs/formats.md.
 
     screwcal calibrate --robot irb1600 --data measurements.csv --out result.json
-                       [--model full|thesis|joints] [--solver lm|de] [--weight-mm W]
-                       [--base-frame unknown|known] [--residual pose|position|distance]
+                       [--error-model full|thesis|joints|frames] [--solver lm|de]
+                       [--weight-mm W] [--base-frame unknown|known]
+                       [--residual pose|position|distance]
 
 --robot is a library robot (`screwcal robot list`) or a robot file (`screwcal robot import`,
 docs/robots.md). By default the measuring system's frame and the measured point's offset from
@@ -12,6 +13,7 @@ already in the robot base frame and the measured point is the flange. `--weight-
 the thesis's Eq. 2.4 objective with that W; otherwise residuals are weighted statistically by
 the noise levels, which are estimated from the data (variance components) unless `--noise-mm`
 / `--joint-noise-deg` fix them; the result reports the levels used with their uncertainty.
+`--model` is the offline contract's name of `--error-model`.
 """
 
 from __future__ import annotations
@@ -23,10 +25,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
 from screwcal.commands.options import (
+    ERROR_MODELS,
+    add_option,
+    add_vector,
     check_outputs,
     non_negative_float,
     positive_float,
-    vec3,
 )
 
 if TYPE_CHECKING:
@@ -50,9 +54,10 @@ reading), x, y, z (mm), in the order probed, at least 8 rows.
 
 COMPENSATE_DOC = """`screwcal compensate`: make the calibrated robot reach what is asked of it.
 
-    screwcal compensate --model result.json --rapid IN.mod --out OUT.mod [--tool T] [--wobj W]
-    screwcal compensate --model result.json --targets base.csv --out compensated.csv
-    screwcal compensate --model result.json --measuring-targets meas.csv --out compensated.csv
+    screwcal compensate --result result.json --rapid IN.mod --out OUT.mod [--tool T] [--wobj W]
+    screwcal compensate --result result.json --targets base.csv --out compensated.csv
+    screwcal compensate --result result.json --measuring-targets meas.csv \
+        --out compensated.csv
 
 --rapid rewrites every robtarget so that the nominal controller drives the joints to where the
 calibrated robot reaches the original target (confdata recomputed), keeps the rest of the file
@@ -89,14 +94,14 @@ def run_calibrate(args: argparse.Namespace) -> int:
     if args.base_guess:
         base_guess = base_from_sweeps(nominal, *read_sweeps_csv(args.base_guess))
     try:
-        result = identify(nominal, data, kind=args.model, residual=args.residual,
+        result = identify(nominal, data, kind=args.error_model, residual=args.residual,
                           frames=args.base_frame, solver=args.solver, weighting=weighting,
                           weight_mm=args.weight_mm or 1.0, noise=noise, base_guess=base_guess,
                           outliers=args.outliers, compliance=args.compliance, lag=args.lag,
                           plausible=args.plausible or plausible_ranges(""))
     except IdentificationError as err:  # the data cannot give what was asked: say which data
         raise DataFileError(args.data, str(err)) from None
-    settings = {"model": args.model, "solver": args.solver, "base_frame": args.base_frame,
+    settings = {"model": args.error_model, "solver": args.solver, "base_frame": args.base_frame,
                 "residual": result.residual_kind, "weighting": weighting,
                 "weight_mm": args.weight_mm, "noise_mm": args.noise_mm,
                 "joint_noise_deg": args.joint_noise_deg, "data": str(args.data),
@@ -105,7 +110,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
     doc = result_document(result, nominal.name, settings)
     write_json_atomic(args.out, doc)
     b, a = doc["residuals"]["summary_before"], doc["residuals"]["summary_after"]
-    print(f"{args.model} model, {len(data)} poses, rank {result.rank}/{result.n_candidates}: "
+    print(f"{args.error_model} model, {len(data)} poses, rank {result.rank}/"
+          f"{result.n_candidates}: "
           f"residual mean {b['mean']:.3f} -> {a['mean']:.3f} mm, max {b['max']:.3f} -> "
           f"{a['max']:.3f} mm{'' if result.converged else ' (NOT converged)'} -> {args.out}")
     if result.noise is not None:
@@ -169,8 +175,8 @@ def add_payload_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--payload-kg", type=non_negative_float, default=None,
                    help="mass on the flange (joint compliance scales with it; default: the "
                    "model's)")
-    p.add_argument("--payload-cog-mm", type=vec3, default=(0.0, 0.0, 0.0), metavar="X,Y,Z",
-                   help="its centre of gravity in the flange (tool0) frame")
+    add_vector(p, "--payload-cog-mm", default=(0.0, 0.0, 0.0),
+               help="its centre of gravity in the flange (tool0) frame, mm (default 0 0 0)")
 
 
 def _noise_line(noise: dict) -> str:
@@ -192,11 +198,11 @@ def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
     source = args.rapid or args.targets or args.measuring_targets
-    check_outputs([args.out], [args.model, source])
-    calibrated = with_payload(load_model(args.model), args)  # a payload other than the model's
-    document = json.loads(Path(args.model).read_text(encoding="utf-8"))
-    nominal = nominal_of(document, args.model, args.robot) or calibrated
-    _refuse_position_only(document, args.model)
+    check_outputs([args.out], [args.result, source])
+    calibrated = with_payload(load_model(args.result), args)  # a payload other than the result's
+    document = json.loads(Path(args.result).read_text(encoding="utf-8"))
+    nominal = nominal_of(document, args.result, args.robot) or calibrated
+    _refuse_position_only(document, args.result)
     if args.rapid:
         return _compensate_rapid(args, calibrated, nominal)
     frame: Literal["base", "measuring"] = "base" if args.targets else "measuring"
@@ -343,8 +349,10 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--length-unit", choices=["mm", "m", "in"], default="mm",
                    help="unit of the file's x, y, z (default mm; points that look like metres "
                    "or inches are refused)")
-    p.add_argument("--model", choices=["full", "thesis", "joints", "frames"], default="full",
-                   help="error model (frames: the nominal robot, only the frames fitted)")
+    p.add_argument("--error-model", "--model", dest="error_model", choices=ERROR_MODELS,
+                   default="full", help="error model identified (default full; frames: the "
+                   "nominal robot, only the frames fitted); --model is the offline contract's "
+                   "spelling of it")
     p.add_argument("--solver", choices=["lm", "de"], default="lm",
                    help="Levenberg-Marquardt (default) or differential evolution then LM")
     p.add_argument("--weight-mm", type=positive_float, default=None,
@@ -387,7 +395,9 @@ def _add_compensate(sub: argparse._SubParsersAction) -> None:
     c = sub.add_parser(
         "compensate", help="targets and RAPID programs compensated for the calibrated robot",
         description=COMPENSATE_DOC, formatter_class=argparse.RawDescriptionHelpFormatter)
-    c.add_argument("--model", required=True, help="calibration result (or model file)")
+    add_option(c, "--result", renamed=["--model"], required=True,
+               help="calibration result (screwcal calibrate), or a calibrated model file "
+               "(screwcal job model)")
     what = c.add_mutually_exclusive_group(required=True)
     what.add_argument("--rapid", metavar="IN.mod", help="a RAPID module: every robtarget "
                       "declaration rewritten (tool and work object applied)")

@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from screwcal.commands.options import ERROR_MODELS, add_option
 from service.demo import DEFAULT_POSES, DEFAULT_POSES_REAL, NOISE_SEED
 
 
@@ -136,8 +137,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    f"{DEFAULT_POSES_REAL} otherwise)")
     p.add_argument("--correction", choices=["compensate", "zero", "zero+compensate"],
                    default="compensate", help="correction route (default compensate)")
-    p.add_argument("--model", choices=["full", "thesis"], default="full",
-                   help="error model identified (default full)")
+    add_option(p, "--error-model", renamed=["--model"], choices=ERROR_MODELS, default="full",
+               help="error model identified (default full)")
     p.add_argument("--time-scale", type=float, default=0.002,
                    help="motion time factor of the emulated robot")
     p.add_argument("--realism", choices=["ideal", "typical", "harsh"], default="typical",

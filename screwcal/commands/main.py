@@ -59,7 +59,9 @@ def _command_named(argv: Sequence[str]) -> str | None:
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser(_command_named(argv))
-    args = parser.parse_args(argv)
+    from screwcal.commands.options import old_vector_words, vector_options
+
+    args = parser.parse_args(old_vector_words(argv, vector_options(parser)))
     try:
         code = int(args.func(args))
         sys.stdout.flush()  # a reader gone shows here (a pipe buffers), not at exit

@@ -1,9 +1,11 @@
 """`screwcal predict`: the pose of the measured point that a model gives for joint readings.
 
-    screwcal predict --model irb1600 --joints joints.csv --out predicted.csv
+    screwcal predict --result result.json --joints joints.csv --out predicted.csv
+    screwcal predict --robot irb1600 --joints joints.csv --out predicted.csv
 
-A library robot's name predicts the nominal flange (tool0) pose in the robot base frame; a model or
-calibration-result file predicts the measured point in the measuring system's frame.
+--result (a calibration result, or a calibrated model file) predicts the measured point in the
+measuring system's frame; --robot (a library robot or a robot file) the nominal flange (tool0)
+pose in the robot base frame. --model, the offline contract's spelling, takes either.
 """
 
 from __future__ import annotations
@@ -24,8 +26,14 @@ def run(args: argparse.Namespace) -> int:
     from screwcal.kinematics.pose import pose_from_transform
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
-    check_outputs([args.out], [args.joints, args.model])
-    model = with_payload(resolve_model(args.model), args)
+    given = args.result or args.robot or args.model
+    check_outputs([args.out], [args.joints, given])
+    if args.result:
+        from screwcal.kinematics.modelfile import load_model
+
+        model = with_payload(load_model(args.result), args)
+    else:
+        model = with_payload(resolve_model(given), args)
     table = read_numeric_csv(args.joints, joint_columns(model.n_joints))
     q_deg = table.values
     outside = np.logical_not(model.within_limits(model.joints_from_deg(q_deg)))
@@ -43,9 +51,16 @@ def run(args: argparse.Namespace) -> int:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("predict", help="predict measured-point poses from joint readings",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--model", required=True,
-                   help="library robot (screwcal robot list), a robot / model file "
-                   "or a calibration result")
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--result", metavar="FILE",
+                       help="calibration result, or calibrated model file: the measured point "
+                       "in the measuring frame")
+    which.add_argument("--robot", metavar="NAME|FILE",
+                       help="library robot (screwcal robot list) or robot file: the nominal "
+                       "flange in the robot base frame")
+    which.add_argument("--model", metavar="NAME|FILE",
+                       help="the offline contract's spelling: a result or model file, or a "
+                       "library robot's name")
     p.add_argument("--joints", required=True, help="CSV with q1..q6 in degrees, optional id")
     p.add_argument("--out", required=True, help="CSV to write: id, x, y, z (mm), rx, ry, rz (deg)")
     from screwcal.commands.calibrate import add_payload_arguments

@@ -34,11 +34,14 @@ def run(args: argparse.Namespace) -> int:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("study", help="simulated calibration studies (thesis Chapter 3)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("name", choices=[*STUDY_NAMES, "all"])
-    p.add_argument("--seed", type=int, default=2018)
-    p.add_argument("--samples", type=positive_int, default=20)
-    p.add_argument("--workers", type=positive_int, default=2)
-    p.add_argument("--out", default="studies")
+    p.add_argument("name", choices=[*STUDY_NAMES, "all"], help="the study, or all of them")
+    p.add_argument("--seed", type=int, default=2018, help="random seed (default 2018)")
+    p.add_argument("--samples", type=positive_int, default=20,
+                   help="random samples of the study, one seed each (default 20)")
+    p.add_argument("--workers", type=positive_int, default=2,
+                   help="processes run in parallel (default 2)")
+    p.add_argument("--out", default="studies", help="folder for the tables and figures "
+                   "(default ./studies)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the samples on a Dask distributed cluster (tcp://host:port)")
     p.set_defaults(func=run)

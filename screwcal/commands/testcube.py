@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 
 from screwcal.commands.options import (
+    add_option,
+    add_vector,
     check_outputs,
     finite_float,
     positive_float,
@@ -32,10 +34,12 @@ def run(args: argparse.Namespace) -> int:
 
     check_outputs([args.out, args.plot], [args.robot])
     model = resolve_model(args.robot)
-    arm = ArmSphere(tuple(args.arm_centre), args.arm_radius) if args.arm_centre else None
-    cube = find_test_cube(model, args.edge_mm, orientation_deg=args.orientation or FLANGE_DOWN_DEG,
-                          approach_mm=args.approach, arm=arm, floor_z_mm=args.floor_z,
-                          centre_mm=args.centre)
+    arm = ArmSphere(tuple(args.arm_centre_mm), args.arm_radius_mm) if args.arm_centre_mm \
+        else None
+    cube = find_test_cube(model, args.edge_mm,
+                          orientation_deg=args.orientation_deg or FLANGE_DOWN_DEG,
+                          approach_mm=args.approach_mm, arm=arm, floor_z_mm=args.floor_z_mm,
+                          centre_mm=args.centre_mm)
     plans = performance_pose_list(model, cube, args.cycles)
     write_pose_list(args.out, plans)
     c = cube.centre_mm
@@ -58,16 +62,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="pose list CSV to write")
     p.add_argument("--edge-mm", type=positive_float, default=None,
                    help="cube edge (default: the largest that fits)")
-    p.add_argument("--centre", type=finite_float, nargs=3, metavar=("X", "Y", "Z"),
-                   help="use the cube with this centre (mm, robot base frame; needs --edge-mm)")
+    add_vector(p, "--centre-mm", renamed=["--centre"],
+               help="use the cube with this centre (robot base frame; needs --edge-mm)")
     p.add_argument("--cycles", type=positive_int, default=30, help="measuring cycles (default 30)")
-    p.add_argument("--orientation", type=finite_float, nargs=3, default=None,
-                   metavar=("RX", "RY", "RZ"), help="tool orientation, deg (default flange down)")
-    p.add_argument("--approach", type=finite_float, nargs=3, default=[0.0, 0.0, 50.0],
-                   metavar=("DX", "DY", "DZ"), help="return point offset, mm (default 0 0 50)")
-    p.add_argument("--arm-centre", type=finite_float, nargs=3, metavar=("X", "Y", "Z"),
-                   help="measuring arm base in the robot frame, mm: keep the cube in its reach")
-    p.add_argument("--arm-radius", type=positive_float, default=1200.0, help="arm reach, mm")
-    p.add_argument("--floor-z", type=finite_float, default=0.0, help="lowest allowed z, mm")
+    add_vector(p, "--orientation-deg", renamed=["--orientation"], metavar=("RX", "RY", "RZ"),
+               help="tool orientation (default flange down)")
+    add_vector(p, "--approach-mm", renamed=["--approach"], default=(0.0, 0.0, 50.0),
+               metavar=("DX", "DY", "DZ"), help="return point offset (default 0 0 50)")
+    add_vector(p, "--arm-centre-mm", renamed=["--arm-centre"],
+               help="measuring arm base in the robot frame: keep the cube in its reach")
+    add_option(p, "--arm-radius-mm", renamed=["--arm-radius"], type=positive_float,
+               default=1200.0, help="the measuring arm's reach (default 1200)")
+    add_option(p, "--floor-z-mm", renamed=["--floor-z"], type=finite_float, default=0.0,
+               help="lowest allowed z in the robot base frame (default 0)")
     p.add_argument("--plot", help="PNG of the cube, plane, points and robot")
     p.set_defaults(func=run)

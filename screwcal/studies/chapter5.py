@@ -41,7 +41,7 @@ CHAPTER5_NOTE = ("Chapter 5 replayed (25.7 -> 7.1 mm in the thesis, T_PO as meas
                  "model, ZERO) against ours (frames identified, full model, compensated "
                  "commands), scored as measured and as the robot itself performs, and at home "
                  "(Table 14). The same two routes run end to end on the emulated IRC5 and arm "
-                 "through the job service: `screwcal demo --correction zero --model thesis` "
+                 "through the job service: `screwcal demo --correction zero --error-model thesis` "
                  "(the thesis's) and `screwcal demo` (ours); their tables give ISO 9283 AP and "
                  "the home check before and after.")
 CHAPTER5_WHY = ("the thesis's robot, arm placement and hand alignment are its own (its real "

@@ -20,7 +20,7 @@ def create_robot(body: RobotCreate, _: Auth, store: StoreDep) -> dict:
         # never a path on the server: not opened, and one message whatever the path
         raise HTTPException(422, f"model: {body.model[:80]!r} is not a built-in robot "
                             f"({', '.join(sorted(BUILTIN_MODELS))}); send the model "
-                            "itself as a JSON document (`screwcal job robot-add --model "
+                            "itself as a JSON document (`screwcal job robot-add --robot "
                             "FILE` reads FILE on your side and sends it)")
     try:
         model = builtin_model(body.model) if isinstance(body.model, str) else \

@@ -240,7 +240,7 @@ def _operator_on(app):
 
 
 def test_the_operator_cli_end_to_end(tmp_path, monkeypatch, capsys):
-    """Robots by name, lists, options after the action, a relative --model read here and sent
+    """Robots by name, lists, options after the action, a relative --robot file read here and sent
     as a document, STEP without a terminal refused, watch of a finished job prints its
     summary."""
     import json
@@ -277,7 +277,7 @@ def test_the_operator_cli_end_to_end(tmp_path, monkeypatch, capsys):
     def _cli_session(url):
         out = {}
         out["add"] = run("job", "robot-add", "--name", "cell1", "--controller",
-                         "127.0.0.1:1", "--arm", "socket://127.0.0.1:2", "--model",
+                         "127.0.0.1:1", "--arm", "socket://127.0.0.1:2", "--robot",
                          "cell.json", "--service", url, "--token", TOKEN)
         out["dup"] = run("job", "--service", url, "--token", TOKEN, "robot-add", "--name",
                          "cell1", "--controller", "127.0.0.1:1", "--arm", "loop://")

@@ -128,7 +128,7 @@ def test_compensate_refuses_a_position_only_model(tmp_path, capsys):
     assert "position-only model" in printed and "held at nominal" in printed
     targets = tmp_path / "t.csv"
     targets.write_text("id,x,y,z,rx,ry,rz\na,800,100,900,0,80,0\n")
-    assert main(["compensate", "--model", str(out), "--targets", str(targets),
+    assert main(["compensate", "--result", str(out), "--targets", str(targets),
                  "--out", str(tmp_path / "c.csv")]) == 2
     assert "position-only" in capsys.readouterr().err
     assert not (tmp_path / "c.csv").exists()

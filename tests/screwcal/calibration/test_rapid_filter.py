@@ -189,7 +189,7 @@ def test_compensate_rapid_command(tmp_path):
     model = tmp_path / "model.json"
     save_model(_table11(), model)
     out = tmp_path / "out.mod"
-    run = subprocess.run([sys.executable, "-m", "screwcal", "compensate", "--model", str(model),
+    run = subprocess.run([sys.executable, "-m", "screwcal", "compensate", "--result", str(model),
                           "--robot", "irb1600", "--rapid", str(EVERY_FORM), "--out", str(out)],
                          capture_output=True, text=True)
     assert run.returncode == 3, run.stderr  # some targets refused (pTwice): listed, not silent

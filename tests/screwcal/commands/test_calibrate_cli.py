@@ -118,7 +118,7 @@ def test_compensate_makes_the_true_robot_reach_the_targets(tmp_path, rng, truth)
         f"t{k}," + ",".join(f"{v:.8f}" for v in pose)
         for k, pose in enumerate(pose_from_transform(wanted))) + "\n")
     comp = tmp_path / "c.csv"
-    assert main(["compensate", "--model", str(out), "--measuring-targets", str(targets), "--out",
+    assert main(["compensate", "--result", str(out), "--measuring-targets", str(targets), "--out",
                  str(comp)]) == 0
     with comp.open() as f:
         rows = list(csv.DictReader(f))
@@ -139,7 +139,7 @@ def test_compensate_refuses_an_unreachable_target(tmp_path, rng, truth, capsys):
     targets = tmp_path / "t.csv"
     targets.write_text("id,x,y,z,rx,ry,rz\na," + ",".join(f"{v:.6f}" for v in reachable)
                        + "\nb,99999,0,0,0,0,0\n")
-    assert main(["compensate", "--model", str(out), "--measuring-targets", str(targets), "--out",
+    assert main(["compensate", "--result", str(out), "--measuring-targets", str(targets), "--out",
                  str(tmp_path / "c.csv")]) == 3  # some refused: the others written
     err = capsys.readouterr().err
     assert "t.csv, line 3 (id b): it is out of the arm's reach" in err, err
@@ -147,7 +147,7 @@ def test_compensate_refuses_an_unreachable_target(tmp_path, rng, truth, capsys):
         assert [r["id"] for r in csv.DictReader(f)] == ["a"]
     # nothing to compensate: nothing written, the error says so
     targets.write_text("id,x,y,z,rx,ry,rz\nb,99999,0,0,0,0,0\n")
-    assert main(["compensate", "--model", str(out), "--measuring-targets", str(targets), "--out",
+    assert main(["compensate", "--result", str(out), "--measuring-targets", str(targets), "--out",
                  str(tmp_path / "d.csv")]) == 2
     assert "no target compensated" in capsys.readouterr().err
     assert not (tmp_path / "d.csv").exists()

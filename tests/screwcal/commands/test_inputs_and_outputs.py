@@ -5,6 +5,7 @@ target it can and says, by its exit status, when it could not."""
 import csv
 import math
 import os
+import re
 import stat
 
 import numpy as np
@@ -55,7 +56,7 @@ def model_file(tmp_path):
     (["simulate", "--validation", "0"], "--validation"),
     (["testcube", "--edge-mm", "-100"], "--edge-mm"),
     (["testcube", "--cycles", "0"], "--cycles"),
-    (["testcube", "--arm-radius", "nan"], "--arm-radius"),
+    (["testcube", "--arm-radius-mm", "nan"], "--arm-radius-mm"),
     (["study", "planar", "--samples", "0"], "--samples"),
 ])
 def test_bad_numbers_are_refused_by_the_parser_with_the_option_name(capsys, argv, option):
@@ -65,7 +66,7 @@ def test_bad_numbers_are_refused_by_the_parser_with_the_option_name(capsys, argv
         main([*argv, *required])
     assert exit_.value.code == 2
     err = capsys.readouterr().err
-    assert f"argument {option}:" in err and "Traceback" not in err, err
+    assert re.search(f"argument {option}[:/]", err) and "Traceback" not in err, err
 
 
 def test_a_missing_output_folder_is_refused_before_the_data_are_read(tmp_path, capsys):
@@ -88,7 +89,7 @@ def test_an_output_that_is_an_input_is_refused(tmp_path, measurements, model_fil
                        "[9E9,9E9,9E9,9E9,9E9,9E9]];\nENDMODULE\n")
     text, mode = program.read_bytes(), program.stat().st_mode
     # the same file by another name
-    assert main(["compensate", "--model", str(model_file), "--robot", "irb1600", "--rapid",
+    assert main(["compensate", "--result", str(model_file), "--robot", "irb1600", "--rapid",
                  str(program), "--out", str(tmp_path / "." / "P.mod")]) == 2
     assert "is also the input" in capsys.readouterr().err
     assert program.read_bytes() == text and program.stat().st_mode == mode
@@ -97,7 +98,7 @@ def test_an_output_that_is_an_input_is_refused(tmp_path, measurements, model_fil
 
 def test_a_file_that_is_not_rapid_is_refused(tmp_path, measurements, model_file, capsys):
     out = tmp_path / "out.mod"
-    assert main(["compensate", "--model", str(model_file), "--robot", "irb1600", "--rapid",
+    assert main(["compensate", "--result", str(model_file), "--robot", "irb1600", "--rapid",
                  str(measurements), "--out", str(out)]) == 2
     assert "not a RAPID module" in capsys.readouterr().err
     assert not out.exists()
@@ -117,9 +118,9 @@ def test_every_command_writes_with_the_users_umask(tmp_path, measurements, model
         runs = {
             "r.json": ["calibrate", "--robot", "irb1600", "--data", str(measurements)],
             "p.csv": ["predict", "--model", "irb1600", "--joints", str(joints)],
-            "c.csv": ["compensate", "--model", str(model_file), "--robot", "irb1600",
+            "c.csv": ["compensate", "--result", str(model_file), "--robot", "irb1600",
                       "--targets", str(targets)],
-            "c.mod": ["compensate", "--model", str(model_file), "--robot", "irb1600",
+            "c.mod": ["compensate", "--result", str(model_file), "--robot", "irb1600",
                       "--rapid", str(program)],
             "cube.csv": ["testcube", "--robot", "irb1600", "--cycles", "2"],
         }
@@ -219,7 +220,7 @@ def test_targets_writes_every_target_it_can_and_lists_the_rest(tmp_path, model_f
     lines.insert(1, "far,9999,0,0,0,0,0")
     targets.write_text("id,x,y,z,rx,ry,rz\n" + "\n".join(lines) + "\n")
     out = tmp_path / "c.csv"
-    assert main(["compensate", "--model", str(model_file), "--robot", "irb1600", "--targets",
+    assert main(["compensate", "--result", str(model_file), "--robot", "irb1600", "--targets",
                  str(targets), "--out", str(out)]) == 3
     captured = capsys.readouterr()
     assert "t.csv, line 3 (id far)" in captured.err and "1 targets refused" in captured.out

@@ -82,7 +82,7 @@ def test_a_result_carries_its_robot_to_compensate(tmp_path, rng, capsys):
         f"t{k}," + ",".join(f"{v:.8f}" for v in pose)
         for k, pose in enumerate(pose_from_transform(wanted))) + "\n")
     comp = tmp_path / "c.csv"
-    assert main(["compensate", "--model", str(result), "--targets", str(targets),
+    assert main(["compensate", "--result", str(result), "--targets", str(targets),
                  "--out", str(comp)]) == 0
     assert "model 'my-arm'" in capsys.readouterr().out
     assert main(["robot", "export", str(result), "--format", "urdf",
@@ -90,7 +90,7 @@ def test_a_result_carries_its_robot_to_compensate(tmp_path, rng, capsys):
     old = json.loads(result.read_text())  # a result written before results held the robot
     del old["nominal_model"]
     result.write_text(json.dumps(old))
-    assert main(["compensate", "--model", str(result), "--targets", str(targets),
+    assert main(["compensate", "--result", str(result), "--targets", str(targets),
                  "--out", str(comp)]) == 2
     err = capsys.readouterr().err
     assert "robot 'my-arm', which is not in the library" in err and "--robot FILE" in err
