@@ -35,7 +35,7 @@ from screwcal.calibration.diagnostics import (
     pose_tests,
 )
 from screwcal.calibration.error_parameters import ModelKind
-from screwcal.calibration.identifiability import Residual
+from screwcal.calibration.identifiability import Index, Residual
 from screwcal.calibration.identify_result import CalibrationResult, NoiseEstimate, Outlier
 from screwcal.calibration.identify_settings import (
     DEFAULT_RANGES,
@@ -44,9 +44,11 @@ from screwcal.calibration.identify_settings import (
     NoiseModel,
     Outliers,
     Solver,
+    variance_from_levels,
 )
 from screwcal.calibration.lag import correct_lag, lag_increment
 from screwcal.calibration.measurements import MeasurementSet
+from screwcal.calibration.outlier_rounds import reject_in_rounds
 from screwcal.calibration.plausible import PlausibleRanges
 from screwcal.calibration.single_fit import fit_once
 from screwcal.kinematics.model import SerialModel
@@ -107,8 +109,9 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
 
 def _with_lag(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
               lag: Literal["none", "auto"]) -> CalibrationResult:
-    """One identification, then (`lag="auto"`) the readings' lag estimated and corrected."""
-    result = _with_compliance(nominal, data, settings)
+    """One identification, then (`lag="auto"`) the readings' lag estimated and corrected, on the
+    poses the first identification kept (its outliers are not searched for again)."""
+    result, kept = _with_compliance(nominal, data, settings)
     if lag == "none":
         return result
     flagged = [d["joint"] for d in result.diagnostics.get("lag", {}).get("per_joint", [])
@@ -121,8 +124,9 @@ def _with_lag(nominal: SerialModel, data: MeasurementSet, settings: IdentifySett
         settings = replace(settings, compliance=result.compliance)
     best, lam = result, np.zeros(nominal.n_joints)
     for _ in range(LAG_ROUNDS):
-        trial_lag = lam + lag_increment(best.model, correct_lag(data, lam))
-        trial = _with_compliance(nominal, correct_lag(data, trial_lag), settings)
+        trial_lag = lam + lag_increment(best.model, correct_lag(kept, lam))
+        trial, _ = _with_compliance(nominal, correct_lag(kept, trial_lag), settings,
+                                    _rejected(result))
         if trial.residuals_after.mean() >= best.residuals_after.mean():
             break
         best, lam = trial, trial_lag
@@ -132,6 +136,10 @@ def _with_lag(nominal: SerialModel, data: MeasurementSet, settings: IdentifySett
         f"(share of the previous move still in the reading): {shown}; residual mean "
         f"{result.residuals_after.mean():.3f} -> {best.residuals_after.mean():.3f} mm. Better: "
         "wait for the arm to settle, or calibrate with the commanded joints"))
+
+
+def _rejected(result: CalibrationResult) -> tuple[Outlier, ...]:
+    return tuple(o for o in result.outliers if o.rejected)
 
 
 def _compliance_not_tried(nominal: SerialModel, settings: IdentifySettings) -> str:
@@ -145,44 +153,52 @@ def _compliance_not_tried(nominal: SerialModel, settings: IdentifySettings) -> s
     return ""
 
 
-def _with_compliance(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings
-                     ) -> CalibrationResult:
-    """One identification with the settings' compliance ("auto": chosen by the data)."""
+Fit = tuple[CalibrationResult, MeasurementSet]  # a result and the poses it kept
+
+
+def _with_compliance(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
+                     found: tuple[Outlier, ...] = ()) -> Fit:
+    """One identification with the settings' compliance ("auto": chosen by the data), of the
+    poses `data` (`found`: rejected before). The models "auto" compares after the first fit
+    start from the poses it kept: the outliers are searched for once, then only confirmed."""
     if settings.compliance != "auto":
-        return replace(_identify_rejecting(nominal, data, settings),
-                       compliance=settings.compliance)
+        result, kept = _identify_rejecting(nominal, data, settings, found)
+        return replace(result, compliance=settings.compliance), kept
     why = _compliance_not_tried(nominal, settings)
     if not why:
-        bent = _with_compliance(nominal, data, replace(settings, compliance="j23"))
+        bent, kept = _with_compliance(nominal, data, replace(settings, compliance="j23"), found)
         t = {p.name: abs(v) / s for p, v, s in zip(bent.params, bent.values, bent.std_errors,
                                                     strict=True)
              if p.kind.startswith("compliance") and s > 0}
         shown = ", ".join(f"{n} {v:.1f}" for n, v in t.items()) or "none identifiable"
         if t and max(t.values()) > COMPLIANCE_T:
-            return _bent_or_free(nominal, data, settings, bent, note=(
+            return _bent_or_free(nominal, kept, settings, bent, note=(
                 f"chosen (auto): the data support it, |value| / std error: {shown} (> "
-                f"{COMPLIANCE_T:g})"))
+                f"{COMPLIANCE_T:g})"), n_poses=len(data) + len(found))
         why = f"left out (auto): the data do not support it, |value| / std error: {shown}"
-    plain = _with_compliance(nominal, data, replace(settings, compliance="none"))
-    return replace(plain, compliance="none", compliance_note=why)
+        data, found = kept, _rejected(bent)
+    plain, kept = _with_compliance(nominal, data, replace(settings, compliance="none"), found)
+    return replace(plain, compliance="none", compliance_note=why), kept
 
 
-def _bent_or_free(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
-                  bent: CalibrationResult, note: str) -> CalibrationResult:
-    """The joint-2/3 compliance the data support; with enough poses, a coefficient per joint
-    and arm mass instead when an F-test says it pays."""
-    if len(data) < FREE_MIN_POSES:
-        return replace(bent, compliance="j23", compliance_note=note)
-    free = _with_compliance(nominal, data, replace(settings, compliance="j23-free"))
+def _bent_or_free(nominal: SerialModel, kept: MeasurementSet, settings: IdentifySettings,
+                  bent: CalibrationResult, note: str, n_poses: int) -> Fit:
+    """The joint-2/3 compliance the data support; with enough poses (`n_poses` given, `kept`
+    those the bent fit kept), a coefficient per joint and arm mass instead when an F-test says
+    it pays."""
+    if n_poses < FREE_MIN_POSES:
+        return replace(bent, compliance="j23", compliance_note=note), kept
+    free, free_kept = _with_compliance(nominal, kept, replace(settings, compliance="j23-free"),
+                                       _rejected(bent))
     p_value = _nested_f_test(bent, free)
     if p_value < FREE_P:
         return replace(free, compliance="j23-free", compliance_note=(
             f"{note}; with a coefficient per joint and arm mass (the data correct the "
             f"mass table's proportions: F-test p = {p_value:.2g} < {FREE_P:g}, "
-            f"{len(data)} poses)"))
+            f"{n_poses} poses)")), free_kept
     return replace(bent, compliance="j23", compliance_note=(
         f"{note}; per-mass coefficients add nothing significant (F-test p = "
-        f"{p_value:.2g})"))
+        f"{p_value:.2g})")), kept
 
 
 def _nested_f_test(simple: CalibrationResult, rich: CalibrationResult) -> float:
@@ -198,31 +214,35 @@ def _nested_f_test(simple: CalibrationResult, rich: CalibrationResult) -> float:
     return float(fdtrc(extra, dof, (rss_a - rss_b) / extra / (rss_b / dof)))
 
 
-def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings
-                        ) -> CalibrationResult:
-    """One identification (see `identify`), rejecting outliers: the clearly worst first
-    (within half of the worst statistic, above the limit; one at a time would be a refit per
-    outlier, and a gross one masks the others anyway), then the fit repeated."""
+def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
+                        found: tuple[Outlier, ...] = ()) -> Fit:
+    """One identification (see `identify`) of the poses `data` (`found`: rejected before),
+    rejecting outliers: after a fit, rounds on its linearisation find the poses to reject
+    (`outlier_rounds`: the clearly worst first, no refit per round), then the poses kept are
+    fitted once more and that fit's own tests confirm it (a pose still beyond its limit starts
+    new rounds)."""
     started = time.perf_counter()
-    found: list[Outlier] = []
+    rejected = list(found)
     current = data
-    limit = max(1, int(MAX_OUTLIER_FRACTION * len(data)))
+    limit = max(1, int(MAX_OUTLIER_FRACTION * (len(data) + len(found))))
     while True:
         result, problem, x = fit_once(nominal, current, settings)
         if result.residual_kind == "distance" or not settings.statistical:
-            return replace(result, outliers=tuple(found), seconds=time.perf_counter() - started)
+            return replace(result, outliers=tuple(rejected),
+                           seconds=time.perf_counter() - started), current
         e, A = problem.raw(x)
         test = pose_tests(e, A, problem.whiten)
         limit_T = test.threshold()
-        worst = float(test.statistic.max())
-        if worst <= limit_T or settings.outliers == "keep" or len(found) >= limit:
+        if test.statistic.max() <= limit_T or settings.outliers == "keep" \
+                or len(rejected) >= limit:
             break
-        drop = np.flatnonzero((test.statistic > limit_T) & (test.statistic >= 0.5 * worst))
-        drop = drop[np.argsort(-test.statistic[drop])][:limit - len(found)]
-        found += [Outlier(current.ids[k], current.line_of(int(k)),
-                          float(np.linalg.norm(e[k, :3])), float(test.statistic[k]), limit_T,
-                          rejected=True) for k in drop]
-        current = current.take(np.setdiff1d(np.arange(len(current)), drop))
+        theta, free = _levels(result.noise)
+        rounds = reject_in_rounds(e, A, problem.components(x), theta, free, problem.prior, x,
+                                  problem.whiten, limit - len(rejected))
+        rejected += [Outlier(current.ids[r.index], current.line_of(r.index), r.residual_mm,
+                             r.statistic, r.threshold, rejected=True) for r in rounds]
+        current = current.take(np.setdiff1d(np.arange(len(current)),
+                                            [r.index for r in rounds]))
     kept = [Outlier(current.ids[k], current.line_of(int(k)), float(np.linalg.norm(e[k, :3])),
                     float(test.statistic[k]), limit_T, rejected=False)
             for k in np.flatnonzero(test.statistic > limit_T)]
@@ -231,5 +251,15 @@ def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: Id
     quality = data_quality(e, problem.joint_jacobian(x), np.degrees(current.q), test,
                            current.ids, estimated, settings.stated_position_mm(),
                            acquisition_order(current.ids, current.lines))
-    return replace(result, outliers=tuple(found + kept), diagnostics=quality,
-                   seconds=time.perf_counter() - started)
+    return replace(result, outliers=tuple(rejected + kept), diagnostics=quality,
+                   seconds=time.perf_counter() - started), current
+
+
+def _levels(noise: NoiseEstimate | None) -> tuple[Array, Index]:
+    """The variance components (3,) a fit used and which of them it estimated."""
+    if noise is None:  # not statistical: no rounds are asked for
+        raise ValueError("outlier rounds need the statistical weighting's noise levels")
+    levels = (noise.position_mm, noise.orientation_deg, noise.joint_deg)
+    theta = np.nan_to_num(variance_from_levels(levels))
+    stds = (noise.position_std_mm, noise.orientation_std_deg, noise.joint_std_deg)
+    return theta, np.flatnonzero([s is not None for s in stds])

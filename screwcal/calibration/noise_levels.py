@@ -113,20 +113,48 @@ def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve:
     (Fisher scoring on the variance components, a Gauss-Newton step of the parameters with the
     weights of each step, LM at the end)."""
     theta = variance_from_levels(noise.filled())
-    floor = 1e-8 * variance_from_levels(PRIOR_NOISE)
     free = np.array(noise.free)
     if problem.rows == 3:
         free[1] = False  # no orientation measured
         theta[1] = 0.0
     idx = np.flatnonzero(free)
-    information = np.eye(len(idx))
-    converged, iteration = False, 0
     # The levels are found on the problem linearised at the start (which the candidates'
     # Gauss-Newton step puts near the optimum), then LM solves the nonlinear problem once with
     # the final weights, taken at its own estimate.
-    V = problem.components(x)
     e, A = problem.raw(x)
-    P = problem.prior
+    levels = levels_on_linearisation(e, A, problem.components(x), theta, idx, problem.prior, x)
+    V = problem.components(levels.x)
+    problem = problem.with_whitening(whitening(np.einsum("k,knij->nij", levels.theta, V)))
+    solution = solve(problem, levels.x)
+    return NoiseFit(problem, solution, _estimate(levels.theta, idx, levels.information,
+                                                 problem.rows, levels.iterations,
+                                                 levels.converged))
+
+
+@dataclass(frozen=True)
+class LinearisedLevels:
+    """Variance components found on a linearised problem, with the estimate and residuals
+    carried to them."""
+
+    theta: Array  # (3,) the components
+    x: Array  # the estimate with their weights
+    e: Array  # (N, k) the residuals there (to first order)
+    information: Array  # (K, K) of the free components
+    iterations: int
+    converged: bool
+
+
+def levels_on_linearisation(e: Array, A: Array, V: Array, theta: Array, idx: Index,
+                            prior: Array, x: Array) -> LinearisedLevels:
+    """The free components `idx` of theta (3,) by Fisher scoring on the problem linearised at x:
+    residuals e (N, k), Jacobian A (N, k, p), unit components V (3, N, k, k); each iteration
+    takes the weighted linear step with the components so far (Förstner's iteration, Eq. in
+    the module docstring). The components not in `idx` stay as given."""
+    theta = np.array(theta, dtype=float)
+    floor = 1e-8 * variance_from_levels(PRIOR_NOISE)
+    information = np.eye(len(idx))
+    converged, iteration = False, 0
+    P = prior
     while iteration < VCE_MAX_ITER:
         iteration += 1
         W = whitening(np.einsum("k,knij->nij", theta, V))
@@ -134,6 +162,9 @@ def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve:
         dx = -np.linalg.lstsq(np.vstack([(W @ A).reshape(-1, A.shape[-1]), np.diag(P)]),
                               np.r_[(W @ e[..., None]).reshape(-1), P * x], rcond=None)[0]
         x, e = x + dx, e + A @ dx
+        if not len(idx):
+            converged = True
+            break
         score, information = _scoring_step(e, A, V[idx], W, P)
         step = np.linalg.lstsq(information, score, rcond=None)[0]
         old = theta[idx].copy()
@@ -145,11 +176,7 @@ def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve:
         if np.all((np.abs(theta[idx] / old - 1.0) < VCE_TOL) | at_zero):
             converged = True
             break
-    V = problem.components(x)
-    problem = problem.with_whitening(whitening(np.einsum("k,knij->nij", theta, V)))
-    solution = solve(problem, x)
-    return NoiseFit(problem, solution, _estimate(theta, idx, information, problem.rows,
-                                                 iteration, converged))
+    return LinearisedLevels(theta, x, e, information, iteration, converged)
 
 
 def _estimate(theta: Array, idx: Index, information: Array, rows: int, iterations: int,
