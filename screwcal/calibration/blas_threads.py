@@ -18,8 +18,16 @@ it is held by whoever owns the process's threads:
   identification happened to run: twenty jobs at once beside two CPU-bound processes took
   7-26 s instead of 4 s (issue 29).
 - `pin_one_blas_thread()`: the same for the rest of a worker process's life (study workers).
-- `one_blas_thread()`: around one identification in a single-threaded program (the CLI);
-  within a hold it changes nothing.
+- `one_blas_thread()`: around one identification in a program that did not start with one
+  BLAS thread; within a hold it changes nothing.
+- `one_blas_thread_for_this_program()`: the `screwcal` command line, before numpy loads. The
+  command's batched small products (10,000 robtargets' chains of 4x4 screws) ran 4-6x slower
+  on 2 busy cores with OpenBLAS's default pool, and a limit through threadpoolctl would cover
+  scipy only by importing it first (0.5-1 s, where most commands never load scipy). So the
+  command line asks OpenBLAS itself, through its environment variable, which numpy's and
+  scipy's copies read whenever they load (the processes the command starts inherit it: they
+  hold one thread anyway). A thread count the user has set (OPENBLAS_NUM_THREADS,
+  GOTO_NUM_THREADS, OMP_NUM_THREADS) is left as it is.
 
 The limits are set through the libraries' own setters (threadpoolctl, which sees only the
 libraries loaded when it is first used: the holds load numpy's and scipy's first). The user's
@@ -28,12 +36,18 @@ own settings (OPENBLAS_NUM_THREADS, ...) outside them are left alone.
 
 from __future__ import annotations
 
+import os
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["hold_one_blas_thread", "one_blas_thread", "pin_one_blas_thread"]
+__all__ = ["hold_one_blas_thread", "one_blas_thread", "one_blas_thread_for_this_program",
+           "pin_one_blas_thread"]
+
+# OpenBLAS's thread counts, in the order it reads them
+_USER_THREAD_SETTINGS = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
 
 _lock = threading.Lock()
 _state: dict[str, Any] = {"controller": None, "users": 0, "limiter": None}
@@ -90,3 +104,13 @@ def pin_one_blas_thread() -> None:
     """numpy's and scipy's BLAS at one thread for the rest of this process's life."""
     _load_blas()
     _enter()
+
+
+def one_blas_thread_for_this_program() -> bool:
+    """OpenBLAS at one thread for this process and those it starts, unless the user has set a
+    thread count; only before numpy loads (afterwards the libraries have read theirs). Whether
+    the limit was set."""
+    if "numpy" in sys.modules or any(os.environ.get(v) for v in _USER_THREAD_SETTINGS):
+        return False
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    return True

@@ -15,21 +15,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from screwcal.errors import UnreachableError
-from screwcal.kinematics.forward import spatial_jacobian
+from screwcal.kinematics.forward import joint_axis_lines, spatial_jacobian
 from screwcal.kinematics.ik import closed_form_ik
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, cross
 
 QUADRANT_RAD = np.pi / 2
 TOL_RAD = 1e-5  # a joint this close (0.0006 deg) to a quadrant edge, or joint 5 to zero, is on it
-
-
-def _axis_points(J: Array) -> tuple[Array, Array]:
-    """Unit directions and the points nearest the origin of the joint axes, from the columns
-    of a spatial Jacobian (N, 6, n) of revolute joints: (N, n, 3) each."""
-    w = np.swapaxes(J[:, :3, :], 1, 2)
-    v = np.swapaxes(J[:, 3:, :], 1, 2)
-    return w, cross(w, v) / np.sum(w * w, axis=-1, keepdims=True)
 
 
 def _meeting_point(p1: Array, d1: Array, p2: Array, d2: Array) -> Array:
@@ -44,7 +36,7 @@ def _meeting_point(p1: Array, d1: Array, p2: Array, d2: Array) -> Array:
 
 def _arm_bits(model: SerialModel, q: Array) -> NDArray[np.int_]:
     """4 x (wrist centre behind axis 1) + 2 x (wrist centre behind the lower arm), (N,)."""
-    w, p = _axis_points(spatial_jacobian(model, q))
+    w, p = joint_axis_lines(model, q, joints=5)
     wrist = _meeting_point(p[:, 3], w[:, 3], p[:, 4], w[:, 4])
     up = w[:, 0]  # axis 1
     heading = cross(w[:, 1], up)  # forward along the arm: axis 2 x axis 1 (x at home)

@@ -51,15 +51,16 @@ def _check_q(model: SerialModel, q: ArrayLike) -> Array:
     return q
 
 
-def _chain(model: SerialModel, q: Array, keep: bool) -> tuple[Array, list[Array]]:
+def _chain(model: SerialModel, q: Array, keep: bool, joints: int | None = None
+           ) -> tuple[Array, list[Array]]:
     """Successive screws from the base: returns A_n (N, 3, 4) = base . prod exp(...) [:3] and,
-    if `keep`, the partial products A_0..A_n (each (N, 3, 4)), A_0 = base. A compliant model's
-    joints stand at q + zero + c * tau(q), tau at the unbent configuration (the bending's own
-    effect on tau is of second order)."""
+    if `keep`, the partial products A_0..A_n (each (N, 3, 4)), A_0 = base; only the first
+    `joints` screws when given. A compliant model's joints stand at q + zero + c * tau(q), tau
+    at the unbent configuration (the bending's own effect on tau is of second order)."""
     theta = q + model.joint_zero
     if model.has_compliance:
         theta = theta + joint_bend(model, q)
-    return _chain_theta(model, theta, keep)
+    return _chain_theta(model, theta, keep, joints)
 
 
 def joint_torques(model: SerialModel, q: ArrayLike) -> Array:
@@ -93,12 +94,13 @@ def joint_bend(model: SerialModel, q: Array) -> Array:
     return bend
 
 
-def _chain_theta(model: SerialModel, theta: Array, keep: bool) -> tuple[Array, list[Array]]:
+def _chain_theta(model: SerialModel, theta: Array, keep: bool, joints: int | None = None
+                 ) -> tuple[Array, list[Array]]:
     N = theta.shape[0]
     G1, G2, _ = _generators(model)
     A = np.broadcast_to(model.base[:3], (N, 3, 4)).copy()
     partial = [A] if keep else []
-    for i in range(model.n_joints):
+    for i in range(model.n_joints if joints is None else joints):
         flat = A.reshape(-1, 4)
         AG1 = (flat @ G1[i]).reshape(N, 3, 4)
         if model.joint_types[i] == "R":
@@ -225,6 +227,21 @@ def joint_positions(model: SerialModel, q: ArrayLike) -> Array:
         prev = foot
     pts.append(forward_kinematics(model, q)[:, :3, 3])
     return np.stack(pts, axis=1)
+
+
+def joint_axis_lines(model: SerialModel, q: ArrayLike, joints: int) -> tuple[Array, Array]:
+    """The lines of the first `joints` revolute axes in the world at configurations q (N, n):
+    unit directions and each line's point nearest the world origin, (N, joints, 3) each. Only
+    the screws before the last asked axis are chained (the columns of `spatial_jacobian`
+    without the rest of the chain or the twists' moments)."""
+    q = _check_q(model, q)
+    _, partial = _chain(model, q, keep=True, joints=joints - 1)
+    A = np.stack(partial, axis=1)  # (N, joints, 3, 4): axis i is carried by A_{i-1}
+    R, t = A[..., :3], A[..., 3]
+    w = np.sum(R * model.axis_dirs[:joints, None, :], axis=-1)  # R @ dir, elementwise:
+    p = np.sum(R * model.axis_points_mm[:joints, None, :], axis=-1) + t  # no 3x3 matmul loop
+    foot: Array = p - np.sum(p * w, axis=-1, keepdims=True) * w
+    return w, foot
 
 
 def spatial_jacobian(model: SerialModel, q: ArrayLike) -> Array:

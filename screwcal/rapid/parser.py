@@ -20,6 +20,7 @@ from __future__ import annotations
 import re
 from bisect import bisect_right
 
+from screwcal.rapid.acyclic import cycle_collection_paused
 from screwcal.rapid.ast import (
     AliasDecl,
     Argument,
@@ -65,7 +66,8 @@ _COMPACT_OK = (ProcCall, Assign, Goto, Return, Raise, Simple)
 def parse_module(text: str, path: str = "<module>") -> Module:
     """The module in `text` (one `MODULE ... ENDMODULE`; comments before and after it
     allowed). Raises RapidSyntaxError naming `path`, the line and the column."""
-    return _Parser(text, path).module()
+    with cycle_collection_paused():  # the tree holds no cycle (acyclic.py)
+        return _Parser(text, path).module()
 
 
 def parse_expression(text: str, path: str = "<expression>") -> Expr:

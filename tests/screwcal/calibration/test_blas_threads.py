@@ -1,5 +1,9 @@
 """Identification runs with one BLAS thread, and gives back what was there."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from threadpoolctl import ThreadpoolController
@@ -93,3 +97,32 @@ def test_study_workers_run_one_thread(two_threads):
 
     with ProcessPoolExecutor(1, initializer=pin_one_blas_thread) as pool:
         assert pool.submit(_worker_blas_threads).result() == [1]
+
+
+def _blas_threads_of_a_command_line(env: dict[str, str]) -> int:
+    """The BLAS threads numpy runs with in a fresh process that starts as `screwcal` does."""
+    code = ("from screwcal.calibration.blas_threads import one_blas_thread_for_this_program as f\n"
+            "f()\nimport numpy\nfrom threadpoolctl import threadpool_info\n"
+            "print(max(i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'))")
+    clean = {k: v for k, v in os.environ.items() if k not in
+             ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")}
+    done = subprocess.run([sys.executable, "-c", code], env={**clean, **env},
+                          capture_output=True, text=True, check=True)
+    return int(done.stdout)
+
+
+def test_the_command_line_runs_one_blas_thread_unless_the_user_set_one():
+    if (os.cpu_count() or 1) < 2:
+        pytest.skip("one core: every BLAS runs one thread anyway")
+    assert _blas_threads_of_a_command_line({}) == 1
+    assert _blas_threads_of_a_command_line({"OPENBLAS_NUM_THREADS": "2"}) == 2
+    assert _blas_threads_of_a_command_line({"OMP_NUM_THREADS": "2"}) == 2
+
+
+def test_the_command_line_limit_comes_too_late_once_numpy_is_loaded():
+    from screwcal.calibration.blas_threads import one_blas_thread_for_this_program
+
+    assert "numpy" in sys.modules  # this module imported it
+    before = os.environ.get("OPENBLAS_NUM_THREADS")
+    assert one_blas_thread_for_this_program() is False
+    assert os.environ.get("OPENBLAS_NUM_THREADS") == before

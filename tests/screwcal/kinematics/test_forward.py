@@ -5,6 +5,7 @@ from screwcal.kinematics.forward import (
     ParameterLayout,
     flange_kinematics,
     forward_kinematics,
+    joint_axis_lines,
     parameter_jacobian,
     perturb_model,
     point_jacobian,
@@ -105,6 +106,20 @@ def test_spatial_jacobian_matches_finite_differences(rng, types):
         fd = twist_from_transform_difference(forward_kinematics(model, q + dq),
                                              forward_kinematics(model, q - dq), T, h)
         np.testing.assert_allclose(J[:, :, i], fd, atol=2e-6 * max(1, np.abs(fd).max()))
+
+
+@pytest.mark.parametrize("joints", [1, 5, 6])
+def test_joint_axis_lines_are_the_spatial_jacobian_columns(rng, joints):
+    """Each line's direction is a column's omega and its point (nearest the origin) lies on
+    the column's screw axis: v = p x omega, p . omega = 0."""
+    model = random_model(rng)
+    q = random_q(model, rng, 30)
+    w, p = joint_axis_lines(model, q, joints)
+    J = spatial_jacobian(model, q)[:, :, :joints]
+    assert w.shape == p.shape == (30, joints, 3)
+    np.testing.assert_allclose(w, np.swapaxes(J[:, :3], 1, 2), atol=1e-12)
+    np.testing.assert_allclose(np.cross(p, w), np.swapaxes(J[:, 3:], 1, 2), atol=1e-9)
+    np.testing.assert_allclose(np.sum(p * w, axis=-1), 0.0, atol=1e-9)
 
 
 @pytest.mark.parametrize("types", ["RRRRRR", "RPRRPR"])

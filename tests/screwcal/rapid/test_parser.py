@@ -232,3 +232,28 @@ def test_syntax_errors_name_line_and_column(text, line, col, says):
     err = caught.value
     assert (err.line, err.col) == (line, col), str(err)
     assert says in err.reason and str(err).startswith(f"bad.mod:{line}:{col}: ")
+
+
+def test_parsing_pauses_the_cycle_collector_and_resumes_it():
+    """A module is a tree of small objects with no cycle: the collector's passes over it
+    while it grows cost 0.4 s on 10,000 robtargets. It is paused for the parse, resumed after
+    (and left off when the caller had it off), also when the text does not parse."""
+    import gc
+
+    from screwcal.rapid.acyclic import cycle_collection_paused
+
+    seen = []
+    with cycle_collection_paused():
+        seen.append(gc.isenabled())
+    assert seen == [False] and gc.isenabled()
+    parse_module("MODULE m\nENDMODULE\n")
+    assert gc.isenabled()
+    with pytest.raises(RapidSyntaxError):
+        parse_module("MODULE m\n  PROC p(\nENDMODULE\n")
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        parse_module("MODULE m\nENDMODULE\n")
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
