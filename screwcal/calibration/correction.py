@@ -141,6 +141,15 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
     change = calibrated.joints_to_deg(q - ref)
     reached, inside = reached.astype(bool), calibrated.within_limits(q).astype(bool)
     plausible = np.abs(change).max(axis=1, initial=0.0) <= bound_deg
+    beyond: dict[int, tuple[float, float]] = {}  # unreached: how near the calibrated robot gets
+    stuck = np.flatnonzero(~reached & ~_wrist_singular(nominal, ref))
+    if stuck.size:  # Gauss-Newton stalls next to the stretched arm: LM from the reference
+        q_s, met, gap = _near_singular_solutions(robot, T[stuck], ref[stuck])
+        q[stuck[met]], reached[stuck[met]] = q_s[met], True
+        inside[stuck] = calibrated.within_limits(q[stuck]).astype(bool)
+        change[stuck] = calibrated.joints_to_deg(q[stuck] - ref[stuck])
+        plausible[stuck] = np.abs(change[stuck]).max(axis=1, initial=0.0) <= bound_deg
+        beyond.update(zip(stuck[~met].tolist(), gap[~met].tolist(), strict=True))
     wrist = _wrist_singular(nominal, ref) & ~(reached & inside & plausible)
     if wrist.any():  # joints 4 and 6 trade freely there: solve on every branch instead
         at = np.flatnonzero(wrist)
@@ -155,6 +164,11 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
         if not reached[k]:
             why, error = "the calibrated robot cannot reach it near the nominal solution", \
                 UnreachableError
+            if k in beyond:  # next to a singularity (the arm stretched): out of its reach
+                why += (" (its nearest pose there is {:.4f} mm, {:.4f} deg away: the target is "
+                        "beyond its reach)").format(*beyond[k])
+            elif wrist[k]:
+                why += " (at the wrist singularity, joint 5 near 0, on no branch near it)"
         elif not inside[k]:
             j = int(np.argmax(np.maximum(calibrated.limits[:, 0] - q[k],
                                          q[k] - calibrated.limits[:, 1])))
@@ -239,6 +253,24 @@ def _wrist_solutions(robot: SerialModel, T: Array, ref: Array) -> tuple[Array, M
     return q_out, ok, measure
 
 
+def _near_singular_solutions(robot: SerialModel, T: Array, ref: Array
+                             ) -> tuple[Array, Mask, Array]:
+    """Targets (M, 4, 4) that Gauss-Newton from the reference (M, 6) did not reach: next to a
+    singularity other than the wrist's (the arm stretched, KUKA's and UR's zero pose), where a
+    calibration's small length changes move the solution far along the singular direction.
+    Levenberg-Marquardt from the reference, on the branch the reference is on or across the
+    stretched pose where the calibrated arm needs it, the same rule as at the wrist: the
+    target met within SINGULAR_TOL_MM and SINGULAR_TOL_DEG. Returns the joints (turned toward
+    the reference), which met their target, and for each how near the fit gets (mm, deg):
+    a target the calibrated arm cannot reach is refused with that distance."""
+    q, _ = _fit_poses(robot, T, ref)
+    q = _turned_toward(q, ref)
+    err = _pose_error(T, forward_kinematics(robot, q))
+    gap = np.column_stack([np.linalg.norm(err[:, :3], axis=1),
+                           np.degrees(np.linalg.norm(err[:, 3:], axis=1))])
+    return q, _meets(T, robot, q), gap
+
+
 def _fit_poses(robot: SerialModel, T: Array, q0: Array) -> tuple[Array, Array]:
     """Levenberg-Marquardt (Marquardt's diagonal scaling) from the joints q0 (M, 6) toward the
     flange poses T (M, 4, 4), every target at once: least squares of the pose error scaled by
@@ -314,10 +346,31 @@ def _compensate_from_home(calibrated: SerialModel, nominal: SerialModel, T: Arra
                           ) -> Compensation:
     if frame == "measuring":
         return compensate(calibrated, nominal, T, frame=frame, bound_deg=bound_deg)
-    q_ref = numerical_ik(nominal.with_frames(np.eye(4), np.eye(4)), T).nearest(
-        np.zeros(nominal.n_joints))
+    q_ref = _nominal_reference(nominal.with_frames(np.eye(4), np.eye(4)), T)
     return compensate(calibrated, nominal, T, q_ref, frame=frame, bound_deg=bound_deg,
                       strict=False)
+
+
+def _nominal_reference(robot: SerialModel, T: Array) -> Array:
+    """The nominal solution nearest home of flange targets T (N, 4, 4). Next to the stretched
+    arm the numerical IK's Gauss-Newton may stop short of its 1e-9 mm; a single target is then
+    solved to 1e-6 mm with more iterations and polished by Levenberg-Marquardt (a batch raises
+    UnreachableError: compensate_each then takes its targets one by one)."""
+    home = np.zeros(robot.n_joints)
+    try:
+        return numerical_ik(robot, T).nearest(home)
+    except UnreachableError:
+        if len(T) > 1:
+            raise
+    try:
+        q0 = numerical_ik(robot, T, tol_mm=1e-6, tol_rad=1e-8, max_iter=200).nearest(home)
+    except UnreachableError:  # the sampled seeds of an arm without a closed form all missed
+        q0 = home[None, :]  # (a target next to the stretched zero pose): from home itself
+    q = _turned_toward(_fit_poses(robot, T, q0)[0], q0)
+    if not _meets(T, robot, q)[0]:  # the singular tolerances: a reference, not a target
+        raise UnreachableError("target 0 is out of the nominal arm's reach on every branch",
+                               index=0)
+    return q
 
 
 def after_zero(model: SerialModel, zero_command_deg: ArrayLike) -> SerialModel:
