@@ -6,7 +6,8 @@ service on a free local port with its own database, and runs the thesis's proced
 ISO 9283 performance before, 40 calibration poses, estimation of the full model, correction
 (by default compensation: the performance list after is sent as the joint targets that make the
 calibrated robot reach the nominal targets), performance after. Prints the before/after table and
-writes the report (HTML and PNG) to a folder. The same `--seed` prints the same table.
+writes the report (one HTML page, its charts inline) to a folder. The same `--seed` prints the
+same table.
 """
 
 from __future__ import annotations
@@ -105,7 +106,6 @@ def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool) -> DemoR
     in `args.out`; with `geometric_too` the same procedure with a geometric-only model after
     it, on the same robot."""
     from service.operator import Operator
-    from service.report import report_figures
     from service.settings import ServiceSettings
 
     out_dir = Path(args.out)
@@ -132,8 +132,6 @@ def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool) -> DemoR
                 (out_dir / "report.html").write_text(op.report(job["id"]), encoding="utf-8")
                 (out_dir / "result.json").write_text(
                     json.dumps(result.model_dump(mode="json"), indent=1), encoding="utf-8")
-                for name, png in report_figures(result).items():
-                    (out_dir / name).write_bytes(png)
                 geometric = None
                 if geometric_too:
                     geo = op.start(robot_id=robot["id"], kind="procedure", mode="AUTO",

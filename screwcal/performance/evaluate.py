@@ -97,7 +97,8 @@ def summarise(metrics: dict[str, PoseMetrics]) -> dict:
         abc = np.abs(np.array([m.ap_abc_deg for m in metrics.values()]))
         rpabc = np.array([m.rp_abc_deg for m in metrics.values()])
         out |= {"ap_abc_deg_max_abs": abc.max(axis=0).tolist(),
-                "ap_abc_deg_max": float(abc.max()),
+                "ap_abc_deg_max": max(float(m.ap_abc_max_abs_deg or 0.0)
+                                      for m in metrics.values()),
                 "rp_abc_deg_max": rpabc.max(axis=0).tolist()}
     return out
 

@@ -54,6 +54,12 @@ class PoseMetrics:
     ap_abc_deg: tuple[float, float, float] | None = None
     rp_abc_deg: tuple[float, float, float] | None = None  # +-3 S_a, S_b, S_c (value of 3 S)
 
+    @property
+    def ap_abc_max_abs_deg(self) -> float | None:
+        """The orientation accuracy as one figure: max(|AP_a|, |AP_b|, |AP_c|) (the summary's
+        and the report's; None for position-only measurements)."""
+        return None if self.ap_abc_deg is None else max(abs(v) for v in self.ap_abc_deg)
+
     def to_dict(self) -> dict:
         return asdict(self)
 

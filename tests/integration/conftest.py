@@ -13,6 +13,7 @@ from service.app import create_app
 from service.settings import ServiceSettings
 from simulators.arm import ArmEmulator
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
+from simulators.realism import IDEAL, Realism
 from simulators.truth import make_world
 
 TOKEN = "test-token"
@@ -38,12 +39,14 @@ class Rig:
         return self.emu.address
 
 
-async def start_rig(time_scale: float = 0.0) -> Rig:
-    """An emulated cell on free ports (stop it with stop_rig)."""
-    world = make_world(None, None)
+async def start_rig(time_scale: float = 0.0, realism: Realism = IDEAL, seed: int | None = None
+                    ) -> Rig:
+    """An emulated cell on free ports (stop it with stop_rig): the Table 11 robot, or the robot
+    of `seed`, with its `realism` (simulators/realism.py)."""
+    world = make_world(None, seed, realism=realism)
     emu = IRC5Emulator(world, EmulatorSettings(time_scale=time_scale))
     emu.address = await emu.start("127.0.0.1", 0)
-    arm = ArmEmulator(world, seed=7)
+    arm = ArmEmulator(world, seed=7 if seed is None else seed)
     host, port = await arm.start("127.0.0.1", 0)
     arm.url = f"socket://{host}:{port}"
     return Rig(emu, arm)

@@ -63,8 +63,8 @@ async def test_procedure_in_auto_compensates_the_robot(service, rig):
     calibrated = parse_model(model.json())  # a file predict, compensate and the filter read
     assert calibrated.name == "irb1600"
     page = await service.get(f"/jobs/{job['id']}/report")
-    assert page.status_code == 200 and "ISO 9283" in page.text and "data:image/png" in page.text
-    assert "Summary" in page.text and "Test conditions" in page.text
+    assert page.status_code == 200 and "ISO 9283" in page.text and "<svg class='chart'" in page.text
+    assert "Summary" in page.text and "test condition (ISO 9283)" in page.text
     assert "Correction: compensate" in page.text
 
 

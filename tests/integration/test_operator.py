@@ -63,9 +63,8 @@ def test_demo_runs_the_whole_procedure(tmp_path, capsys):
     floor = re.search(r"oracle floor\s+([\d.]+) mm", out)
     assert ours and geo and floor, out
     assert float(geo.group(1)) > float(ours.group(1)) >= float(floor.group(1)) * 0.9, out
-    assert (tmp_path / "report.html").stat().st_size > 10_000
-    assert (tmp_path / "accuracy_per_point.png").exists()
-    assert (tmp_path / "straightness.png").exists()
+    page = (tmp_path / "report.html").read_text()
+    assert page.count("<svg class='chart'") >= 4  # AP, RP, orientation, residual, straightness
 
 
 async def test_watch_reattaches_to_a_step_job_at_the_pose_it_waits_for(tmp_path, rig):

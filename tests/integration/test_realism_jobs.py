@@ -87,8 +87,9 @@ async def test_procedure_carrying_10_kg_names_the_compliance_and_lag_it_identifi
     assert "home moved over the job" in table, table
     report = (await service.get(f"/jobs/{job['id']}/report")).text
     for said in ("Joint compliance: J2c 0.1", "Read-back lag: J1", "The model explains 99.9",
-                 "Home moved over the job", "payload (calibration list)</td><td>10 kg at (0, 0, "
-                 "100) mm", "payload (performance lists)</td><td>none",
+                 "Home moved over the job",
+                 "payload (calibration list)</td><td class='text'>10 kg at (0, 0, 100) mm",
+                 "payload (performance lists)</td><td class='text'>none",
                  "compliance auto, read-back lag auto"):
         assert said in report, said
     after = result["performance"]["perf_after"]["overall"]["ap_mm_mean"]

@@ -1,44 +1,123 @@
-"""The report page, rendered by a real browser (Debian's headless Chromium)."""
+"""The report page, rendered by a real browser (Debian's headless Chromium) and checked as a
+picture: the report of a real job on the emulated robot of `typical` realism, laid out by
+Chromium, measured in its DOM (a script added to a copy of the page writes what it measured into
+the page, which `--dump-dom` prints), and screenshotted."""
 
+import json
+import re
 import shutil
 import subprocess
+from pathlib import Path
 
 import pytest
 
-from tests.integration.conftest import AUTH, FAST, add_robot
+from simulators.realism import TYPICAL
+from tests.integration.conftest import AUTH, add_robot, start_rig, stop_rig
 from tests.integration.test_jobs import wait_state
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          "--hide-scrollbars"]
+NEEDS_CHROMIUM = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed (`apt-get "
+                                    "install chromium`; .ci/run installs it)")
+# What the script measures in the laid-out page (CSS pixels), written into <pre id='measured'>.
+MEASURE = """<script>
+const box = e => e.getBoundingClientRect();
+const meets = (a, b) => a.left < b.right && b.left < a.right && a.top < b.bottom &&
+  b.top < a.bottom;
+const width = document.documentElement.clientWidth;
+const out = {width, scroll_width: document.documentElement.scrollWidth, overflowing: [],
+  sections: [...document.querySelectorAll('body > section')].map(s => s.id),
+  first_after_header: document.querySelector('header').nextElementSibling.id, charts: []};
+for (const e of document.body.querySelectorAll('*')) {
+  const r = box(e);
+  if (r.width > 0 && r.right > width + 0.5)
+    out.overflowing.push(e.tagName + '.' + e.getAttribute('class') + ' ' + r.right);
+}
+for (const svg of document.querySelectorAll('svg.chart')) {
+  const legend = box(svg.querySelector('g.legend'));
+  const marks = [...svg.querySelectorAll('rect.bar, circle.point')];
+  const frame = box(svg);
+  const pair = svg.closest('.pair');
+  out.charts.push({
+    title: svg.querySelector('title').textContent,
+    axis_label: svg.querySelector('text.axis-label.y').textContent,
+    caption: pair ? pair.querySelector('table caption').textContent : null,
+    marks: marks.length,
+    covered: marks.filter(m => meets(box(m), legend)).length,
+    text_outside: [...svg.querySelectorAll('text')].filter(t => {
+      const r = box(t);
+      return r.left < frame.left - 0.5 || r.right > frame.right + 0.5; }).map(
+      t => t.textContent)});
+}
+const pre = document.createElement('pre');
+pre.id = 'measured';
+pre.textContent = JSON.stringify(out);
+document.body.appendChild(pre);
+</script>"""
 
 
-@pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed (`apt-get install "
-                    "chromium`; .ci/run installs it)")
-async def test_report_renders_in_headless_chromium(tmp_path, service, rig):
-    robot = await add_robot(service, rig)
-    r = await service.post("/jobs", headers=AUTH, json={"robot_id": robot, "kind": "procedure",
-                                                       "options": FAST})
-    job = await wait_state(service, r.json()["id"])
-    assert job["state"] == "done"
+def chromium(profile: Path, *args: str) -> subprocess.CompletedProcess:
+    run = subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={profile}", *args],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    return run
+
+
+def measured(page: Path, profile: Path, width: int) -> dict:
+    """The page laid out in a window `width` pixels wide, as the script measured it."""
+    probe = page.with_name(f"probe-{width}.html")
+    probe.write_text(page.read_text().replace("</body>", MEASURE + "</body>"))
+    dom = chromium(profile, f"--window-size={width},1600", "--dump-dom", probe.as_uri()).stdout
+    found = re.search(r"<pre id=\"measured\">(.*?)</pre>", dom, re.S)
+    assert found, dom[-2000:]
+    return json.loads(found.group(1).replace("&amp;", "&").replace("&lt;", "<")
+                      .replace("&gt;", ">"))
+
+
+async def typical_job_report(service, tmp_path: Path) -> Path:
+    """A procedure on the `typical` robot (it bends, lags, backlashes, drifts), carrying 5 kg
+    with ISO 9283's warm-up, and its report as a file."""
+    rig = await start_rig(realism=TYPICAL, seed=1)
+    try:
+        robot = await add_robot(service, rig)
+        r = await service.post("/jobs", headers=AUTH, json={
+            "robot_id": robot, "kind": "procedure", "options": {
+                "calibration_poses": 40, "cycles": 3, "warmup_cycles": 2,
+                "arm_position_mm": [500.0, 0.0, 600.0], "payload_kg": 5.0,
+                "payload_cog_mm": [0.0, 0.0, 80.0]}})
+        job = await wait_state(service, r.json()["id"], timeout_s=240)
+    finally:
+        await stop_rig(rig)
+    assert job["state"] == "done", job["reason"]
     page = tmp_path / "report.html"
     page.write_text((await service.get(f"/jobs/{job['id']}/report")).text)
+    return page
+
+
+@NEEDS_CHROMIUM
+async def test_report_of_a_typical_job_reads_right_in_chromium(tmp_path, service):
+    page = await typical_job_report(service, tmp_path)
     profile = tmp_path / "profile"
-    common = [CHROMIUM, *FLAGS, f"--user-data-dir={profile}"]
-    dom = subprocess.run([*common, "--dump-dom", page.as_uri()], capture_output=True,
-                         text=True, timeout=120)
-    assert dom.returncode == 0, dom.stderr[-2000:]
-    assert '<b id="state">done</b>' in dom.stdout
-    assert dom.stdout.count("<img") >= 2 and "ISO 9283" in dom.stdout
+    html = page.read_text()
+    assert "ISO 9283" in html and "<b id='state'>done</b>" in html
+    for width in (1200, 800):  # a desktop window, and a narrow one (A4 paper is ~790 px)
+        m = measured(page, profile, width)
+        assert m["first_after_header"] == "summary" and m["sections"][0] == "summary", m
+        assert m["scroll_width"] <= m["width"] and not m["overflowing"], m["overflowing"]
+        assert len(m["charts"]) >= 5, m["charts"]  # AP, RP, orientation, residual, straightness
+        for chart in m["charts"]:
+            # the axis names the quantity of the table beside the chart, in the same words
+            assert chart["caption"] and chart["axis_label"].startswith(chart["caption"]), chart
+            assert chart["marks"] >= 2 and chart["covered"] == 0, chart  # the legend covers none
+            assert not chart["text_outside"], chart
     shot = tmp_path / "report.png"
-    run = subprocess.run([*common, f"--screenshot={shot}", "--window-size=1200,1600",
-                          page.as_uri()], capture_output=True, text=True, timeout=120)
-    assert run.returncode == 0 and shot.stat().st_size > 30_000, run.stderr[-2000:]
+    chromium(profile, f"--screenshot={shot}", "--window-size=1200,1600", page.as_uri())
+    assert shot.stat().st_size > 30_000
 
 
-@pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed (`apt-get install "
-                    "chromium`; .ci/run installs it)")
+@NEEDS_CHROMIUM
 def test_docs_render_without_internet(tmp_path):
     """/docs loads Swagger UI from the package, not a CDN (Chromium here has no network but
     loopback): the operations are drawn, and "Authorize" knows the bearer scheme."""

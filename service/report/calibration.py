@@ -1,0 +1,119 @@
+"""What the calibration identified, in plain words first: what the data could not separate and
+what that means for the robot, how well the model fits (the residual table and chart), what
+the symbols mean, then the parameter table."""
+
+from __future__ import annotations
+
+import io
+from typing import Any
+
+from service.document import EstimationSummary
+from service.phases import ROUND_SUFFIXES
+from service.report.charts import line_chart
+from service.report.context import ReportContext
+from service.report.markup import esc, pair, section, sentence, table
+from service.report.symbols import CONSEQUENCES, in_words, legend, partners, taken_up_by
+from service.result_text import beyond_geometry
+
+RESIDUAL = "residual |measured - model position| per pose [mm]"
+
+
+def separability(est: EstimationSummary) -> str:
+    """The parameters held at nominal, grouped by what took up their effect, with what that
+    means for the robot."""
+    if not est.removed:
+        return sentence(f"Every candidate parameter could be told apart from the others in "
+                        f"these data ({est.rank} identified)")
+    groups: dict[str, list[str]] = {}
+    for r in est.removed:
+        others = partners(r)
+        moves = f" moves as {', '.join(others)} together" if others else ""
+        groups.setdefault(taken_up_by(r), []).append(
+            f"<li><b>{esc(r.name)}</b> ({esc(in_words(r.name))}){esc(moves)}</li>")
+    out = [sentence(f"The data could not tell {len(est.removed)} of the candidate parameters "
+                    f"apart from others: each is held at its nominal value, {est.rank} are "
+                    "identified. Each line names one and what it moves with")]
+    for key, items in groups.items():
+        out.append(f"<ul class='separability'>{''.join(items)}</ul>"
+                   + sentence(f"For these, {CONSEQUENCES[key]}"))
+    return "".join(out)
+
+
+def fit_words(est: EstimationSummary) -> str:
+    """The fit's quality in words."""
+    well = "well conditioned" if est.condition_number < 1e3 else "poorly conditioned"
+    chi2 = ("the residuals are as large as the measuring noise explains" if est.chi2_reduced
+            < 2.0 else "the residuals are larger than the measuring noise explains")
+    return sentence(
+        f"The fit is {well} (condition number {est.condition_number:.3g}: how much a "
+        f"measuring error is magnified in the parameters) and chi2/dof is "
+        f"{est.chi2_reduced:.2f} (1 when the residuals match the stated noise): {chi2}")
+
+
+def residual_pair(calibration: dict[str, Any], est: EstimationSummary) -> str:
+    """The residual per pose, before (nominal model) and after (calibrated model): a table of
+    mean, RMS and max beside the chart of the per-pose values."""
+    residuals = calibration.get("residuals") or {}
+    before, after = residuals.get("before"), residuals.get("after")
+    if not before or not after:
+        return ""
+    names = {"before": "before (nominal model)", "after": "after (calibrated model)"}
+    summary = {names["before"]: residuals.get("summary_before") or {},
+               names["after"]: residuals.get("summary_after") or {}}
+    summary[names["before"]].setdefault("mean", est.residual_before_mm)
+    summary[names["after"]].setdefault("mean", est.residual_after_mm)
+    rows = [[name, s.get("mean"), s.get("rms"), s.get("max")] for name, s in summary.items()]
+    tab = table(["model", "mean", "rms", "max"], rows, caption=RESIDUAL, digits=4)
+    poses = {names["before"]: list(range(1, len(before) + 1)),
+             names["after"]: list(range(1, len(after) + 1))}
+    chart = line_chart("calibration residual per pose", poses,
+                       {names["before"]: before, names["after"]: after},
+                       y_label=RESIDUAL, x_label="calibration pose")
+    return pair(tab, chart)
+
+
+def symbols_list(est: EstimationSummary) -> str:
+    names = [p.name for p in est.parameters] + [
+        n for r in est.removed for n in (r.name, *partners(r))]
+    entries = legend(names)
+    if not entries:
+        return ""
+    return ("<p>The parameters' symbols:</p><dl class='symbols'>" + "".join(
+        f"<dt>{esc(s)}</dt><dd>{esc(m)}</dd>" for s, m in entries) + "</dl>")
+
+
+def estimation_body(est: EstimationSummary, calibration: dict[str, Any] | None) -> str:
+    out = io.StringIO()
+    out.write(symbols_list(est))
+    out.write(separability(est))
+    out.write("".join(sentence(line) for line in beyond_geometry(est)))
+    out.write(fit_words(est))
+    if calibration:
+        out.write(residual_pair(calibration, est))
+    out.write(table(["parameter", "unit", "value", "std error"],
+                    [[p.name, p.unit, p.value, p.std_error] for p in est.parameters],
+                    caption="identified parameters (value: the error identified, relative to "
+                            "the nominal model; std error: its 1-sigma uncertainty)",
+                    digits=4))
+    f = est.measuring_frame
+    if f is not None:
+        out.write(sentence(
+            f"Robot base in the measuring system's frame: x {f.x:.3f}, y {f.y:.3f}, "
+            f"z {f.z:.3f} mm; rx {f.rx:.4f}, ry {f.ry:.4f}, rz {f.rz:.4f} deg"))
+    return out.getvalue()
+
+
+def calibration_section(ctx: ReportContext) -> str | None:
+    """Each calibration round's identification."""
+    parts = []
+    for suffix in ROUND_SUFFIXES:
+        est = ctx.result.estimation_of(suffix)
+        if est is not None:
+            head = "<h3>Round 2</h3>" if suffix else ""
+            parts.append(head + estimation_body(est, ctx.result.calibration_of(suffix)))
+    if not parts:
+        return None
+    return section("calibration", "What the calibration identified", "".join(parts))
+
+
+
