@@ -13,7 +13,6 @@ from numpy.typing import NDArray
 
 from screwcal.calibration.error_parameters import ErrorModel, ModelKind, candidate_params
 from screwcal.instrument import ORIENTATION_NOISE_RAD, POSITION_NOISE_MM
-from screwcal.kinematics.forward import point_jacobian
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
@@ -32,8 +31,7 @@ def whitened_blocks(model: SerialModel, q_rad: Array, sigma_mm: float = POSITION
     errors = ErrorModel(model, tuple(candidate_params(model, kind, base=False,
                                                       tool_rotation=False,
                                                       tool_position=False)))
-    T, J = errors.jacobian(np.zeros(len(errors.params)), q_rad)
-    J = point_jacobian(J, T)
+    _, J, _ = errors.linearisation(np.zeros(len(errors.params)), q_rad)
     return J / np.r_[[sigma_mm] * 3, [sigma_rad] * 3][None, :, None]
 
 

@@ -38,7 +38,12 @@ from numpy.typing import ArrayLike
 
 from screwcal.calibration.virtual_joints import parse_name
 from screwcal.errors import ModelError
-from screwcal.kinematics.compliance import COMPLIANCE_JOINTS, COMPLIANCE_UNIT, FREE_COMPLIANCE
+from screwcal.kinematics.compliance import (
+    COMPLIANCE_JOINTS,
+    COMPLIANCE_UNIT,
+    FREE_COMPLIANCE,
+    gravity_torques_by_mass,
+)
 from screwcal.kinematics.forward import (
     _chain,
     _check_q,
@@ -48,7 +53,6 @@ from screwcal.kinematics.forward import (
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import (
     Array,
-    adjoint,
     cross,
     rotation_from_rotvec,
     skew,
@@ -282,34 +286,99 @@ class ErrorModel:
         return {"kinds": idx, "joint": joint, "axis": axis,
                 "carriers": {k: np.array(v, dtype=int) for k, v in carriers.items()}}
 
-    def jacobian(self, x: ArrayLike, q: ArrayLike) -> tuple[Array, Array]:
-        """Tool poses (N, 4, 4) and d(spatial tool twist)/dx (N, 6, P), exact at x.
+    @cached_property
+    def _carriers(self) -> tuple[Array, Array]:
+        """Per column, the frame that carries its local twist to the world and the frame whose
+        carried twist is subtracted (-1: none), among the frames `linearisation` stacks: the
+        partial products A_0..A_n, the flange pose (n + 1) and the identity (n + 2)."""
+        n, P = self.reference.n_joints, len(self.params)
+        first, second = np.empty(P, dtype=int), np.full(P, -1)
+        for key, cols in self._layout["carriers"].items():
+            if key[0] == "base":
+                first[cols] = n + 2
+            elif key[0] == "partial":
+                first[cols] = key[1]
+            elif key[0] == "axis":  # a displacement of axis i: Ad_{A_i} - Ad_{A_i+1}
+                first[cols], second[cols] = key[1], key[1] + 1
+            else:  # tool: expressed in the flange frame, carried by the flange pose
+                first[cols] = n + 1
+        return first, second
 
-        Each column is a local twist carried to the world by one of a few adjoints (a joint's
-        partial product, the difference of two for an axis displacement, the flange, or the
-        identity for the base); columns sharing a carrier are computed together.
-        """
+    def linearisation(self, x: ArrayLike, q: ArrayLike) -> tuple[Array, Array, Array]:
+        """Tool poses T (N, 4, 4) and the rates of the tool point (mm) and of its rotation
+        vector (rad), rows (dx, dy, dz, dphi_x, dphi_y, dphi_z) as a pose residual's: w.r.t.
+        the parameters (N, 6, P) and w.r.t. the joints (N, 6, n), exact at x, from one chain.
+
+        A local twist (w, v) carried by a frame (R, t) moves the tool point p at
+        dp = R v + (R w) x (p - t) = R v - [p - t]x R w, and turns it at R w. With the frames'
+        R and [p - t]x R side by side, (3N, 3C) each for the C frames (the partial products,
+        the flange, the identity), and every column's local twist placed in its carrier's
+        block of a (3C, P + n) table (minus the subtracted frame's), all the columns, the
+        joints' too, are two matrix products: no loop over parameters or carriers."""
         x = np.asarray(x, dtype=float)
         model = self.apply(x)
         q = _check_q(model, q)
-        A_end, partial = _chain(model, q, keep=True)
-        Y = _to_homogeneous((A_end.reshape(-1, 4) @ model.home_flange).reshape(-1, 3, 4))
-        T = Y @ model.tool
-        local = self._local_twists(model, self._collect(x))
-        J = np.empty((len(q), 6, len(self.params)))
-        ad = [adjoint(A) for A in partial]
-        for key, cols in self._layout["carriers"].items():
-            L = local[:, cols]
-            if key[0] == "base":
-                J[:, :, cols] = L
-            elif key[0] == "partial":
-                J[:, :, cols] = ad[key[1]] @ L
-            elif key[0] == "axis":  # effect of a displacement of axis i
-                J[:, :, cols] = (ad[key[1]] - ad[key[1] + 1]) @ L
-            else:  # tool: expressed in the flange frame, carried by the flange pose
-                J[:, :, cols] = adjoint(Y) @ L
-        self._scale_compliance(J, model, q)
-        return T, J
+        tau = None
+        if model.has_compliance:  # the torques at the unbent configuration, once
+            tau = joint_torques_by_mass(model, q)
+        A_end, partial = _chain(model, q, keep=True, tau=tau)
+        if tau is None and self._has_compliance_columns:  # unbent: the same chain
+            tau = gravity_torques_by_mass(model.axis_dirs, model.axis_points_mm, partial,
+                                          model.all_masses, model.base[:3, 2])
+        N, n = q.shape
+        C = n + 3
+        frames = np.zeros((C, N, 3, 4))
+        frames[:n + 1] = partial
+        frames[n + 1] = (A_end.reshape(-1, 4) @ model.home_flange).reshape(N, 3, 4)
+        frames[n + 2, :, :, :3] = np.eye(3)
+        T = _to_homogeneous((frames[n + 1].reshape(-1, 4) @ model.tool).reshape(N, 3, 4))
+        R = frames[..., :3]
+        arm = T[:, :3, 3] - frames[..., 3]  # (C, N, 3) p - t
+        armR = cross(arm[:, :, None, :], np.swapaxes(R, 2, 3))  # rows: (p - t) x R's columns
+        R_side = R.transpose(1, 2, 0, 3).reshape(3 * N, 3 * C)
+        arm_side = armR.transpose(1, 3, 0, 2).reshape(3 * N, 3 * C)
+        W, V = self._twist_tables(model, self._collect(x), C)
+        J = np.empty((N, 6, W.shape[1]))
+        J[:, :3] = (R_side @ V - arm_side @ W).reshape(N, 3, -1)
+        J[:, 3:] = (R_side @ W).reshape(N, 3, -1)
+        P = len(self.params)
+        if tau is not None:
+            self._scale_compliance(J[:, :, :P], tau, len(model.masses))
+        return T, J[:, :, :P], J[:, :, P:]
+
+    def jacobian(self, x: ArrayLike, q: ArrayLike) -> tuple[Array, Array]:
+        """Tool poses (N, 4, 4) and d(spatial tool twist)/dx (N, 6, P), rows (omega, v), exact
+        at x: `linearisation`'s point rates read as a spatial twist (v = dp - omega x p)."""
+        T, J, _ = self.linearisation(x, q)
+        w = J[:, 3:]
+        v = J[:, :3] - np.swapaxes(cross(np.swapaxes(w, 1, 2), T[:, None, :3, 3]), 1, 2)
+        return T, np.concatenate([w, v], axis=1)
+
+    @cached_property
+    def _has_compliance_columns(self) -> bool:
+        return any(k in self._layout["kinds"] for k in ("compliance", "compliance_mass"))
+
+    def _twist_tables(self, model: SerialModel, c: dict[str, Any], C: int
+                      ) -> tuple[Array, Array]:
+        """The local twists (w: W, v: V) of every parameter, then of every joint, each placed
+        in its carrier's 3-row block (minus in the subtracted frame's): (3 C, P + n) each."""
+        local = self._local_twists(model, c)
+        n, P = model.n_joints, len(self.params)
+        first, second = self._carriers
+        joints = np.arange(n)
+        rev = model.is_revolute[:, None]
+        w_joint = np.where(rev, model.axis_dirs, 0.0)
+        v_joint = np.where(rev, cross(model.axis_points_mm, model.axis_dirs), model.axis_dirs)
+        table = np.zeros((2, C, 3, P + n))
+        cols = np.arange(P)
+        table[0, first, :, cols] = local[:3].T
+        table[1, first, :, cols] = local[3:].T
+        two = second >= 0
+        table[0, second[two], :, cols[two]] -= local[:3, two].T
+        table[1, second[two], :, cols[two]] -= local[3:, two].T
+        table[0, joints, :, P + joints] = w_joint
+        table[1, joints, :, P + joints] = v_joint
+        return table[0].reshape(3 * C, -1), table[1].reshape(3 * C, -1)
 
     def _local_twists(self, model: SerialModel, c: dict[str, Array]) -> Array:
         """Each parameter's twist (6, P) in the frame of its carrier, at the model of x."""
@@ -356,21 +425,19 @@ class ErrorModel:
                 local[3 + axis[cols], cols] = 1.0
         return local
 
-    def _scale_compliance(self, J: Array, model: SerialModel, q: Array) -> None:
-        """The compliance columns of J (N, 6, P), in place: d theta_j / d c_j = tau_j(q),
+    def _scale_compliance(self, J: Array, tau: Array, arm: int) -> None:
+        """The compliance columns of J (N, 6, P), in place, from the gravity torques tau
+        (N, n, M) per mass (`arm` of them the arm's): d theta_j / d c_j = tau_j(q),
         d theta_j / d C_jk = tau_jk(q) with the payload's torque riding on the last arm mass's
         coefficient (kN m; the bending's own effect on tau is of second order)."""
         kinds, joint, axis = self._layout["kinds"], self._layout["joint"], self._layout["axis"]
-        if "compliance" not in kinds and "compliance_mass" not in kinds:
-            return
-        tau = joint_torques_by_mass(model, q)
         if "compliance" in kinds:
             cols = kinds["compliance"]
             J[:, :, cols] *= tau.sum(axis=2)[:, joint[cols]][:, None, :] / 1000.0
         if "compliance_mass" in kinds:
             cols = kinds["compliance_mass"]
-            arm = len(model.masses)
             if tau.shape[2] > arm:
+                tau = tau.copy()
                 tau[:, :, arm - 1] += tau[:, :, arm]
             J[:, :, cols] *= tau[:, joint[cols], axis[cols]][:, None, :] / 1000.0
 

@@ -12,7 +12,6 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from screwcal.calibration.error_parameters import ErrorModel
-from screwcal.kinematics.forward import point_jacobian
 from screwcal.kinematics.se3 import Array
 
 Index = NDArray[np.intp]
@@ -85,8 +84,7 @@ def _structural_rank(errors: ErrorModel, residual: Residual, samples: int) -> in
     ref = errors.reference
     q = np.random.default_rng(0).uniform(ref.limits[:, 0], ref.limits[:, 1],
                                          (samples, ref.n_joints))
-    T, Js = errors.jacobian(np.zeros(len(errors.params)), q)
-    J = point_jacobian(Js, T)
+    T, J, _ = errors.linearisation(np.zeros(len(errors.params)), q)
     if residual == "distance":
         i, j = pairs(samples)
         u = T[i, :3, 3] - T[j, :3, 3]

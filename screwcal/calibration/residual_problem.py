@@ -27,7 +27,7 @@ from screwcal.calibration.identifiability import Residual, pairs
 from screwcal.calibration.identify_settings import IdentifySettings, variance_from_levels
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.plausible import PlausibleRanges, prior_sigma
-from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
+from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, rotvec_from_rotation
 
@@ -49,20 +49,12 @@ def residual_rows(residual: Residual) -> int:
     return 6 if residual == "pose" else 3
 
 
-def joint_jacobian(errors: ErrorModel, data: MeasurementSet, rows: int, at: Array) -> Array:
-    """The residuals' Jacobian w.r.t. the joints (N, rows, n) at x = `at`."""
-    model = errors.apply(at)
-    T = forward_kinematics(model, data.q)
-    return point_jacobian(spatial_jacobian(model, data.q), T)[:, :rows, :]
-
-
-def covariance_components(errors: ErrorModel, data: MeasurementSet, rows: int, at: Array
-                          ) -> Array:
-    """The unit covariance components V_k (3, N, k, k) at x = `at`: position rows (mm^2),
-    orientation rows (rad^2), and the joints' through the joint Jacobian (per rad^2)."""
-    k = rows
-    Jq = joint_jacobian(errors, data, rows, at)
-    V = np.zeros((3, len(data), k, k))
+def covariance_components(Jq: Array) -> Array:
+    """The unit covariance components V_k (3, N, k, k) of residuals whose joint Jacobian is Jq
+    (N, k, n): position rows (mm^2), orientation rows (rad^2), and the joints' through the
+    joint Jacobian (per rad^2)."""
+    k = Jq.shape[1]
+    V = np.zeros((3, len(Jq), k, k))
     V[0, :, range(3), range(3)] = 1.0
     if k == 6:
         V[1, :, range(3, 6), range(3, 6)] = 1.0
@@ -80,8 +72,9 @@ def _weights(errors: ErrorModel, data: MeasurementSet, residual: Residual,
         w = np.r_[np.full(3, 1.0 / settings.weight_mm), np.full(3, 180.0 / np.pi)][:k]
         W = np.broadcast_to(np.diag(w), (N, k, k)).copy()
         return W if residual != "distance" else np.full(len(pairs(N)[0]), w[0])
+    Jq = errors.linearisation(at, data.q)[2][:, :k]
     cov = np.einsum("k,knij->nij", variance_from_levels(settings.noise.filled()),
-                    covariance_components(errors, data, k, at))
+                    covariance_components(Jq))
     if residual == "distance":
         i, j = pairs(N)
         u = data.positions_mm[i] - data.positions_mm[j]
@@ -105,6 +98,7 @@ class ResidualProblem:
         self.ranges = ranges
         self.prior = prior_weights(errors, ranges)
         self._last: tuple[bytes, tuple[Array, Array]] | None = None
+        self._linear: tuple[bytes, tuple[Array, Array, Array]] | None = None
 
     @classmethod
     def weighted_at(cls, errors: ErrorModel, data: MeasurementSet, residual: Residual,
@@ -135,18 +129,26 @@ class ResidualProblem:
     def posterior_jacobian(self, x: Array) -> Array:
         return self.posterior(x)[1]
 
+    def linearisation(self, x: Array) -> tuple[Array, Array, Array]:
+        """`ErrorModel.linearisation` at x on these data: tool poses, the point rates w.r.t.
+        the parameters and w.r.t. the joints; the last one is kept (the residuals' Jacobian,
+        the joint Jacobian of the weights and the diagnostics are asked at the same x)."""
+        key = x.tobytes()
+        if self._linear is None or self._linear[0] != key:
+            self._linear = (key, self.errors.linearisation(x, self.data.q))
+        return self._linear[1]
+
     def joint_jacobian(self, at: Array) -> Array:
         """The residuals' Jacobian w.r.t. the joints (N, k, n) at x = `at`."""
-        return joint_jacobian(self.errors, self.data, self.rows, at)
+        return self.linearisation(at)[2][:, :self.rows]
 
     def components(self, at: Array) -> Array:
         """The unit covariance components V_k (3, N, k, k) at x = `at`."""
-        return covariance_components(self.errors, self.data, self.rows, at)
+        return covariance_components(self.joint_jacobian(at))
 
     def raw(self, x: Array) -> tuple[Array, Array]:
         """Unweighted residuals (N, k) or (P,) and their Jacobian (N, k, p) or (P, p)."""
-        T, Js = self.errors.jacobian(x, self.data.q)
-        J = point_jacobian(Js, T)
+        T, J, _ = self.linearisation(x)
         dp = T[:, :3, 3] - self.data.positions_mm
         if self.residual == "distance":
             i, j = pairs(len(self.data))
@@ -197,15 +199,14 @@ class ResidualProblem:
         if self.residual == "distance":
             out = (r * self.whiten, J * self.whiten[:, None])
         else:
-            out = (self._apply_weights(r),
-                   np.einsum("nij,njp->nip", self.whiten, J).reshape(-1, J.shape[-1]))
+            out = (self._apply_weights(r), (self.whiten @ J).reshape(-1, J.shape[-1]))
         self._last = (key, out)
         return out
 
     def _apply_weights(self, r: Array) -> Array:
         if self.residual == "distance":
             return r * self.whiten
-        return np.einsum("nij,nj->ni", self.whiten, r).reshape(-1)
+        return (self.whiten @ r[..., None]).reshape(-1)
 
     def cost(self, x: Array) -> float:
         r = self.residuals(x)

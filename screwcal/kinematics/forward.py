@@ -51,15 +51,16 @@ def _check_q(model: SerialModel, q: ArrayLike) -> Array:
     return q
 
 
-def _chain(model: SerialModel, q: Array, keep: bool, joints: int | None = None
-           ) -> tuple[Array, list[Array]]:
+def _chain(model: SerialModel, q: Array, keep: bool, joints: int | None = None,
+           tau: Array | None = None) -> tuple[Array, list[Array]]:
     """Successive screws from the base: returns A_n (N, 3, 4) = base . prod exp(...) [:3] and,
     if `keep`, the partial products A_0..A_n (each (N, 3, 4)), A_0 = base; only the first
     `joints` screws when given. A compliant model's joints stand at q + zero + c * tau(q), tau
-    at the unbent configuration (the bending's own effect on tau is of second order)."""
+    at the unbent configuration (the bending's own effect on tau is of second order; `tau`:
+    `joint_torques_by_mass`'s, when at hand)."""
     theta = q + model.joint_zero
     if model.has_compliance:
-        theta = theta + joint_bend(model, q)
+        theta = theta + joint_bend(model, q, tau)
     return _chain_theta(model, theta, keep, joints)
 
 
@@ -79,10 +80,11 @@ def joint_torques_by_mass(model: SerialModel, q: ArrayLike) -> Array:
                                    model.all_masses, model.base[:3, 2])
 
 
-def joint_bend(model: SerialModel, q: Array) -> Array:
+def joint_bend(model: SerialModel, q: Array, tau: Array | None = None) -> Array:
     """(N, n) how far gravity turns each joint (rad): c_j tau_j, or with per-mass coefficients
-    sum_k C_jk tau_jk (the payload with its joint's last arm-mass coefficient)."""
-    tau = joint_torques_by_mass(model, q)
+    sum_k C_jk tau_jk (the payload with its joint's last arm-mass coefficient); `tau`: the
+    torques `joint_torques_by_mass` gives, when already at hand."""
+    tau = joint_torques_by_mass(model, q) if tau is None else tau
     bend: Array
     if model.compliance_by_mass is None:
         bend = model.compliance * tau.sum(axis=2)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from screwcal.calibration.error_parameters import ErrorModel, candidate_params
-from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist, twist_from_transform_difference
 from tests.conftest import random_q
@@ -35,3 +35,53 @@ def test_full_model_candidate_count():
     params = candidate_params(irb1600(), "full", base=False, tool_rotation=False,
                               tool_position=False)
     assert len(params) == 6 * 5 + 6  # 2 dir + 2 location + zero per joint, home flange
+
+
+@pytest.mark.parametrize("compliance", ["none", "j23", "j23-free"])
+def test_linearisation_is_exact_for_parameters_and_joints(rng, compliance):
+    """The point rates of every parameter and every joint, built as two matrix products over
+    all poses, against central differences of the tool point and its rotation, at a random
+    x (compliance at zero: its columns are the torques', exact there; the bent model's own are
+    test_compliance's), with a payload; a bent model's joint rates are spatial_jacobian's."""
+    from dataclasses import replace
+
+    from screwcal.kinematics.compliance import Payload
+    from screwcal.kinematics.se3 import rotvec_from_rotation
+
+    model = replace(irb1600(), payload=Payload(5.0, (0.0, 30.0, 80.0))).with_frames(
+        exp_twist([0.3, -0.2, 1.0, 1500, -200, 300]), exp_twist([0.1, 0.2, 0.0, 20, -30, 100]))
+    params = candidate_params(model, "full", base=True, tool_rotation=True, tool_position=True,
+                              compliance=compliance)
+    params += candidate_params(model, "thesis", base=False, tool_rotation=False,
+                               tool_position=False)[6:]  # the link offsets
+    errors = ErrorModel(model, tuple(params))
+    x = rng.normal(0, 0.02, len(params)) * np.where([p.unit == "mm" for p in params], 100, 1)
+    bending = [k for k, p in enumerate(params) if p.kind.startswith("compliance")]
+    x[bending] = 0.0
+    q = random_q(model, rng, 7)
+    T, J, Jq = errors.linearisation(x, q)
+
+    def rates(Tp, Tm, h):
+        dR = Tp[:, :3, :3] @ np.swapaxes(Tm[:, :3, :3], 1, 2)
+        return np.c_[(Tp[:, :3, 3] - Tm[:, :3, 3]) / (2 * h), rotvec_from_rotation(dR) / (2 * h)]
+
+    h = 1e-6
+    for k, p in enumerate(params):
+        step = np.zeros(len(params))
+        step[k] = h
+        fd = rates(forward_kinematics(errors.apply(x + step), q),
+                   forward_kinematics(errors.apply(x - step), q), h)
+        np.testing.assert_allclose(J[:, :, k], fd, atol=2e-5 * max(1, np.abs(fd).max()),
+                                   err_msg=p.name)
+    straight = errors.apply(x)
+    for j in range(model.n_joints):
+        step = np.zeros(model.n_joints)
+        step[j] = h
+        fd = rates(forward_kinematics(straight, q + step), forward_kinematics(straight, q - step),
+                   h)
+        np.testing.assert_allclose(Jq[:, :, j], fd, atol=2e-5 * max(1, np.abs(fd).max()),
+                                   err_msg=f"joint {j + 1}")
+    x[bending] = np.radians(5.0)  # deg per kN m
+    T, _, Jq = errors.linearisation(x, q)
+    np.testing.assert_allclose(Jq, point_jacobian(spatial_jacobian(errors.apply(x), q), T),
+                               atol=1e-9)
