@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from screwcal.kinematics import forward
 from screwcal.kinematics.forward import (
     ParameterLayout,
     flange_kinematics,
@@ -76,6 +77,20 @@ def test_batch_equals_one_by_one(rng, types):
     Jb = parameter_jacobian(model, q)
     Js = np.stack([parameter_jacobian(model, q[k:k + 1])[0] for k in range(len(q))])
     np.testing.assert_allclose(Jb, Js, rtol=0, atol=1e-12 * np.abs(Jb).max())
+
+
+@pytest.mark.parametrize("types", ["RRRRRR", "RPRRPR", "PPP", "RRRRRRR"])
+def test_many_poses_in_blocks_equal_the_jacobians_chain(rng, types, monkeypatch):
+    """The batch path works in blocks with the configurations along the last axis: blocks of 8
+    here (two full, one of 5) against the product of successive screws the Jacobians build."""
+    monkeypatch.setattr(forward, "_BLOCK", 8)
+    model = random_model(rng, types)
+    q = random_q(model, rng, 21)
+    A, _ = forward._chain(model, q, keep=False)
+    chain = (A.reshape(-1, 4) @ (model.home_flange @ model.tool)).reshape(-1, 3, 4)
+    T = forward_kinematics(model, q)
+    np.testing.assert_allclose(T[:, :3], chain, rtol=0, atol=1e-12 * np.abs(chain).max())
+    np.testing.assert_array_equal(T[:, 3], np.tile([0.0, 0.0, 0.0, 1.0], (21, 1)))
 
 
 def test_fk_rejects_wrong_shapes():
