@@ -15,6 +15,7 @@ import contextlib
 import time
 from collections import Counter
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -29,6 +30,7 @@ from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
 from service.document import DiscardedReadings
+from service.drift import DRIFT_PHASE, DriftSchedule, DriftState
 from service.errors import SafetyError
 from service.events import JobEvents
 from service.plans import PlannedPose
@@ -39,6 +41,14 @@ from service.store import Store
 LINK_ERRORS = (LinkError,)  # protocol/errors.py: lost, timed out, busy, the arm's line or port
 ZERO_NOTE = ("ZERO: the robot stands at the correction; enter the offsets on the FlexPendant "
              "(calibration data), then give the go-ahead")
+
+
+@dataclass
+class _Seen:
+    """The readings a new one is checked against: the previous pose's, and every earlier."""
+
+    previous: PoseReading | None
+    earlier: EarlierReadings
 
 
 class JobAborted(Exception):  # noqa: N818 (control flow, not an error)
@@ -100,6 +110,7 @@ class Acquisition:
         self.store, self.settings, self.events, self.job_id = store, settings, events, job_id
         self.robot, self.model, self.gate = robot, model, gate
         self.flange = MeasuringFlange.from_holes_in_flange(robot["holes_mm"])
+        self.drift: DriftSchedule | None = None  # the job's drift checks (the runner's)
         self.discarded: Counter[str] = Counter()  # arm readings refused, by kind
         self.client: ControllerClient | None = None
         self.arm: ArmReader | None = None
@@ -158,12 +169,42 @@ class Acquisition:
 
     # -- measuring -----------------------------------------------------------------------------
     async def measure(self, phase: str, plan: list[PlannedPose]) -> None:
-        """Every pose of `plan` not yet committed for `phase`, in lists of at most MAX_LIST."""
+        """Every pose of `plan` not yet committed for `phase`, in lists of at most MAX_LIST;
+        the drift checks (`service/drift.py`) that fall due before, during and after it."""
         assert self.client is not None and self.arm is not None
+        self._check_limits(phase, plan)
+        if self.drift is not None:
+            self._check_limits(DRIFT_PHASE, self.drift.references)
+        list_name: Literal["CAL", "PERF"] = "CAL" if phase.startswith("cal") else "PERF"
+        seen = self._seen()
+        while True:
+            measured = self.store.measured_indices(self.job_id, phase)  # once per chunk
+            todo = [p for p in plan if p.idx not in measured]
+            room = MAX_LIST
+            if self.drift is not None:
+                state = DriftState(*self.store.phase_progress(self.job_id, DRIFT_PHASE))
+                check = self.drift.due(state, time.time(), end_of_list=not todo)
+                if check is not None:
+                    done = self.store.measured_indices(self.job_id, DRIFT_PHASE)
+                    poses = [p for p in self.drift.check(check) if p.idx not in done]
+                    await self._run_list(DRIFT_PHASE, list_name, poses, seen,
+                                         self.drift.per_check, self.drift.per_check - len(poses))
+                    continue
+                room = min(room, self.drift.room(state))
+            if not todo:
+                return
+            chunk = todo[:room]
+            if chunk[-1].role == "approach" and len(todo) > len(chunk):  # never leave a
+                chunk = todo[:room + 1]  # return point without its target: a check between
+            await self._run_list(phase, list_name, chunk, seen, len(plan), len(measured))
+
+    def _check_limits(self, phase: str, plan: Sequence[PlannedPose]) -> None:
         for p in plan:  # the service refuses targets outside the limits before sending
             if not self.model.within_limits(np.radians(p.joints_deg)):
                 raise SafetyError(f"{phase} pose {p.idx} is outside the joint limits")
-        list_name: Literal["CAL", "PERF"] = "CAL" if phase.startswith("cal") else "PERF"
+
+    def _seen(self) -> _Seen:
+        """The job's committed readings, which the next reading is checked against."""
         last = self.store.last_measurement(self.job_id)
         previous = None if last is None else self._reading(
             last["holes_mm"], last["flange_pose"], last["joints_deg"])
@@ -172,31 +213,31 @@ class Acquisition:
             np.array([r["holes_mm"] for r in rows], dtype=float),
             flange_kinematics(self.model, np.radians([r["joints_deg"] for r in rows]))[:, :3, 3],
             tuple(f"{r['phase']}/{r['idx']}" for r in rows))
-        while True:
-            measured = self.store.measured_indices(self.job_id, phase)  # once per chunk
-            todo = [p for p in plan if p.idx not in measured]
-            if not todo:
-                return
-            done = len(measured)
-            chunk = todo[:MAX_LIST]
-            await self.client.load(list_name, [p.joints_deg for p in chunk])
+        return _Seen(previous, earlier)
 
-            async def gate(k: int, chunk: list[PlannedPose] = chunk) -> None:
-                await self._before_move(phase, chunk[k])
+    async def _run_list(self, phase: str, list_name: Literal["CAL", "PERF"],
+                        chunk: list[PlannedPose], seen: _Seen, total: int, done: int) -> None:
+        """One LOAD and RUN of `chunk` (at most MAX_LIST poses), each pose committed before the
+        robot moves on."""
+        assert self.client is not None
+        await self.client.load(list_name, [p.joints_deg for p in chunk])
 
-            async for got in self.client.run(list_name, "STEP", on_wait=gate, count=len(chunk)):
-                planned = chunk[got.idx]
-                reading = await self._read_pose(phase, planned.idx, got.joints_deg, previous,
-                                                earlier)
-                self.store.add_measurement(self.job_id, phase, planned.idx, list(got.joints_deg),
-                                           list(got.tool0), reading.holes_mm.tolist(),
-                                           pose_from_transform(reading.flange).tolist())
-                previous = reading
-                earlier = earlier.plus(reading, f"{phase}/{planned.idx}")
-                done += 1
-                await self.events.publish("measured", phase=phase, index=planned.idx,
-                                          done=done, total=len(plan))
-            self._count_discarded()
+        async def gate(k: int) -> None:
+            await self._before_move(phase, chunk[k])
+
+        async for got in self.client.run(list_name, "STEP", on_wait=gate, count=len(chunk)):
+            planned = chunk[got.idx]
+            reading = await self._read_pose(phase, planned.idx, got.joints_deg, seen.previous,
+                                            seen.earlier)
+            self.store.add_measurement(self.job_id, phase, planned.idx, list(got.joints_deg),
+                                       list(got.tool0), reading.holes_mm.tolist(),
+                                       pose_from_transform(reading.flange).tolist())
+            seen.previous = reading
+            seen.earlier = seen.earlier.plus(reading, f"{phase}/{planned.idx}")
+            done += 1
+            await self.events.publish("measured", phase=phase, index=planned.idx,
+                                      done=done, total=total)
+        self._count_discarded()
 
     async def move_through(self, phase: str, plan: list[PlannedPose]) -> None:
         """Run the robot through `plan` without measuring (a warm-up), in lists of at most

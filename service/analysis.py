@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from screwcal.calibration.backlash import backlash_from_pairs
 from screwcal.calibration.correction import (
     CorrectionRefusedError,
     after_zero,
@@ -41,21 +42,69 @@ from service.document import (
     ResultDocument,
 )
 from service.phases import PERF_PHASES, ROUND_SUFFIXES, Round, compensated_list
-from service.plans import PlannedPose
+from service.plans import BACKLASH_ROLES, PlannedPose
 
 POOR_FIT_CHI2 = 10.0  # chi2/dof above this with the stated noise: the model misses something
 
 
-def measurement_set(rows: Sequence[Mapping[str, Any]]) -> MeasurementSet:
+def measurement_set(rows: Sequence[Mapping[str, Any]],
+                    interleaved: Sequence[Mapping[str, Any]] = ()) -> MeasurementSet:
     """The committed poses of a phase as the identification reads them, in the order measured:
-    each pose's previous readings are those of the pose before it (the read-back lag's
-    `q_previous`; unknown for the first)."""
+    each pose's previous readings are those of the pose the robot came from (the read-back
+    lag's `q_previous`; unknown for the first): the pose before it, or a pose of `interleaved`
+    (the drift checks) committed between the two."""
     T = transform_from_pose(np.array([r["flange_pose"] for r in rows]))
     q = np.radians([r["joints_deg"] for r in rows])
     previous = np.full_like(q, np.nan)
     previous[1:] = q[:-1]
+    if interleaved and all("id" in r for r in rows):
+        between = sorted(interleaved, key=lambda r: int(r["id"]))
+        ids = np.array([int(r["id"]) for r in between])
+        for k in range(1, len(rows)):
+            hits = np.flatnonzero((ids > int(rows[k - 1]["id"])) & (ids < int(rows[k]["id"])))
+            if len(hits):
+                previous[k] = np.radians(between[hits[-1]]["joints_deg"])
     return MeasurementSet(q, T[:, :3, 3].copy(), T[:, :3, :3].copy(),
                           tuple(str(r["idx"]) for r in rows), q_previous=previous)
+
+
+def backlash_summary(result: CalibrationResult, rows: Sequence[Mapping[str, Any]],
+                     plan: Sequence[PlannedPose]) -> dict[str, Any] | None:
+    """Lost motion per joint (`screwcal.calibration.backlash`) from the calibration list's
+    two-direction pairs (`service/plans.py`), against the calibrated model; the readings
+    corrected for the read-back lag the estimation found (the approach is the pose before)."""
+    by_idx = {int(r["idx"]): r for r in rows}
+    roles = {p.idx: p for p in plan}
+    a_rows, b_rows = [], []
+    for idx, p in roles.items():
+        if p.role == BACKLASH_ROLES[0]:
+            b = next((k for k, o in roles.items() if o.role == BACKLASH_ROLES[1]
+                      and o.point == p.point), None)
+            if b is not None and {idx, idx - 1, b, b - 1} <= set(by_idx):
+                a_rows.append((by_idx[idx], by_idx[idx - 1]))
+                b_rows.append((by_idx[b], by_idx[b - 1]))
+    if not a_rows:
+        return None
+    lag = np.zeros(result.model.n_joints) if result.reading_lag is None else \
+        np.asarray(result.reading_lag)
+
+    def joints(pairs: list[tuple[Mapping[str, Any], Mapping[str, Any]]]) -> Array:
+        q = np.radians([r["joints_deg"] for r, _ in pairs])
+        before = np.radians([r["joints_deg"] for _, r in pairs])
+        return q + lag * (q - before)  # calibration.lag: q_true = q_read + lag (q_read - q_prev)
+
+    def flanges(pairs: list[tuple[Mapping[str, Any], Mapping[str, Any]]]) -> Array:
+        return transform_from_pose(np.array([r["flange_pose"] for r, _ in pairs]))
+
+    noise = result.noise
+    sigma_mm = noise.position_mm if noise is not None and np.isfinite(noise.position_mm) \
+        else 0.02
+    sigma_rad = np.radians(noise.orientation_deg) if noise is not None and \
+        np.isfinite(noise.orientation_deg) else sigma_mm / 100.0
+    est = backlash_from_pairs(result.model, joints(a_rows), joints(b_rows), flanges(a_rows),
+                              flanges(b_rows), np.ones((len(a_rows), result.model.n_joints)),
+                              sigma_mm=float(sigma_mm), sigma_rad=float(sigma_rad))
+    return est.to_dict()
 
 
 def list_payload(options: JobOptions, kind: str) -> Payload:
@@ -245,6 +294,12 @@ def iso_test_conditions(robot: Mapping[str, Any], model: SerialModel,
                                      f"{options.lag}",
         "date (UTC)": time.strftime("%Y-%m-%d %H:%M", time.gmtime(created)) if created else "",
     }
+
+
+def payload_label(options: JobOptions, phase: str) -> str:
+    """What the flange carries during a measured phase, as text (drift checks compare like
+    with like)."""
+    return _payload_text(list_payload(options, "cal" if phase.startswith("cal") else "perf"))
 
 
 def _payload_text(payload: Payload) -> str:

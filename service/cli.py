@@ -283,11 +283,26 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
                     help="mass on the flange during the calibration list (kg)")
     add_vector(p, "--calibration-payload-cog-mm", default=(0.0, 0.0, 0.0),
                help="its centre of gravity in the flange frame (default 0 0 0)")
+    p.add_argument("--backlash-poses", type=int, default=0, metavar="N",
+                   help="calibration: N calibration poses measured again approached from 1 deg "
+                   "below and 1 deg above on every joint, to identify each joint's lost motion "
+                   "(deg; default 0: none)")
+    p.add_argument("--drift-poses", type=int, default=0, metavar="N",
+                   help="ISO 9283 drift: N reference poses (the cube's P1, P2, P4, P3, P5) "
+                   "re-measured during the job (default 0: none)")
+    p.add_argument("--drift-period-poses", type=int, default=40, metavar="N",
+                   help="drift: re-measure them every N measured poses (count, default 40)")
+    p.add_argument("--drift-period-s", type=non_negative_float, default=None, metavar="S",
+                   help="drift: re-measure them every S seconds of the job instead (s)")
 
 
 def _model_options(args: argparse.Namespace) -> dict[str, Any]:
     options = {"compliance": args.compliance, "lag": args.lag, "payload_kg": args.payload_kg,
-               "payload_cog_mm": args.payload_cog_mm, "warmup_cycles": args.warmup_cycles}
+               "payload_cog_mm": args.payload_cog_mm, "warmup_cycles": args.warmup_cycles,
+               "backlash_poses": args.backlash_poses, "drift_poses": args.drift_poses,
+               "drift_period_poses": args.drift_period_poses}
+    if args.drift_period_s is not None:
+        options["drift_period_s"] = args.drift_period_s
     if args.calibration_payload_kg is not None:
         options |= {"calibration_payload_kg": args.calibration_payload_kg,
                     "calibration_payload_cog_mm": args.calibration_payload_cog_mm}

@@ -17,6 +17,9 @@ stored by another version of the service loses nothing).
     ├── home_check                  HomeCheck           thesis Table 14
     ├── test_conditions             {label: value}      as ISO 9283 asks a report to state
     ├── arm_readings_discarded      DiscardedReadings
+    ├── backlash                    dict                lost motion per joint (calibration list
+    │                                                   with two-direction pairs)
+    ├── drift                       DriftSection        reference poses re-measured over the job
     └── warnings                    [str]
 """
 
@@ -82,6 +85,20 @@ class JobOptions(BaseModel):
     warmup_cycles: int = Field(0, ge=0, le=60, description="ISO 9283 warm-up: cycles of the "
                                "test cycle (P1, P5, P4, P3, P2) run unmeasured before the first "
                                "performance list")
+    backlash_poses: int = Field(
+        0, ge=0, le=20, description="calibration: this many calibration poses measured twice "
+        "more, approached from 1 deg below and from 1 deg above on every joint, to identify "
+        "each joint's lost motion (backlash, deg); 0: none")
+    drift_poses: int = Field(
+        0, ge=0, le=5, description="ISO 9283 drift: this many reference poses (the test "
+        "cube's P1, P2, P4, P3, P5 in that order, each approached from its return point) "
+        "re-measured periodically during the job; 0: none")
+    drift_period_poses: int = Field(
+        40, ge=5, le=1000, description="drift: re-measure the reference poses every this many "
+        "measured poses (count)")
+    drift_period_s: float | None = Field(
+        None, gt=0, le=86400, description="drift: re-measure the reference poses every this "
+        "many seconds of the job instead (s; checked between poses)")
     frame_from_job: Id | None = Field(
         None, description="performance: measure accuracy in the robot base frame that this "
         "earlier job's calibration identified (default: a frame fitted to the job's own data, "
@@ -219,6 +236,22 @@ class DiscardedReadings(Section):
     meaning: str
 
 
+class DriftSection(Section):
+    """ISO 9283 drift (`screwcal.performance.drift`): reference poses re-measured over the job,
+    each approached from its return point. Per check: its time and how many poses of the job
+    were measured before it; per reference pose: the norm of the change of its measured
+    position since its first measurement under the same payload (mm)."""
+
+    reference: list[str]
+    t_s: list[float]
+    poses_before: list[int]
+    list_of_check: list[str]
+    deviation_mm: dict[str, list[float]]
+    quantity: str
+    meaning: str
+    since_calibration: dict[str, Any] | None = None
+
+
 # -- the result ----------------------------------------------------------------------------------
 class ResultDocument(Section):
     """What a job found, section by section (see the module docstring)."""
@@ -235,6 +268,8 @@ class ResultDocument(Section):
     home_check: HomeCheck | None = None
     test_conditions: dict[str, str | int | float] | None = None
     arm_readings_discarded: DiscardedReadings | None = None
+    backlash: dict[str, Any] | None = None  # calibration.backlash.BacklashEstimate.to_dict
+    drift: DriftSection | None = None
     warnings: list[str] | None = None
 
     def estimation_of(self, suffix: Round) -> EstimationSummary | None:

@@ -34,14 +34,37 @@ class PlannedPose:
     commanded: tuple[float, ...] = ()  # x, y, z (mm), rx, ry, rz (deg) of tool0, base frame
 
 
-def calibration_plan(model: SerialModel, n: int = 40, seed: int = 2018) -> list[PlannedPose]:
+BACKLASH_APPROACH_DEG = 1.0  # each joint's move onto a two-direction pose: beyond any lost motion
+BACKLASH_ROLES = ("backlash_a", "backlash_b")  # approached from below, then from above
+
+
+def calibration_plan(model: SerialModel, n: int = 40, seed: int = 2018,
+                     backlash_poses: int = 0) -> list[PlannedPose]:
+    """The calibration list; `backlash_poses` of its poses are appended twice more, each time
+    after a return point: BACKLASH_APPROACH_DEG below on every joint (role backlash_a), then
+    as far above (backlash_b), so that every joint comes from each side once
+    (`screwcal.calibration.backlash`)."""
     try:
         q = np.round(np.degrees(cube_set(model, "Klimchik", n, seed=seed)), 4)
     except ScrewcalError:  # this robot does not reach the cube: a spread region instead
         rng = np.random.default_rng(seed)
         q = np.round(np.degrees(random_configurations(n, rng)), 4)
     model.check_limits(np.radians(q), "calibration pose")
-    return [PlannedPose(k, tuple(float(v) for v in q[k]), "cal") for k in range(n)]
+    plan = [PlannedPose(k, tuple(float(v) for v in q[k]), "cal") for k in range(n)]
+    step = BACKLASH_APPROACH_DEG
+    chosen = [k for k in range(n) if model.within_limits(np.radians(q[k] - step))
+              and model.within_limits(np.radians(q[k] + step))][:backlash_poses]
+    if len(chosen) < backlash_poses:
+        raise ScrewcalError(f"only {len(chosen)} calibration poses can be approached from "
+                            f"{step:g} deg on both sides within the limits; asked "
+                            f"{backlash_poses}")
+    for pair, k in enumerate(chosen):
+        label = f"B{pair + 1}"
+        for side, role in zip((-step, step), BACKLASH_ROLES, strict=True):
+            plan.append(PlannedPose(len(plan), tuple(float(v) for v in q[k] + side),
+                                    "approach", label))
+            plan.append(PlannedPose(len(plan), plan[k].joints_deg, role, label))
+    return plan
 
 
 def performance_plan(model: SerialModel, cycles: int = 30, edge_mm: float = 300.0,
@@ -69,7 +92,8 @@ def plan_for(model: SerialModel, kind: str, options: JobOptions) -> list[Planned
     """A job's "cal" or "perf" list from its options (deterministic): what the job runs, and
     what is built when the job is posted to refuse one that cannot run."""
     if kind == "cal":
-        return calibration_plan(model, options.calibration_poses)
+        return calibration_plan(model, options.calibration_poses,
+                                backlash_poses=options.backlash_poses)
     return performance_plan(model, options.cycles, options.cube_edge_mm,
                             options.arm_position_mm)
 

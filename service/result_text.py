@@ -36,6 +36,7 @@ def result_table(result: JobResult, times: bool = True) -> str:
         lines.append(f"  {moved}")
     for suffix in ROUND_SUFFIXES:
         lines += _route_lines(result.correction_of(suffix), suffix)
+    lines += [f"  {line}" for line in drift_and_backlash(result)]
     for warning in result.warnings or []:
         lines.append(f"  WARNING: {warning}")
     if result.phases and times:
@@ -86,6 +87,26 @@ def beyond_geometry(est: EstimationSummary) -> list[str]:
         lines.append(f"the model explains {100 * est.explained_share:.3f} % of the error before "
                      f"(mean square of the calibration residual; mean "
                      f"{est.residual_before_mm:.3f} -> {est.residual_after_mm:.3f} mm left)")
+    return lines
+
+
+def drift_and_backlash(result: ResultDocument) -> list[str]:
+    """The lost motion identified per joint, and the drift of the reference poses (the
+    terminal's lines)."""
+    lines = []
+    backlash = result.backlash
+    if backlash:
+        lines.append("lost motion (backlash): " + ", ".join(
+            f"{j['joint']} {j['backlash_deg']:.4f} ± {j['std_deg']:.4f} deg"
+            for j in backlash["joints"] if j["identified"]) + f" ({backlash['pairs']} pairs "
+            "approached from both sides); " + backlash["compensation"])
+    drift = result.drift
+    if drift is not None and drift.t_s:
+        last = ", ".join(f"{label} {drift.deviation_mm[label][-1]:.3f}"
+                         for label in drift.reference)
+        lines.append(f"drift of the reference poses over {drift.t_s[-1]:.0f} s "
+                     f"({len(drift.t_s)} checks): {last} mm (norm of the position change "
+                     "since the first check)")
     return lines
 
 

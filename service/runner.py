@@ -45,13 +45,21 @@ from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.modelfile import model_document, parse_model
 from service import analysis
 from service.acquisition import LINK_ERRORS, Acquisition, JobAborted, OperatorGate
-from service.document import PhaseRecord
+from service.document import PhaseRecord, ResultDocument
+from service.drift import (
+    DRIFT_PHASE,
+    DriftSchedule,
+    drift_schedule,
+    drift_section,
+    drift_warnings,
+)
 from service.errors import ConflictError, SafetyError, StoreFullError, StoreLostError
 from service.events import JobEvents
 from service.phases import (
     ESTIMATION_FOR,
     HOME_PHASES,
     PERF_PHASES,
+    ROUND_SUFFIXES,
     WARMUP,
     Round,
     compensated_list,
@@ -61,7 +69,8 @@ from service.phases import (
 from service.plans import PlannedPose, plan_for
 from service.settings import ServiceSettings
 from service.store import Store
-from service.verify import VERIFY_PHASE, drift_warnings, verification_targets
+from service.verify import VERIFY_PHASE, verification_targets
+from service.verify import drift_warnings as alarm_warnings
 
 
 class JobRunner:
@@ -225,6 +234,9 @@ class JobRunner:
         elif step == WARMUP:
             await self.acquisition.move_through(step, self.warmup_plan())
         elif step.startswith(("perf", "cal", "home")):
+            if self.options.drift_poses and self.acquisition.drift is None:
+                # the test cube's search: in a thread, never in the loop (nor at start-up)
+                self.acquisition.drift = await asyncio.to_thread(self.drift_schedule)
             await self.acquisition.measure(step, self.targets(step))
         elif step.startswith("estimation"):
             await asyncio.to_thread(self.estimate, suffix)
@@ -238,7 +250,8 @@ class JobRunner:
     # -- estimation, correction, evaluation ---------------------------------------------------
     def estimate(self, suffix: Round = "") -> None:
         kind = self.options.model
-        data = analysis.measurement_set(self.store.measurements(self.job_id, "cal" + suffix))
+        rows = self.store.measurements(self.job_id, "cal" + suffix)
+        data = analysis.measurement_set(rows, self.store.measurements(self.job_id, DRIFT_PHASE))
         nominal = replace(self.model, payload=analysis.list_payload(self.options, "cal"))
         result = identify(nominal, data, kind=kind, frames="base",
                           compliance=self.options.compliance, lag=self.options.lag)
@@ -250,7 +263,10 @@ class JobRunner:
                                           "compliance": self.options.compliance,
                                           "lag": self.options.lag}))
         doc.base = result.model.base.tolist()
-        doc.warnings = analysis.job_warnings(doc)
+        if self.options.backlash_poses:
+            doc.backlash = analysis.backlash_summary(result, rows, self.plan("cal"))
+        doc = self.with_drift(doc)
+        doc.warnings = analysis.job_warnings(doc) + drift_warnings(doc)
         try:
             perf_plan = self.plan("perf") if self.route != "none" else []
             planned = analysis.plan_correction(result, self.route, self.model, perf_plan,
@@ -317,8 +333,35 @@ class JobRunner:
             doc.home_check = home
         doc.test_conditions = analysis.iso_test_conditions(
             self.robot, self.model, self.options, plan, self.job.created)
-        doc.warnings = analysis.job_warnings(doc)
+        doc = self.with_drift(doc)
+        doc.warnings = analysis.job_warnings(doc) + drift_warnings(doc)
         if self.job.kind == "verify":  # the drift alarm, in the job's own result and report
-            doc.warnings += drift_warnings(self.store, self.job, doc,
+            doc.warnings += alarm_warnings(self.store, self.job, doc,
                                            self.settings.drift_alarm_mm)
         self.job = self.store.set_result(self.job_id, doc)
+
+    def drift_schedule(self) -> DriftSchedule | None:
+        """The job's drift checks (service/drift.py), from its performance list."""
+        return drift_schedule(self.options, self.plan("perf")) if self.options.drift_poses \
+            else None
+
+    def with_drift(self, doc: ResultDocument) -> ResultDocument:
+        """The result with its drift section (service/drift.py) from the committed checks,
+        against the latest calibration's promise (in a thread: it may build the plan)."""
+        schedule = self.drift_schedule()
+        if schedule is None:
+            return doc
+        rows = self.store.measurements(self.job_id)
+        drift_rows = [r for r in rows if r["phase"] == DRIFT_PHASE]
+        others = [r for r in rows if r["phase"] != DRIFT_PHASE]
+        loads = {r["phase"]: analysis.payload_label(self.options, r["phase"]) for r in others}
+        promised, cal_phases = None, []
+        for suffix in ROUND_SUFFIXES:
+            est = doc.estimation_of(suffix)
+            if est is not None:
+                cal_phases = ["cal" + suffix]
+                sigma = (est.noise or {}).get("position", {}).get("value") or \
+                    est.residual_after_mm / np.sqrt(3.0)
+                promised = float(sigma)
+        return doc.model_copy(update={"drift": drift_section(
+            schedule, drift_rows, others, loads, cal_phases, promised)})

@@ -395,3 +395,13 @@ class Store:
     def measured_indices(self, job_id: int, phase: str) -> set[int]:
         return {int(r["idx"]) for r in self.db.rows(
             "SELECT idx FROM measurements WHERE job_id = ? AND phase = ?", (job_id, phase))}
+
+    def phase_progress(self, job_id: int, phase: str) -> tuple[int, float | None, int]:
+        """Of `phase`: the poses committed, when its last one was (s, time.time()), and how
+        many poses of the job's other phases were committed after it (all of them when none)."""
+        row = self.db.row("SELECT count(*) AS n, max(created) AS at, max(id) AS last FROM "
+                          "measurements WHERE job_id = ? AND phase = ?", (job_id, phase)) or {}
+        since = self.db.row("SELECT count(*) AS n FROM measurements WHERE job_id = ? AND "
+                            "phase <> ? AND id > ?", (job_id, phase, row.get("last") or 0)) or {}
+        at = row.get("at")
+        return int(row.get("n") or 0), None if at is None else float(at), int(since.get("n") or 0)

@@ -174,3 +174,4 @@ def test_cube(model: SerialModel, cube: TestCube, q_p1_rad: ArrayLike, path: str
     views[2][0].set_title("top view (x-y)")
     fig.tight_layout()
     return _save(fig, path)
+

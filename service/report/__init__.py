@@ -12,8 +12,10 @@ own, one concept each:
     home           the home check (thesis Table 14)
     calibration    what the data could not separate in plain words, the fit, the residual
                    table and chart, the symbols, the parameter table
+    backlash       lost motion per joint, its std error, what compensation cannot do
     correction     what the route did, left in the robot, and what nothing corrects
     straightness   ISO 12780-1 along the line: table and chart
+    drift          the reference poses' drift against time: table and chart, the verdict
     timing         seconds per phase
 
 Shared pieces: `markup` (section, table, a table with its chart beside it, numbers), `charts`

@@ -8,9 +8,11 @@ from typing import Any
 from service.document import JobRecord
 from service.report import (
     accuracy,
+    backlash,
     calibration,
     conditions,
     correction,
+    drift,
     home,
     straightness,
     summary,
@@ -24,8 +26,9 @@ from service.report.markup import CSS, esc
 # markup.pair for a table with its chart) and put it here.
 SECTIONS: tuple[Section, ...] = (
     summary.summary_section, conditions.robot_section, accuracy.accuracy_section,
-    home.home_section, calibration.calibration_section, correction.correction_section,
-    straightness.straightness_section, timing.timing_section)
+    home.home_section, calibration.calibration_section, backlash.backlash_section,
+    correction.correction_section, straightness.straightness_section, drift.drift_section,
+    timing.timing_section)
 
 
 def report_html(job: JobRecord, robot: dict[str, Any]) -> str:

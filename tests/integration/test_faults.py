@@ -72,3 +72,24 @@ async def test_the_arm_restarted_alone_mid_list(service, rig):
         await rig.arm.start(host, int(port))
 
     await _run_with(service, rig, restart_arm)
+
+
+async def test_reference_poses_of_a_dropped_link_are_measured_once(service, rig):
+    """The link drops inside the job's first drift check (its pose 2): the check is completed
+    after the reconnection from the store, each reference pose committed once, none lost."""
+    rig.emu.settings.faults.drop_at_pose = 2  # the first list sent is the first drift check
+    robot = await add_robot(service, rig)
+    job_id = (await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "calibration", "options": {
+            **FAST, "drift_poses": 2, "drift_period_poses": 10}})).json()["id"]
+    job = await wait_state(service, job_id, timeout_s=30)
+    assert job["state"] == "done", job["reason"]
+    assert rig.emu.sessions >= 2  # it did reconnect
+    measured = (await service.get(f"/jobs/{job_id}/measurements")).json()
+    cal = sorted(m["idx"] for m in measured if m["phase"] == "cal")
+    drift = sorted(m["idx"] for m in measured if m["phase"] == "drift")
+    assert cal == list(range(30))
+    # checks at the start, after 10 and 20 poses and after the list: 4 x (approach, reference) x 2
+    assert drift == list(range(16))
+    result = (await service.get(f"/jobs/{job_id}/result")).json()
+    assert result["drift"]["poses_before"] == [0, 10, 20, 30]

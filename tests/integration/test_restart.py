@@ -30,9 +30,9 @@ def start_service(db, lease_s: float = 1.0, instance: str = ""):
     return proc, m.group(0)
 
 
-def committed(db, job_id):
+def committed(db, job_id, phase="cal"):
     return {r[0]: r[1] for r in peek(
-        db, "SELECT idx, id FROM measurements WHERE job_id = ? AND phase = 'cal'", (job_id,))}
+        db, "SELECT idx, id FROM measurements WHERE job_id = ? AND phase = ?", (job_id, phase))}
 
 
 @pytest.mark.slow
@@ -47,13 +47,16 @@ async def test_sigkill_mid_job_then_restart_resumes_without_loss(db_target, rig)
                 "name": "cell", "controller_host": host, "controller_port": port,
                 "arm_url": rig.arm.url})).json()["id"]
             job_id = (await http.post("/jobs", headers=AUTH, json={
-                "robot_id": robot, "kind": "calibration", "options": FAST})).json()["id"]
+                "robot_id": robot, "kind": "calibration", "options": {
+                    **FAST, "drift_poses": 2, "drift_period_poses": 5}})).json()["id"]
             async with asyncio.timeout(30):
                 while len(committed(db, job_id)) < 8:
                     await asyncio.sleep(0.01)
         proc.send_signal(signal.SIGKILL)
         proc.communicate(timeout=10)
         before = committed(db, job_id)
+        references = committed(db, job_id, "drift")  # the drift checks' reference poses
+        assert len(references) >= 4
         assert 8 <= len(before) < 30
         proc, url = start_service(db)
         async with httpx.AsyncClient(base_url=url, headers=AUTH) as http:
@@ -65,6 +68,10 @@ async def test_sigkill_mid_job_then_restart_resumes_without_loss(db_target, rig)
         after = committed(db, job_id)
         assert sorted(after) == list(range(30))  # each pose once (UNIQUE would refuse twice)
         assert all(after[k] == before[k] for k in before)  # the same rows: nothing re-measured
+        # the reference poses too: checks at 0, 5, ... 30 poses (4 poses each), each once
+        drift_after = committed(db, job_id, "drift")
+        assert sorted(drift_after) == list(range(4 * 7))
+        assert all(drift_after[k] == references[k] for k in references)
     finally:
         proc.send_signal(signal.SIGINT)
         proc.communicate(timeout=10)
