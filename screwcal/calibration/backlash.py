@@ -137,3 +137,34 @@ def backlash_from_pairs(model: SerialModel, q_a_rad: ArrayLike, q_b_rad: ArrayLi
         delta = delta[:, :3]
     return estimate_backlash(pair_jacobians(model, (q_a + q_b) / 2.0), delta, flipped,
                              sigma_mm, sigma_rad)
+
+
+DIRECTION_COLUMNS_PREFIX = "dir"  # the measurement file's optional dir1..dirn: +1, -1 or 0
+SAME_POSE_DEG = 0.01  # two rows whose joints all agree this closely: one commanded pose
+
+
+def direction_pairs(q_deg: ArrayLike, directions: ArrayLike,
+                    same_pose_deg: float = SAME_POSE_DEG) -> tuple[Array, Array, Array]:
+    """Pairs of rows measuring one commanded pose from opposite sides: rows i < j whose joints
+    (N, n) deg agree within `same_pose_deg` and whose approach directions (N, n) (the sign of
+    each joint's last move: +1 from below, -1 from above, 0 unknown) differ on some joint.
+    Returns the first rows (P,), the second rows (P,) and flipped s (P, n) (Eq. B.1); each row
+    in one pair at most, taken in the file's order."""
+    q = np.asarray(q_deg, dtype=float)
+    d = np.asarray(directions, dtype=float)
+    if d.shape != q.shape or not np.all(np.isin(d, (-1.0, 0.0, 1.0))):
+        raise InputError(f"approach directions: one of -1, 0, +1 per joint and row, shaped as "
+                         f"the joints {q.shape}; got {d.shape}")
+    close = np.all(np.abs(q[:, None, :] - q[None, :, :]) <= same_pose_deg, axis=2)
+    flips = (d[:, None, :] - d[None, :, :]) / 2.0  # (N, N, n)
+    known = (d[:, None, :] != 0) & (d[None, :, :] != 0)
+    flips = np.where(known, flips, 0.0)
+    candidate = np.triu(close & np.any(flips != 0, axis=2), k=1)
+    first, second, used = [], [], np.zeros(len(q), dtype=bool)
+    for i, j in zip(*np.nonzero(candidate), strict=True):
+        if not (used[i] or used[j]):
+            first.append(int(i))
+            second.append(int(j))
+            used[[i, j]] = True
+    a, b = np.array(first, dtype=int), np.array(second, dtype=int)
+    return a, b, flips[a, b] if len(a) else np.zeros((0, q.shape[1]))

@@ -254,3 +254,4 @@ async def test_report_and_table_show_drift_and_backlash(service):
     assert "Lost motion (backlash) per joint" in report
     table = result_table(JobResult.model_validate({**full, **result}))
     assert "lost motion (backlash): J1" in table and "drift of the reference poses" in table
+

@@ -3,19 +3,24 @@ short of its target on the side it came from (simulators/realism.py's backlash).
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
 from screwcal.calibration.backlash import (
     backlash_from_pairs,
+    direction_pairs,
     estimate_backlash,
     pair_jacobians,
     pose_residuals,
 )
 from screwcal.calibration.flange import MeasuringFlange
 from screwcal.calibration.posesets import random_set
+from screwcal.commands.main import main
 from screwcal.errors import InputError
 from screwcal.kinematics.forward import forward_kinematics
+from screwcal.kinematics.pose import pose_from_transform
 from screwcal.kinematics.robots import irb1600
 from simulators.arm import NOISE_MM
 from simulators.realism import IDEAL
@@ -93,3 +98,48 @@ def test_a_joint_no_pair_flipped_is_not_identified():
 def test_bad_shapes_are_refused_naming_them():
     with pytest.raises(InputError, match="jacobians"):
         estimate_backlash(np.zeros((2, 6, 6)), np.zeros((2, 5)), np.ones((2, 6)))
+
+
+def test_direction_pairs_are_rows_of_one_pose_from_opposite_sides():
+    q = np.array([[10.0] * 6, [20.0] * 6, [10.004] * 6, [20.0] * 6, [30.0] * 6])
+    d = np.array([[1] * 6, [1] * 6, [-1] * 6, [1] * 6, [0] * 6])
+    d[3, 2] = -1  # row 3 repeats row 1 with joint 3 from above only
+    a, b, s = direction_pairs(q, d)
+    assert a.tolist() == [0, 1] and b.tolist() == [2, 3]
+    assert s[0].tolist() == [1.0] * 6 and s[1].tolist() == [0, 0, 1.0, 0, 0, 0]
+    with pytest.raises(InputError, match="approach directions"):
+        direction_pairs(q, np.full((5, 6), 2.0))
+
+
+def test_offline_calibrate_reports_backlash_from_the_direction_columns(tmp_path, capsys):
+    """A measurement file with the optional dir1..dir6 columns (the sign of each joint's last
+    move): 40 poses once, 12 of them again from the other side; the emulated robot has 0.01 deg
+    of lost motion on J2: `screwcal calibrate` reports it in result.json and on the terminal."""
+    realism = IDEAL.__class__(name="j2", backlash_deg=(0.0, 0.01, 0.0, 0.0, 0.0, 0.0))
+    world = make_world(None, 3, realism=realism)
+    flange = MeasuringFlange.from_holes_in_flange(world.holes_mm)
+    rng = np.random.default_rng(8)
+    q_deg = np.degrees(random_set(world.nominal, 40, seed=9))
+    rows = []
+    plan = [(q, 1.0) for q in q_deg] + [(q, -1.0) for q in q_deg[:12]]
+    for q, side in plan:  # from below (+1) first, then the repeats from above (-1)
+        world.arrive(q - side)
+        world.arrive(q)
+        holes = world.true_holes_mm() + rng.normal(0.0, NOISE_MM, (3, 3))
+        T = flange.flange_poses(holes[None])[0]
+        rows.append([*world.q_deg.astype(float), *pose_from_transform(T), *[side] * 6])
+    path = tmp_path / "m.csv"
+    header = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z", "rx", "ry", "rz",
+              "dir1", "dir2", "dir3", "dir4", "dir5", "dir6"]
+    path.write_text(",".join(header) + "\n" + "\n".join(
+        ",".join(f"{v:.6f}" for v in r) for r in rows) + "\n")
+    out = tmp_path / "result.json"
+    assert main(["calibrate", "--robot", "irb1600", "--data", str(path), "--out",
+                 str(out)]) == 0
+    joints = {j["joint"]: j for j in json.loads(out.read_text())["backlash"]["joints"]}
+    assert joints["J2"]["backlash_deg"] == pytest.approx(
+        0.010, abs=max(3 * joints["J2"]["std_deg"], 1e-3))
+    assert joints["J2"]["std_deg"] < 0.002
+    said = capsys.readouterr().out
+    assert "lost motion (backlash, from pairs approached from both sides): J1" in said
+    assert "approached from one fixed direction" in said
