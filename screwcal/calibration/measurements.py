@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike
 from screwcal.errors import DataFileError, InputError
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import rotation_from_euler_zyx_deg
+from screwcal.kinematics.readings import JointConvention, serial_from_readings
 from screwcal.kinematics.se3 import Array, transform_points
 from screwcal.tables import joint_columns, read_numeric_csv
 
@@ -89,11 +90,14 @@ SPREAD_RATIO = (0.3, 3.0)
 
 
 def read_measurements_csv(path: str | Path, model: SerialModel, *, joint_unit: str = "deg",
-                          length_unit: str = "mm") -> MeasurementSet:
+                          length_unit: str = "mm",
+                          joint_convention: JointConvention = "serial") -> MeasurementSet:
     """The measurement file (docs/formats.md): q1..qn (deg), x, y, z (mm),
     optionally rx, ry, rz (deg) on every row, optional id. `joint_unit` ("rad") and
     `length_unit` ("m", "in") read files written in other units; numbers that look like
-    another unit than the one given are refused with the fix (`check_units`)."""
+    another unit than the one given are refused with the fix (`check_units`). The readings
+    count joint 3 as `joint_convention` says (`fanuc`: to the horizontal); the set holds the
+    model's serial angles."""
     if joint_unit not in JOINT_UNITS or length_unit not in LENGTH_UNITS_MM:
         raise InputError(f"joint unit is one of {JOINT_UNITS}, length unit one of "
                             f"{tuple(LENGTH_UNITS_MM)}; not {joint_unit!r}, {length_unit!r}")
@@ -105,7 +109,7 @@ def read_measurements_csv(path: str | Path, model: SerialModel, *, joint_unit: s
                      q_given * LENGTH_UNITS_MM[length_unit])
     positions = table.take(["x", "y", "z"]) * LENGTH_UNITS_MM[length_unit]
     check_units(table.path, model, q_deg, positions, joint_unit, length_unit)
-    q = model.joints_from_deg(q_deg)
+    q = model.joints_from_deg(serial_from_readings(q_deg, joint_convention))
     outside = np.logical_not(model.within_limits(q))
     if outside.any():
         k = int(np.flatnonzero(outside)[0])

@@ -24,6 +24,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
+from screwcal.commands.joint_convention import add_joint_convention, joint_convention
 from screwcal.commands.options import (
     ERROR_MODELS,
     add_option,
@@ -84,12 +85,14 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from screwcal.calibration.resultfile import result_document
     from screwcal.errors import DataFileError, IdentificationError
     from screwcal.kinematics.modelfile import resolve_model
+    from screwcal.kinematics.readings import robot_convention
     from screwcal.tables import write_json_atomic
 
     check_outputs([args.out], [args.data, args.base_guess, args.robot])
     nominal = with_payload(resolve_model(args.robot), args)
+    convention = args.joint_convention or robot_convention(nominal.name)
     data = read_measurements_csv(args.data, nominal, joint_unit=args.joint_unit,
-                                 length_unit=args.length_unit)
+                                 length_unit=args.length_unit, joint_convention=convention)
     weighting = "eq2.4" if args.weight_mm is not None else "statistical"
     noise = NoiseModel(position_mm=args.noise_mm, joint_deg=args.joint_noise_deg)
     base_guess = None
@@ -108,7 +111,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
                 "weight_mm": args.weight_mm, "noise_mm": args.noise_mm,
                 "joint_noise_deg": args.joint_noise_deg, "data": str(args.data),
                 "poses": len(data), "compliance": args.compliance, "lag": args.lag,
-                "outliers": args.outliers}
+                "outliers": args.outliers, "joint_convention": convention}
     doc = result_document(result, nominal.name, settings)
     backlash = backlash_of_file(args.data, nominal, result, data)
     if backlash is not None:
@@ -260,7 +263,10 @@ def run_compensate(args: argparse.Namespace) -> int:
     if not ok.any():
         raise DataFileError(table.path, f"no target compensated ({len(comp.refused)} refused, "
                             f"listed above); {args.out} not written")
-    q_deg = calibrated.joints_to_deg(comp.q_rad)
+    from screwcal.kinematics.readings import readings_from_serial
+
+    convention = joint_convention(args, document, nominal)
+    q_deg = readings_from_serial(calibrated.joints_to_deg(comp.q_rad), convention)
     poses = pose_from_transform(comp.nominal_tool0)
     header = ["id", *joint_columns(calibrated.n_joints), "x", "y", "z", "rx", "ry", "rz"]
     write_csv_atomic(args.out, header, ([i, *(f"{v:.4f}" for v in q), *(f"{v:.4f}" for v in p)]
@@ -270,7 +276,9 @@ def run_compensate(args: argparse.Namespace) -> int:
         "measured point in the measuring frame"
     print(f"compensated {int(ok.sum())} of {len(ok)} targets ({where}) -> {args.out}: joint "
           f"targets, and the nominal tool0 poses of model '{nominal.name}' to program; largest "
-          f"joint change {comp.max_change_deg:.3f} deg")
+          f"joint change {comp.max_change_deg:.3f} deg"
+          + ("; joint 3 as FANUC counts it (to the horizontal)" if convention == "fanuc"
+             else ""))
     if comp.refused:
         print(f"{len(comp.refused)} targets refused (listed on stderr), not in {args.out}")
         return PARTIAL_EXIT
@@ -431,6 +439,7 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
                    help="joint readings that lag the motion (the diagnostics flag them): "
                    "estimate the lag from the residuals and correct the readings (default auto: "
                    "when flagged; rows are taken in the file's order)")
+    add_joint_convention(p, "how the file's q1..q6 count joint 3")
     add_payload_arguments(p)
     p.set_defaults(func=run_calibrate)
 
@@ -457,5 +466,6 @@ def _add_compensate(sub: argparse._SubParsersAction) -> None:
                    "(default wobj0)")
     c.add_argument("--robot", help="the nominal robot (library name or robot file); default: "
                    "the one the result holds")
+    add_joint_convention(c, "how the written joint targets count joint 3")
     add_payload_arguments(c)
     c.set_defaults(func=run_compensate)

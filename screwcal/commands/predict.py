@@ -20,10 +20,12 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from screwcal.commands.calibrate import with_payload
+    from screwcal.commands.joint_convention import joint_convention
     from screwcal.commands.options import check_outputs
     from screwcal.kinematics.forward import forward_kinematics
     from screwcal.kinematics.modelfile import resolve_model
     from screwcal.kinematics.pose import pose_from_transform
+    from screwcal.kinematics.readings import serial_from_readings
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
     given = args.result or args.robot or args.model
@@ -34,8 +36,9 @@ def run(args: argparse.Namespace) -> int:
         model = with_payload(load_model(args.result), args)
     else:
         model = with_payload(resolve_model(given), args)
+    document = _document(given)
     table = read_numeric_csv(args.joints, joint_columns(model.n_joints))
-    q_deg = table.values
+    q_deg = serial_from_readings(table.values, joint_convention(args, document, model))
     outside = np.logical_not(model.within_limits(model.joints_from_deg(q_deg)))
     for k in np.flatnonzero(outside)[:5]:
         print(f"warning: {table.path}, line {table.lines[k]}: joints outside the limits of model "
@@ -46,6 +49,20 @@ def run(args: argparse.Namespace) -> int:
                                                                               strict=True)))
     print(f"predicted {len(poses)} poses with model '{model.name}' -> {args.out}")
     return 0
+
+
+def _document(given: str) -> object:
+    """The JSON document of a result or model file (None for a library robot's name)."""
+    import json
+    from pathlib import Path
+
+    path = Path(given)
+    if not path.is_file():
+        return None
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None  # resolve_model has said what is wrong with it
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -64,6 +81,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--joints", required=True, help="CSV with q1..q6 in degrees, optional id")
     p.add_argument("--out", required=True, help="CSV to write: id, x, y, z (mm), rx, ry, rz (deg)")
     from screwcal.commands.calibrate import add_payload_arguments
+    from screwcal.commands.joint_convention import add_joint_convention
 
+    add_joint_convention(p, "how the file's q1..q6 count joint 3")
     add_payload_arguments(p)
     p.set_defaults(func=run)

@@ -41,6 +41,9 @@ FANUC_AXES: Axes = (_Z, _Y, _NY, _NX, _NY, _NX)  # the M-20iA; the LR Mate 200iD
 LRMATE_AXES = (_Z, _Y, _NY, _NX, _NY, _X)
 ABB_TOOL0 = (0.0, 90.0, 0.0)  # (rx, ry, rz) deg of tool0 at home: z out along +x, x down
 FANUC_TOOL0 = (180.0, -90.0, 0.0)  # z out along +x, x up
+FANUC_NOTE = ("FANUC's J3 reading is the forearm's angle to the horizontal (J2/J3 coupling): "
+              "the model's q3 is the serial angle, J3 + J2; the joint files of calibrate, "
+              "predict and compensate are FANUC's readings (--joint-convention)")
 _MASS_SHARES = (0.16, 0.14, 0.024)  # upper arm, forearm, wrist: of the arm's total mass
 
 
@@ -206,16 +209,14 @@ ENTRIES: tuple[RobotEntry, ...] = (
                _other("lrmate200id", 25.0, (330, 50, 330, 35, 335, 80),
                       [[-170, 170], [-100, 145], [-140, 280], [-190, 190], [-125, 125],
                        [-360, 360]], LRMATE_AXES, True, FANUC_TOOL0),
-               note="FANUC's J3 reading is the forearm's angle to the horizontal (J2/J3 "
-                    "coupling): the model's q3 is the serial angle, J3 + J2"),
+               note=FANUC_NOTE),
     RobotEntry("m20ia", "FANUC M-20iA", "FANUC", 250.0,
                "FANUC M-20iA datasheet (dimensions, motion ranges, mass 250 kg)",
                _reach(1811.0, "M-20iA datasheet: reach 1811 mm"),
                _other("m20ia", 250.0, (525, 150, 790, 250, 835, 100),
                       [[-170, 170], [-100, 160], [-185, 273], [-200, 200], [-140, 140],
                        [-270, 270]], FANUC_AXES, True, FANUC_TOOL0),
-               note="FANUC's J3 reading is the forearm's angle to the horizontal (J2/J3 "
-                    "coupling): the model's q3 is the serial angle, J3 + J2"),
+               note=FANUC_NOTE),
     RobotEntry("ur5e", "Universal Robots UR5e", "Universal Robots", 20.6,
                "UR's published DH parameters of the UR5e (d1 162.5, a2 -425, a3 -392.2, d4 "
                "133.3, d5 99.7, d6 99.6 mm); datasheet mass 20.6 kg, joint ranges +-360 deg",

@@ -61,11 +61,7 @@ def _walk(parser, path=()):
             for name, sub in action.choices.items():
                 yield from _walk(sub, (*path, name))
         elif not isinstance(action, (argparse._HelpAction, argparse._VersionAction)):
-            yield " ".join(path), sub_parser(parser), action
-
-
-def sub_parser(parser):
-    return parser
+            yield " ".join(path), parser, action
 
 
 ALL = list(_walk(build_parser()))
@@ -119,6 +115,7 @@ def test_one_word_per_concept():
     """`--model` is no option's own name any more: the contract's two spellings (silent) and the
     renamed ones (warning) only; the error model has one list of choices everywhere."""
     from screwcal.calibration.error_parameters import ModelKind
+    from screwcal.kinematics.readings import JOINT_CONVENTIONS
 
     assert set(ERROR_MODELS) == set(get_args(ModelKind))
     for c, _, a in ALL:
@@ -126,6 +123,8 @@ def test_one_word_per_concept():
             assert a.option_strings[0] != "--model" or (c, "--model") in CONTRACT_SPELLINGS, c
         if a.dest == "error_model":
             assert tuple(a.choices) == ERROR_MODELS, c
+        if a.dest == "joint_convention":
+            assert tuple(a.choices) == JOINT_CONVENTIONS, c
     renamed = {(c, old): a.option_strings[0] for c, _, a in ALL if isinstance(a, Renamed)
                for old in a.renamed}
     assert renamed == RENAMED
@@ -149,8 +148,7 @@ def test_each_older_spelling_warns_on_stderr_and_parses_as_the_new(where, capsys
     words = words if isinstance(words, list) else [words]
     for spelling in (old, action.option_strings[0]):
         ns = argparse.Namespace()
-        parser._get_values(action, words)  # the same conversion either way
-        values = parser._get_values(action, words)
+        values = parser._get_values(action, words)  # the conversion argparse does
         action(parser, ns, values, spelling)
         out, err = capsys.readouterr()
         assert out == ""
