@@ -45,17 +45,28 @@ class PoseTest:
 
 def pose_tests(e: Array, A: Array, W: Array) -> PoseTest:
     """Per-pose statistics from the raw residuals e (N, k), their Jacobian A (N, k, p) and the
-    whitening W (N, k, k) (W^T W = C^-1)."""
-    Cinv = np.swapaxes(W, 1, 2) @ W
-    C = np.linalg.inv(Cinv)
-    CA = Cinv @ A
+    whitening W (N, k, k) (W^T W = C^-1).
+
+    Worked in whitened units, where C is the identity: with N^-1 = L L^T and B_i = W_i A_i L,
+    the hat block is H_i = B_i B_i^T, Q_i = I - H_i, T_i = e_i^T W_i^T Q_i^-1 W_i e_i and
+    h_i = tr(H_i) (one (Nk, p) product and (k, k) solves; no per-pose inverse of C)."""
     p = A.shape[-1]
-    Ninv = scipy.linalg.pinvh(A.reshape(-1, p).T @ CA.reshape(-1, p))
-    H = A @ Ninv @ np.swapaxes(A, 1, 2)  # A_i N^-1 A_i^T
-    Q = C - H
-    T = np.einsum("ni,nij,nj->n", e, np.linalg.pinv(Q, hermitian=True), e)
-    leverage = np.einsum("nij,nji->n", H, Cinv)
-    return PoseTest(T, leverage, e.shape[1])
+    N, k = e.shape
+    Aw = W @ A
+    ew = W @ e[..., None]
+    flat = Aw.reshape(-1, p)
+    Ninv = scipy.linalg.pinvh(flat.T @ flat)
+    eigval, eigvec = np.linalg.eigh(Ninv)
+    B = (flat @ (eigvec * np.sqrt(np.clip(eigval, 0.0, None)))).reshape(N, k, p)
+    H = B @ np.swapaxes(B, 1, 2)
+    Q = np.eye(k) - H
+    try:
+        Qe = np.linalg.solve(Q, ew)
+    except np.linalg.LinAlgError:  # a pose the fit passes through exactly (leverage 1)
+        Qe = np.linalg.pinv(Q, hermitian=True) @ ew
+    T = np.einsum("nij,nij->n", ew, Qe)
+    leverage = np.einsum("nij,nij->n", B, B)
+    return PoseTest(T, leverage, k)
 
 
 def _significant(x: Array, y: Array, min_r: float) -> tuple[float, bool]:

@@ -40,23 +40,28 @@ def pairs(n: int) -> tuple[Index, Index]:
 
 
 def select_identifiable(J: Array, priority: Array, names: list[str]
-            ) -> tuple[Array, int, Array, list[str]]:
-    """Kept column indices (in candidate order), the rank, the column norms, and the null-space
-    combinations. Columns of higher `priority` (0, 1, 2) are taken first wherever they are
-    independent."""
+                        ) -> tuple[Array, int, Array, list[str], Array]:
+    """Kept column indices (in candidate order), the rank, the column norms, the null-space
+    combinations, and the triangle of the scaled columns (`explain_removed` reads it).
+    Columns of higher `priority` (0, 1, 2) are taken first wherever they are independent.
+
+    Every question here is about the columns' independence, which the QR factor R of the
+    column-scaled J answers as J does (J = Q R, Q keeps lengths): one factorisation of the
+    tall J, then the SVD and the pivoted QR of R (p, p)."""
     norms = np.linalg.norm(J, axis=0)
     live = norms > 1e-12 * max(norms.max(), 1e-300)
     Js = np.where(live, J / np.where(live, norms, 1.0), 0.0)
-    _, s, Vt = svd(Js)
+    Rs = scipy.linalg.qr(Js, mode="r")[0][:J.shape[1]]
+    _, s, Vt = svd(Rs)
     rank = int(np.sum(s > RANK_TOL * s[0]))
     combos = []
     for v in Vt[rank:]:
         top = np.argsort(-np.abs(v))[:4]
         combos.append(" ".join(f"{v[t]:+.2f} {names[t]}" for t in top if abs(v[t]) > 0.05))
     order_weight = np.where(live, 1e4 ** np.asarray(priority, float), 0.0)
-    _, _, piv = scipy.linalg.qr(Js * order_weight, mode="economic", pivoting=True)
+    _, _, piv = scipy.linalg.qr(Rs * order_weight, mode="economic", pivoting=True)
     keep = np.sort(piv[:rank])
-    return keep, rank, norms, combos
+    return keep, rank, norms, combos, Rs
 
 
 _STRUCTURAL_RANKS: dict[bytes, int] = {}
@@ -97,11 +102,13 @@ def _structural_rank(errors: ErrorModel, residual: Residual, samples: int) -> in
     return int(np.sum(s > RANK_TOL * s[0]))
 
 
-def explain_removed(J: Array, keep: Array, removed: Array, names: list[str], norms: Array
-                 ) -> list[tuple[str, str]]:
+def explain_removed(Rs: Array, keep: Array, removed: Array, names: list[str], norms: Array
+                    ) -> list[tuple[str, str]]:
+    """Why each removed column is out: it has no effect, or the kept columns it cannot be told
+    from (least squares of its scaled column on theirs, on the triangle `Rs` of the scaled
+    columns that `select_identifiable` returns: the same fit as on the columns themselves)."""
     out = []
-    Js = J / np.where(norms > 0, norms, 1.0)
-    coefs = np.linalg.lstsq(Js[:, keep], Js[:, removed], rcond=None)[0] if len(removed) else \
+    coefs = np.linalg.lstsq(Rs[:, keep], Rs[:, removed], rcond=None)[0] if len(removed) else \
         np.zeros((len(keep), 0))
     for k, r in enumerate(removed):
         if norms[r] <= 1e-12 * max(norms.max(), 1e-300):

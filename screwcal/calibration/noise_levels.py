@@ -79,16 +79,16 @@ def estimate_with_joint_check(problem: ResidualProblem, noise: NoiseModel, x: Ar
         f"{without:.3f} mm, leave-one-out): what it soaked up is model error, not noise")))
 
 
-def _scoring_step(e: Array, A: Array, V: Array, W: Array, prior: Array
+def _scoring_step(e: Array, A: Array, V: Array, W: Array, Ninv: Array
                   ) -> tuple[Array, Array]:
     """REML score (K,) and expected information (K, K) of the free variance components V
-    (K, N, k, k), at the residuals e (N, k) of the problem linearised as A (N, k, p) and
-    whitened by W (N, k, k)."""
+    (K, N, k, k), at the residuals e (N, k) of the problem linearised as A (N, k, p),
+    whitened by W (N, k, k), whose normal matrix (the prior's included) has the inverse
+    Ninv (p, p)."""
     Cinv = np.swapaxes(W, 1, 2) @ W
     Ce = (Cinv @ e[..., None])[..., 0]
     CA = Cinv @ A
     p_ = A.shape[-1]
-    Ninv = scipy.linalg.pinvh(A.reshape(-1, p_).T @ CA.reshape(-1, p_) + np.diag(prior ** 2))
     K = len(V)
     M = Cinv @ V  # C^-1 V_k per pose
     S = CA @ Ninv @ np.swapaxes(CA, 1, 2)  # C^-1 A N^-1 A^T C^-1 per pose
@@ -158,14 +158,16 @@ def levels_on_linearisation(e: Array, A: Array, V: Array, theta: Array, idx: Ind
     while iteration < VCE_MAX_ITER:
         iteration += 1
         W = whitening(np.einsum("k,knij->nij", theta, V))
-        # The weighted linear least-squares step, and the residuals carried there.
-        dx = -np.linalg.lstsq(np.vstack([(W @ A).reshape(-1, A.shape[-1]), np.diag(P)]),
-                              np.r_[(W @ e[..., None]).reshape(-1), P * x], rcond=None)[0]
+        # The weighted linear least-squares step by its normal equations (their inverse is
+        # the scoring's too), and the residuals carried there.
+        WA = (W @ A).reshape(-1, A.shape[-1])
+        Ninv = scipy.linalg.pinvh(WA.T @ WA + np.diag(P ** 2))
+        dx = -Ninv @ (WA.T @ (W @ e[..., None]).reshape(-1) + P ** 2 * x)
         x, e = x + dx, e + A @ dx
         if not len(idx):
             converged = True
             break
-        score, information = _scoring_step(e, A, V[idx], W, P)
+        score, information = _scoring_step(e, A, V[idx], W, Ninv)
         step = np.linalg.lstsq(information, score, rcond=None)[0]
         old = theta[idx].copy()
         new = np.clip(old + step, old / STEP_LIMIT, old * STEP_LIMIT)

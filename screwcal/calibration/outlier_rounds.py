@@ -36,6 +36,7 @@ from screwcal.calibration.diagnostics import pose_tests
 from screwcal.calibration.identifiability import Index
 from screwcal.calibration.noise_levels import levels_on_linearisation
 from screwcal.calibration.residual_problem import whitening
+from screwcal.calibration.solvers import gauss_newton_step
 from screwcal.kinematics.se3 import Array
 
 WORST_SHARE = 0.5  # a round rejects the poses within this share of the worst statistic
@@ -102,6 +103,5 @@ def _whitening(theta: Array, V: Array) -> Array:
 
 def _linear_step(e: Array, A: Array, W: Array, prior: Array, x: Array) -> Array:
     """The weighted linear least-squares step from x on these rows, the prior's rows below."""
-    p = A.shape[-1]
-    return -np.linalg.lstsq(np.vstack([(W @ A).reshape(-1, p), np.diag(prior)]),
-                            np.r_[(W @ e[..., None]).reshape(-1), prior * x], rcond=None)[0]
+    return gauss_newton_step((W @ A).reshape(-1, A.shape[-1]), (W @ e[..., None]).reshape(-1),
+                             prior, x)

@@ -62,17 +62,17 @@ def covariance_components(Jq: Array) -> Array:
     return V
 
 
-def _weights(errors: ErrorModel, data: MeasurementSet, residual: Residual,
-             settings: IdentifySettings, at: Array) -> Array:
+def _weights(problem: ResidualProblem, settings: IdentifySettings, at: Array) -> Array:
     """Per-pose whitening matrices (N, k, k), or per-pair weights (P,) for distances; the
     joint-noise part is carried through the joint Jacobian of the model at x = `at`."""
+    data, residual = problem.data, problem.residual
     k = residual_rows(residual)
     N = len(data)
     if settings.weighting == "eq2.4":
         w = np.r_[np.full(3, 1.0 / settings.weight_mm), np.full(3, 180.0 / np.pi)][:k]
         W = np.broadcast_to(np.diag(w), (N, k, k)).copy()
         return W if residual != "distance" else np.full(len(pairs(N)[0]), w[0])
-    Jq = errors.linearisation(at, data.q)[2][:, :k]
+    Jq = problem.joint_jacobian(at)
     cov = np.einsum("k,knij->nij", variance_from_levels(settings.noise.filled()),
                     covariance_components(Jq))
     if residual == "distance":
@@ -105,8 +105,9 @@ class ResidualProblem:
                     settings: IdentifySettings, at: Array | None = None) -> ResidualProblem:
         """The problem with the settings' weights taken at x = `at` (default: the start)."""
         at = np.zeros(len(errors.params)) if at is None else at
-        return cls(errors, data, residual, _weights(errors, data, residual, settings, at),
-                   settings.ranges)
+        problem = cls(errors, data, residual, np.zeros(0), settings.ranges)
+        problem.whiten = _weights(problem, settings, at)  # the linearisation at `at` is kept
+        return problem
 
     def restricted(self, errors: ErrorModel) -> ResidualProblem:
         """The same data and weights (taken at the same starting model) for a subset of the
@@ -114,8 +115,11 @@ class ResidualProblem:
         return ResidualProblem(errors, self.data, self.residual, self.whiten, self.ranges)
 
     def with_whitening(self, whiten: Array) -> ResidualProblem:
-        """The same problem with other whitening matrices (N, k, k)."""
-        return ResidualProblem(self.errors, self.data, self.residual, whiten, self.ranges)
+        """The same problem with other whitening matrices (N, k, k) (and the kinematics of
+        the last x at hand)."""
+        problem = ResidualProblem(self.errors, self.data, self.residual, whiten, self.ranges)
+        problem._linear = self._linear
+        return problem
 
     def posterior(self, x: Array) -> tuple[Array, Array]:
         """The weighted residuals and Jacobian with the prior's rows (plausible.py) below:
@@ -165,8 +169,11 @@ class ResidualProblem:
         return np.concatenate([dp, rotvec_from_rotation(dR)], axis=1), J
 
     def raw_residuals(self, x: Array) -> Array:
-        """Unweighted residuals alone (N, k) or (P,): no Jacobian."""
-        T = forward_kinematics(self.errors.apply(x), self.data.q)
+        """Unweighted residuals alone (N, k) or (P,): no Jacobian (unless at hand)."""
+        if self._linear is not None and self._linear[0] == x.tobytes():
+            T = self._linear[1][0]
+        else:
+            T = forward_kinematics(self.errors.apply(x), self.data.q)
         if self.residual == "distance":
             i, j = pairs(len(self.data))
             return (np.linalg.norm(T[i, :3, 3] - T[j, :3, 3], axis=1)
@@ -230,11 +237,12 @@ class ResidualProblem:
         return np.sum(rw**2, axis=(1, 2)) + prior
 
 
-def pose_errors(model: SerialModel, data: MeasurementSet, residual: Residual
-                ) -> tuple[Array, Array | None]:
+def pose_errors(model: SerialModel, data: MeasurementSet, residual: Residual,
+                T: Array | None = None) -> tuple[Array, Array | None]:
     """Position error norm per pose (mm) and rotation error (deg) when measured; for distance
-    data, the absolute error of each pairwise distance."""
-    T = forward_kinematics(model, data.q)
+    data, the absolute error of each pairwise distance. `T`: the model's tool poses at the
+    data's joints, when at hand."""
+    T = forward_kinematics(model, data.q) if T is None else T
     if residual == "distance":
         i, j = pairs(len(data))
         return (np.abs(np.linalg.norm(T[i, :3, 3] - T[j, :3, 3], axis=1)

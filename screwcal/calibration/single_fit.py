@@ -33,7 +33,13 @@ from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.noise_levels import estimate_with_joint_check, fixed_levels
 from screwcal.calibration.plausible import held_directions, outside_ranges
 from screwcal.calibration.residual_problem import ResidualProblem, pose_errors
-from screwcal.calibration.solvers import Solution, solve_de, solve_lm, stationary
+from screwcal.calibration.solvers import (
+    Solution,
+    gauss_newton_step,
+    solve_de,
+    solve_lm,
+    stationary,
+)
 from screwcal.errors import IdentificationError
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
@@ -54,6 +60,7 @@ class Selection:
     problem: ResidualProblem  # weighted at the start, for the kept parameters
     r0: Array  # weighted residuals at the start
     J0: Array  # weighted Jacobian of every candidate at the start
+    T0: Array  # (N, 4, 4) the start model's tool poses
     keep: Array
     rank: int
     removed: tuple[tuple[str, str], ...]  # (name, why)
@@ -112,6 +119,7 @@ def _select(nominal: SerialModel, data: MeasurementSet, residual: Residual,
     errors_all = ErrorModel(start, tuple(cands))
     problem_all = ResidualProblem.weighted_at(errors_all, data, residual, settings)
     r0, J0 = problem_all.weighted(np.zeros(len(cands)))
+    T0 = problem_all.linearisation(np.zeros(len(cands)))[0]
     # The frames are unknown whatever the robot: take them first, then the model's own
     # parameters (joint and link offsets: what a controller can correct), then axis terms.
     priority = np.array([2 if p.group != "robot" else 1 if p.kind in ("zero", "link") else 0
@@ -124,9 +132,9 @@ def _select(nominal: SerialModel, data: MeasurementSet, residual: Residual,
         raise IdentificationError(f"{len(data)} poses give {m} equations for the {needed} "
                                   f"parameters this model can identify: measure more poses{more}")
     names = [p.name for p in cands]
-    keep, rank, norms, combos = select_identifiable(J0, priority, names)
+    keep, rank, norms, combos, Rs = select_identifiable(J0, priority, names)
     removed_idx = np.setdiff1d(np.arange(len(cands)), keep)
-    removed = explain_removed(J0, keep, removed_idx, names, norms)
+    removed = explain_removed(Rs, keep, removed_idx, names, norms)
     # Degenerate: the poses separate fewer parameters than well-spread data would, or (for
     # the thesis and joint models) a requested offset cannot be identified at all.
     requested_robot = [k for k, p in enumerate(cands) if p.group == "robot"]
@@ -134,8 +142,8 @@ def _select(nominal: SerialModel, data: MeasurementSet, residual: Residual,
                                                           for k in requested_robot))
     notes = data_warnings(start, data, residual, m, rank, [n for n, _ in removed])
     errors = errors_all.subset([int(k) for k in keep])
-    return Selection(start, tuple(cands), errors, problem_all.restricted(errors), r0, J0, keep,
-                     rank, tuple(removed), tuple(combos), degenerate, tuple(notes))
+    return Selection(start, tuple(cands), errors, problem_all.restricted(errors), r0, J0, T0,
+                     keep, rank, tuple(removed), tuple(combos), degenerate, tuple(notes))
 
 
 def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
@@ -188,8 +196,7 @@ def _solve_lm_from_start(chosen: Selection, data: MeasurementSet, residual: Resi
     Returns the problem, the solution and whether it was re-weighted at the step."""
     problem, keep = chosen.problem, chosen.keep
     p = len(keep)
-    x_gn = -np.linalg.lstsq(np.vstack([chosen.J0[:, keep], np.diag(problem.prior)]),
-                            np.r_[chosen.r0, np.zeros(p)], rcond=None)[0]
+    x_gn = gauss_newton_step(chosen.J0[:, keep], chosen.r0, problem.prior, np.zeros(p))
     if estimate_noise:  # the noise levels' own loop re-weights and solves from there
         return problem, Solution(x_gn, True, "", 0), True
     if settings.statistical and problem.cost(x_gn) < float(chosen.r0 @ chosen.r0):
@@ -218,8 +225,8 @@ def _result(chosen: Selection, data: MeasurementSet, residual: Residual,
     s = singular_values(Jw / np.where(col > 0, col, 1))
     to_if = errors.to_interface
     calibrated = errors.apply(x)
-    before = pose_errors(chosen.start, data, residual)
-    after = pose_errors(calibrated, data, residual)
+    before = pose_errors(chosen.start, data, residual, chosen.T0)
+    after = pose_errors(calibrated, data, residual, problem.linearisation(x)[0])
     return CalibrationResult(
         model=calibrated, start_model=chosen.start, params=errors.params, values=to_if(x),
         std_errors=to_if(std), correlation=corr, removed=chosen.removed,

@@ -9,6 +9,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 from scipy.optimize import differential_evolution, least_squares
 
 from screwcal.calibration.error_parameters import ErrorModel
@@ -101,6 +102,23 @@ def solve_de(problem: ResidualProblem, link_bounds_mm: tuple[float, float], seed
     return Solution(refined.x, bool(de.success or refined.status > 0),
                     f"DE: {de.message}; polished: {refined.message}",
                     int(de.nfev + refined.nfev))
+
+
+def gauss_newton_step(J: Array, r: Array, prior: Array, x: Array) -> Array:
+    """The Gauss-Newton step from x of weighted residuals r (m,) with Jacobian J (m, p) and the
+    prior's rows (`prior` * x) below, by the normal equations of the column-scaled J (a (p, p)
+    Cholesky instead of a tall factorisation); by least squares when they are not positive
+    definite to working precision."""
+    scale = np.linalg.norm(J, axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    Js = J / scale
+    P = prior / scale
+    try:
+        factor = scipy.linalg.cho_factor(Js.T @ Js + np.diag(P ** 2))
+        return -scipy.linalg.cho_solve(factor, Js.T @ r + P * (prior * x)) / scale
+    except np.linalg.LinAlgError:
+        return -np.linalg.lstsq(np.vstack([J, np.diag(prior)]), np.r_[r, prior * x],
+                                rcond=None)[0]
 
 
 def stationary(problem: ResidualProblem, x: Array) -> bool:
