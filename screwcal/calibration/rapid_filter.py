@@ -17,8 +17,10 @@ objects, a stationary tool (`robhold` TRUE) and a moving or robot-held work obje
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from operator import itemgetter
 from typing import TypeGuard
 
 import numpy as np
@@ -44,6 +46,10 @@ from screwcal.kinematics.se3 import Array, invert_transform
 TRANS_DECIMALS = 4  # mm
 QUAT_DECIMALS = 9
 Frames = dict[str, "Array | str"]  # by lower-case name: a 4x4 frame, or why it cannot be used
+_LITERALS = re.compile(rf"{NUMBER.pattern}(?:,{NUMBER.pattern})*")  # a target's numbers, joined
+_text = itemgetter(0)  # a Token's text
+# a target's row of numbers as written back: x y z (mm), q1..q4, cf1 cf4 cf6 cfx
+_ROW = ",".join([f"{{:.{TRANS_DECIMALS}f}}"] * 3 + [f"{{:.{QUAT_DECIMALS}f}}"] * 4 + ["{}"] * 4)
 
 
 @dataclass(frozen=True)
@@ -217,7 +223,7 @@ def _static_targets(module: RapidModule, d: Declaration, report: FilterReport
                                    "when the program runs"))
         return []
     found = _targets(d.name, d.value, module.line_of)
-    computed = [t for t in found if not all(NUMBER.fullmatch(k.text) for k in t.tokens)]
+    computed = [t for t in found if not _LITERALS.fullmatch(",".join(map(_text, t.tokens)))]
     report.refused += [Note(t.line, t.name, "a number of its value is an expression, "
                             "computed when the program runs") for t in computed]
     return [t for t in found if t not in computed]
@@ -285,6 +291,5 @@ def _target_text(T: Array, conf: Array, old_quats: Array) -> list[list[str]]:
     quats *= np.where(np.sum(quats * old_quats, axis=1) < 0, -1.0, 1.0)[:, None]
     trans = np.round(T[:, :3, 3], TRANS_DECIMALS) + 0.0  # + 0.0: no "-0.0"
     quats = np.round(quats, QUAT_DECIMALS) + 0.0
-    return [[*(f"{v:.{TRANS_DECIMALS}f}" for v in tr), *(f"{v:.{QUAT_DECIMALS}f}" for v in qu),
-             *map(str, cf)]
-            for tr, qu, cf in zip(trans.tolist(), quats.tolist(), conf.tolist(), strict=True)]
+    rows = np.concatenate([trans, quats, conf], axis=1, dtype=object).tolist()
+    return [_ROW.format(*row).split(",") for row in rows]

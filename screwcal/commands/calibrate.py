@@ -328,6 +328,7 @@ def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
     from screwcal.calibration.rapid_filter import filter_rapid
     from screwcal.calibration.rapid_source import read_rapid_module
     from screwcal.errors import DataFileError
+    from screwcal.rapid.acyclic import cycle_collection_paused
     from screwcal.tables import write_text_atomic
 
     path = Path(args.rapid)
@@ -336,9 +337,10 @@ def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
     except OSError as err:
         raise DataFileError(str(path), f"cannot read the RAPID module ({err.strerror})") from None
     text = raw.decode("latin-1")  # RAPID files are 8-bit; every byte round-trips
-    module = read_rapid_module(str(path), text)
-    out_text, report = filter_rapid(module, calibrated, nominal, tool=args.tool,
-                                    wobj=args.wobj)
+    with cycle_collection_paused():  # the module's tree lives through the filter: no cycle
+        module = read_rapid_module(str(path), text)  # in it, nothing for passes over it
+        out_text, report = filter_rapid(module, calibrated, nominal, tool=args.tool,
+                                        wobj=args.wobj)
     if report.compensated == 0:
         print(report.summary(), file=sys.stderr)
         raise DataFileError(str(path), f"no robtarget compensated; {args.out} not written")
