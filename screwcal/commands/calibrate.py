@@ -341,6 +341,7 @@ def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
         module = read_rapid_module(str(path), text)  # in it, nothing for passes over it
         out_text, report = filter_rapid(module, calibrated, nominal, tool=args.tool,
                                         wobj=args.wobj)
+        del module  # freed here, not gone through once more by the collector it resumes
     if report.compensated == 0:
         print(report.summary(), file=sys.stderr)
         raise DataFileError(str(path), f"no robtarget compensated; {args.out} not written")

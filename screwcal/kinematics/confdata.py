@@ -102,11 +102,6 @@ def solution_for_confdata(model: SerialModel, T_flange: ArrayLike, conf: ArrayLi
     centre[:, [0, 3, 5]] = (conf[:, :3] + 0.5) * QUADRANT_RAD
     q = sol.toward(centre)  # (N, 8, 6): axes 1, 4, 6 turned toward the asked quadrants
     q = _wrist_split(model, q, conf)
-    # The arm's configuration (wrist centre against axis 1 and the lower arm) does not depend
-    # on the wrist: computed on the four no-flip branches, the flip ones share it.
-    noflip = [k for k, b in enumerate(sol.branches) if b[2] == "noflip"]
-    partner = [noflip.index(sol.branches.index((b[0], b[1], "noflip"))) for b in sol.branches]
-    arm = _arm_bits(model, np.nan_to_num(q[:, noflip].reshape(-1, 6))).reshape(N, 4)[:, partner]
     # A reading within TOL_RAD of a quadrant's edge (or of joint 5's zero) is in either: the
     # numbers of a robtarget (9-decimal quaternions, 0.1 um positions) place the joints no
     # closer than that, and the nominal home is on every edge at once
@@ -116,7 +111,16 @@ def solution_for_confdata(model: SerialModel, T_flange: ArrayLike, conf: ArrayLi
     wanted_arm, wanted_negative = conf[:, None, 3] & ~1, (conf[:, None, 3] & 1).astype(bool)
     q5 = qq[:, :, 4]
     sign_ok = np.where(wanted_negative, q5 < TOL_RAD, q5 > -TOL_RAD)
-    match = sol.valid & np.all(quadrant_ok, axis=-1) & (arm == wanted_arm) & sign_ok
+    match = sol.valid & np.all(quadrant_ok, axis=-1) & sign_ok
+    # The arm's configuration (wrist centre against axis 1 and the lower arm) does not depend
+    # on the wrist: computed on the no-flip branch of each branch still in question (the
+    # quadrants leave one or two of eight), the flip one sharing it.
+    partner = np.array([sol.branches.index((b[0], b[1], "noflip")) for b in sol.branches])
+    rows, branches = np.nonzero(match)
+    if rows.size:
+        pairs, which = np.unique(rows * len(partner) + partner[branches], return_inverse=True)
+        arm = _arm_bits(model, qq[pairs // len(partner), pairs % len(partner)])[which]
+        match[rows, branches] = arm == wanted_arm[rows, 0]
     none = ~match.any(axis=1)
     if strict and none.any():
         k = int(np.flatnonzero(none)[0])
