@@ -246,7 +246,8 @@ def _compensated_text(text: str, targets: list[_Target], frames: list[tuple[Arra
     the nominal or the calibrated robot cannot reach are noted as refused in the report."""
     W = np.array([f[0] for f in frames])
     Ttool = np.array([f[1] for f in frames])
-    numbers = np.array([[tok.text for tok in t.tokens] for t in targets]).astype(float)
+    texts = [tok.text for t in targets for tok in t.tokens]  # 11 a target
+    numbers = np.fromiter(map(float, texts), float, len(texts)).reshape(len(targets), -1)
     T_target = np.tile(np.eye(4), (len(targets), 1, 1))
     T_target[:, :3, :3] = rotation_from_quaternion_wxyz(numbers[:, 3:7])
     T_target[:, :3, 3] = numbers[:, :3]

@@ -91,3 +91,10 @@ def test_the_peer_script_defaults_to_trf(tmp_path):
     out = json.loads((tmp_path / "out.json").read_text())
     assert out["method"] == "trf"
     assert out["mean_error_after_mm"] < out["mean_error_before_mm"]
+
+
+def test_rapid_filter_reports_the_median_wall_and_cpu_time():
+    proc = run("rapid_filter.py", "--targets", "40", "--repeat", "3")
+    assert proc.returncode == 0, proc.stderr
+    line = proc.stdout.splitlines()[-1]
+    assert "40 robtargets, 3 runs: wall" in line and "CPU" in line and "(target 2 s)" in line
