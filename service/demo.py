@@ -101,10 +101,12 @@ class DemoRun:
     options: dict[str, Any]
 
 
-def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool) -> DemoRun:
+def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool,
+             emulation: list[str]) -> DemoRun:
     """The emulators (a process) and the service (a thread), the procedure in AUTO, its report
     in `args.out`; with `geometric_too` the same procedure with a geometric-only model after
-    it, on the same robot."""
+    it, on the same robot. `emulation`: what the emulated robot carries, as its robot record
+    (and so the report) states it."""
     from service.operator import Operator
     from service.settings import ServiceSettings
 
@@ -121,7 +123,8 @@ def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool) -> DemoR
                        args.realism) as (host, port, arm):
             with service(settings) as url, Operator(url, token) as op:
                 robot = op.add_robot(name="ABB IRB 1600 (emulated)", controller_host=host,
-                                     controller_port=port, arm_url=arm, model="irb1600")
+                                     controller_port=port, arm_url=arm, model="irb1600",
+                                     emulation=emulation)
                 job = op.start(robot_id=robot["id"], kind="procedure", mode="AUTO",
                                options=options)
                 print(f"screwcal demo: emulated IRB 1600 (realism {args.realism}) at "

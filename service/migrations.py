@@ -4,7 +4,7 @@ service/database.py). A database records the last one it ran; a newer release ad
 never edits one that was released, so a database written by this version opens in the next.
 """
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 # Each migration is written once for both databases: {pk}, {int} and {real} are the column
 # types of the database it runs on (service/database.py). Never edit one that was released:
 # add the next.
@@ -61,5 +61,10 @@ MIGRATIONS = {
     CREATE TABLE confirmations (
         id {pk}, job_id {int} NOT NULL REFERENCES jobs(id), phase TEXT NOT NULL,
         idx {int} NOT NULL, operator TEXT NOT NULL, at {real} NOT NULL);
+    """,
+    # Version 6: what an emulated robot carries (its realism, one line per effect, JSON); an
+    # empty list for a real robot and for the robots of older databases.
+    6: """
+    ALTER TABLE robots ADD COLUMN emulation TEXT NOT NULL DEFAULT '[]';
     """,
 }

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
@@ -40,6 +40,10 @@ class RobotCreate(BaseModel):
     controller_software: str = Field("", max_length=80, description="e.g. RobotWare 6.15")
     tool: str = Field("", max_length=80, description="the tool mounted")
     payload_kg: float | None = Field(None, ge=0, le=2000, description="the payload carried")
+    emulation: list[Annotated[str, Field(max_length=300)]] = Field(
+        default_factory=list, max_length=20, description="an emulated robot: what it carries "
+        "beyond its geometry (its realism: compliance, backlash, lag, drift, ...), one line per "
+        "effect, as the report states it; empty for a real robot")
 
     @field_validator("holes_mm")
     @classmethod
@@ -80,6 +84,7 @@ class RobotPublic(BaseModel):
     controller_software: str = ""
     tool: str = ""
     payload_kg: float | None = None
+    emulation: list[str] = Field(default_factory=list)
 
 
 class RobotIdentity(BaseModel):

@@ -61,7 +61,7 @@ def _row(row: dict[str, Any] | None, what: str) -> dict[str, Any]:
         raise NotFoundError(f"no such {what}")
     out = dict(row)
     for key in ("model", "holes_mm", "options", "phases", "result", "joints_deg", "tool0",
-                "flange_pose", "robot_identity"):
+                "flange_pose", "robot_identity", "emulation"):
         if key in out and isinstance(out[key], str):
             out[key] = json.loads(out[key])
     return out
@@ -123,18 +123,21 @@ class Store:
 
     # -- robots --------------------------------------------------------------------------------
     def add_robot(self, name: str, controller_host: str, controller_port: int, arm_url: str,
-                  model: dict, holes_mm: list, identity: dict | None = None) -> dict:
+                  model: dict, holes_mm: list, identity: dict | None = None,
+                  emulation: list[str] | None = None) -> dict:
         """A robot cell; `identity` its serial number, controller software, tool and payload
-        (IDENTITY: each optional)."""
+        (IDENTITY: each optional); `emulation` what an emulated robot carries (its realism,
+        one line per effect), none for a real robot."""
         ident = self._identity(identity or {})
         try:
             with self.db.tx() as db:
                 rid = db.execute(
                     "INSERT INTO robots (name, controller_host, controller_port, arm_url, model, "
-                    "holes_mm, created, serial, controller_software, tool, payload_kg) VALUES "
-                    "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+                    "holes_mm, created, serial, controller_software, tool, payload_kg, "
+                    "emulation) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
                     (name, controller_host, controller_port, arm_url, json.dumps(model),
-                     json.dumps(holes_mm), time.time(), *ident.values())).fetchone()["id"]
+                     json.dumps(holes_mm), time.time(), *ident.values(),
+                     json.dumps(emulation or []))).fetchone()["id"]
         except self.db.integrity_errors:
             other = self.robot_named(name)
             raise ConflictError(f"a robot named {name!r} exists already (robot {other['id']}): "

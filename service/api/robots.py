@@ -30,7 +30,7 @@ def create_robot(body: RobotCreate, _: Auth, store: StoreDep) -> dict:
     doc = model_document(model)
     return store.add_robot(body.name, body.controller_host, body.controller_port,
                            body.arm_url, doc, body.holes_mm,
-                           body.model_dump(include=set(IDENTITY)))
+                           body.model_dump(include=set(IDENTITY)), body.emulation)
 
 @router.get("", response_model=list[RobotPublic])
 def list_robots(_: Read, store: StoreDep) -> list[dict]:

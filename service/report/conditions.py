@@ -33,9 +33,9 @@ def emulation_text(robot: dict[str, Any]) -> str:
     if not lines:
         return ("<p>The robot record states no emulation: a real robot, or an emulated one "
                 "added without its realism.</p>")
-    return ("<p>Emulated robot; what the emulated true robot carries (the service identifies "
-            "it without being told):</p><ul>" + "".join(f"<li>{esc(line)}</li>"
-                                                        for line in lines) + "</ul>")
+    return ("<p>An emulated robot. What the emulated true robot carries, as its record "
+            "states it (the calibration is not told: it identifies what it can, below):</p>"
+            "<ul>" + "".join(f"<li>{esc(line)}</li>" for line in lines) + "</ul>")
 
 
 def beyond_geometry_rows(est: EstimationSummary) -> list[list[Any]]:

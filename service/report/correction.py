@@ -34,7 +34,7 @@ def correction_body(corr: CorrectionPlan) -> str:
     if predicted is not None:
         out.write(sentence(f"Model-predicted flange position error on the ISO targets: "
                            f"{number(predicted.before)} mm as programmed, "
-                           f"{number(predicted.after, 4)} mm as corrected"))
+                           f"{number(predicted.after)} mm as corrected"))
     if corr.left_in_robot:
         out.write(sentence("Left in the robot by this route (identified, not corrected):")
                   + table(["parameter", "value", "unit"],
@@ -42,9 +42,9 @@ def correction_body(corr: CorrectionPlan) -> str:
     elif corr.left_in_robot is not None:
         out.write(sentence("Left in the robot: nothing the model identified"))
     if corr.not_identified:
-        out.write(sentence("Not identified from these data, so nothing corrects them (the "
-                           "section on the calibration says what they could not be told "
-                           "apart from): " + ", ".join(corr.not_identified)))
+        out.write(sentence("Held at their nominal values, not separable from these data (the "
+                           "parameters they move with carry their effect: see what the "
+                           "calibration identified): " + ", ".join(corr.not_identified)))
     return out.getvalue()
 
 
@@ -54,7 +54,7 @@ def correction_section(ctx: ReportContext) -> str | None:
     for suffix in ROUND_SUFFIXES:
         corr = ctx.result.correction_of(suffix)
         if corr is not None:
-            title = f"Correction{' (round 2)' if suffix else ''}: {esc(corr.route)}"
+            title = f"{'Round 2 route' if suffix else 'Route'}: {esc(corr.route)}"
             parts.append(f"<h3>{title}</h3>{correction_body(corr)}")
     if not parts:
         return None

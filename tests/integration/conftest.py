@@ -76,11 +76,12 @@ async def service(tmp_path):
             yield http
 
 
-async def add_robot(http, rig) -> int:
+async def add_robot(http, rig, **record) -> int:
+    """The rig's robot added to the service; `record`: more fields of its record."""
     host, port = rig.address
     r = await http.post("/robots", headers=AUTH, json={
         "name": "IRB 1600 (emulated)", "controller_host": host, "controller_port": port,
-        "arm_url": rig.arm.url})
+        "arm_url": rig.arm.url, **record})
     assert r.status_code == 201, r.text
     return r.json()["id"]
 

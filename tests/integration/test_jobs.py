@@ -65,7 +65,7 @@ async def test_procedure_in_auto_compensates_the_robot(service, rig):
     page = await service.get(f"/jobs/{job['id']}/report")
     assert page.status_code == 200 and "ISO 9283" in page.text and "<svg class='chart'" in page.text
     assert "Summary" in page.text and "test condition (ISO 9283)" in page.text
-    assert "Correction: compensate" in page.text
+    assert "Route: compensate" in page.text
 
 
 async def test_procedure_zero_route_recovers_table11_and_leaves_the_links(service, rig):

@@ -7,6 +7,8 @@ import json
 import re
 import shutil
 import subprocess
+from dataclasses import replace
+from html import escape
 from pathlib import Path
 
 import pytest
@@ -15,6 +17,9 @@ from simulators.realism import TYPICAL
 from tests.integration.conftest import AUTH, add_robot, start_rig, stop_rig
 from tests.integration.test_jobs import wait_state
 
+# the typical robot carrying the 5 kg the job says it carries
+CARRYING = replace(TYPICAL, payload_kg=5.0, payload_cog_mm=(0.0, 0.0, 80.0))
+EMULATION = ["geometric errors drawn from seed 1; realism typical:", *CARRYING.describe()]
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
@@ -79,9 +84,9 @@ def measured(page: Path, profile: Path, width: int) -> dict:
 async def typical_job_report(service, tmp_path: Path) -> Path:
     """A procedure on the `typical` robot (it bends, lags, backlashes, drifts), carrying 5 kg
     with ISO 9283's warm-up, and its report as a file."""
-    rig = await start_rig(realism=TYPICAL, seed=1)
+    rig = await start_rig(realism=CARRYING, seed=1)
     try:
-        robot = await add_robot(service, rig)
+        robot = await add_robot(service, rig, emulation=EMULATION)
         r = await service.post("/jobs", headers=AUTH, json={
             "robot_id": robot, "kind": "procedure", "options": {
                 "calibration_poses": 40, "cycles": 3, "warmup_cycles": 2,
@@ -102,6 +107,13 @@ async def test_report_of_a_typical_job_reads_right_in_chromium(tmp_path, service
     profile = tmp_path / "profile"
     html = page.read_text()
     assert "ISO 9283" in html and "<b id='state'>done</b>" in html
+    # what the emulated robot carries, the payload of each list, the ISO 9283 conditions
+    for said in (*(escape(line, quote=False) for line in EMULATION),
+                 "payload (calibration list)</td><td class='text'>5 kg at (0, 0, 80)",
+                 "payload (performance lists)</td><td class='text'>5 kg at (0, 0, 80)",
+                 "2 test cycles run unmeasured before the test", "cycles</td><td class='text'>3",
+                 "speed</td>", "compliance J2c</td>"):
+        assert said in html, said
     for width in (1200, 800):  # a desktop window, and a narrow one (A4 paper is ~790 px)
         m = measured(page, profile, width)
         assert m["first_after_header"] == "summary" and m["sections"][0] == "summary", m

@@ -189,6 +189,7 @@ def test_a_database_of_the_previous_release_opens_and_migrates(tmp_path):
     assert store.schema_version() == SCHEMA_VERSION
     assert store.job(1).result.document() == {"rms": 0.1} and store.job(2).state == "running"
     assert store.robot(1)["serial"] == "" and store.robot(1)["payload_kg"] is None
+    assert store.robot(1)["emulation"] == []  # an older robot states no emulation
     _, provenance = store.robot_jobs(1)[0]  # made before provenance was kept: said so
     assert provenance["software"] == "" and provenance["robot_identity"] is None
     assert store.adoptable() == [2] and store.take(2)  # its running job goes on, no holder
