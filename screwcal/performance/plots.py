@@ -35,9 +35,16 @@ def _save(fig: Figure, path: str | Path) -> Path:
     return path
 
 
+def _legend_above(ax: Axes) -> None:
+    """The legend in a row above the plot, where it covers no bar and no point."""
+    ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=3, frameon=False,
+              fontsize="small")
+
+
 def accuracy_per_point(results: Mapping[str, Mapping[str, PoseMetrics]], path: str | Path
                        ) -> Path:
-    """Grouped bars of AP (mm) and |AP_a|, |AP_b|, |AP_c| (deg) per point, one bar per result."""
+    """Grouped bars of AP (mm) and max(|AP_a|, |AP_b|, |AP_c|) (deg) per point, one bar per
+    result: the figures of the evaluate report's tables (`ap_abc_deg_max` is their maximum)."""
     labels = list(next(iter(results.values())))
     has_orientation = all(m.ap_abc_deg is not None for r in results.values() for m in r.values())
     ncols = 2 if has_orientation else 1
@@ -50,17 +57,18 @@ def accuracy_per_point(results: Mapping[str, Mapping[str, PoseMetrics]], path: s
         ap = [metrics[lbl].ap_mm for lbl in labels]
         axes[0, 0].bar(x + k * width, ap, width, label=name, color=colour)
         if has_orientation:
-            norm = [float(np.linalg.norm(metrics[lbl].ap_abc_deg or np.nan)) for lbl in labels]
-            axes[0, 1].bar(x + k * width, norm, width, label=name, color=colour)
-    axes[0, 0].set(title="(a) position accuracy AP (ISO 9283, Eq. 2.5)", ylabel="AP [mm]")
+            largest = [metrics[lbl].ap_abc_max_abs_deg for lbl in labels]
+            axes[0, 1].bar(x + k * width, largest, width, label=name, color=colour)
+    axes[0, 0].set_title("(a) position accuracy (ISO 9283, Eq. 2.5)", pad=24)
+    axes[0, 0].set_ylabel("AP = |mean reached - commanded| [mm]")
     if has_orientation:
-        axes[0, 1].set(title="(b) orientation accuracy |(APa, APb, APc)| (Eq. 2.9)",
-                       ylabel="[deg]")
+        axes[0, 1].set_title("(b) orientation accuracy (Eq. 2.9)", pad=24)
+        axes[0, 1].set_ylabel("max(|APa|, |APb|, |APc|) [deg]")
     for ax in axes[0]:
         ax.set_xticks(x + width * (len(results) - 1) / 2, labels)
         _readable_scale(ax)
         ax.grid(axis="y", alpha=0.3)
-        ax.legend()
+        _legend_above(ax)
     return _save(fig, path)
 
 
@@ -75,24 +83,6 @@ def _readable_scale(ax: Axes, ratio: float = 20.0) -> None:
         ax.set_ylabel(ax.get_ylabel() + " (log scale)")
 
 
-def calibration_residuals(before_mm: ArrayLike, after_mm: ArrayLike, path: str | Path) -> Path:
-    """Per-pose position residual of the calibration data, nominal model ("before") and
-    calibrated model ("after"), on a log scale."""
-    before, after = np.asarray(before_mm, float), np.asarray(after_mm, float)
-    fig = Figure(figsize=(8, 4))
-    ax = fig.subplots()
-    k = np.arange(1, len(before) + 1)
-    ax.semilogy(k, before, "o-", ms=3, color=_COLOURS.get("before"),
-                label=f"before (nominal): mean {before.mean():.3f} mm")
-    ax.semilogy(k, after, "o-", ms=3, color=_COLOURS.get("after"),
-                label=f"after (calibrated): mean {after.mean():.4f} mm")
-    ax.set(title="Calibration residual per pose (|measured - model| position)",
-           xlabel="calibration pose", ylabel="residual [mm] (log scale)")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend()
-    return _save(fig, path)
-
-
 def straightness_along_path(results: Mapping[str, Straightness], path: str | Path) -> Path:
     """Signed deviation (u) from the least-squares line against the position along it."""
     fig = Figure(figsize=(7, 4))
@@ -102,10 +92,10 @@ def straightness_along_path(results: Mapping[str, Straightness], path: str | Pat
         ax.plot(s.along_mm[order], s.deviation_u_mm[order], "o-", color=_COLOURS.get(name),
                 label=f"{name}: peak + valley {s.peak_to_valley_mm:.3f} mm")
     ax.axhline(0.0, color="k", lw=0.8)
-    ax.set(title="Straightness (ISO 12780-1, least-squares line)",
-           xlabel="position along the line [mm]", ylabel="signed deviation [mm]")
+    ax.set_title("Straightness (ISO 12780-1, least-squares line)", pad=24)
+    ax.set(xlabel="position along the line [mm]", ylabel="signed deviation u [mm]")
     ax.grid(alpha=0.3)
-    ax.legend()
+    _legend_above(ax)
     return _save(fig, path)
 
 

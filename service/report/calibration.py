@@ -11,7 +11,7 @@ from service.document import EstimationSummary
 from service.phases import ROUND_SUFFIXES
 from service.report.charts import line_chart
 from service.report.context import ReportContext
-from service.report.markup import esc, pair, section, sentence, table
+from service.report.markup import esc, number, pair, section, sentence, table
 from service.report.symbols import CONSEQUENCES, in_words, legend, partners, taken_up_by
 from service.result_text import beyond_geometry
 
@@ -42,12 +42,19 @@ def separability(est: EstimationSummary) -> str:
 def fit_words(est: EstimationSummary) -> str:
     """The fit's quality in words."""
     well = "well conditioned" if est.condition_number < 1e3 else "poorly conditioned"
-    chi2 = ("the residuals are as large as the measuring noise explains" if est.chi2_reduced
-            < 2.0 else "the residuals are larger than the measuring noise explains")
+    position = (est.noise or {}).get("position") or {}
+    if position.get("estimated"):
+        chi2 = (f", near 1 by construction: the noise levels were estimated from these data, "
+                f"and the position noise they needed, {number(position['value'])} mm, is what "
+                "the model leaves unexplained, instrument included")
+    elif est.chi2_reduced < 2.0:
+        chi2 = ": the residuals are as large as the stated measuring noise explains"
+    else:
+        chi2 = ": the residuals are larger than the stated measuring noise explains"
     return sentence(
         f"The fit is {well} (condition number {est.condition_number:.3g}: how much a "
-        f"measuring error is magnified in the parameters) and chi2/dof is "
-        f"{est.chi2_reduced:.2f} (1 when the residuals match the stated noise): {chi2}")
+        f"measuring error is magnified in the parameters); chi2/dof (1 when the residuals "
+        f"match the noise levels) is {est.chi2_reduced:.2f}{chi2}")
 
 
 def residual_pair(calibration: dict[str, Any], est: EstimationSummary) -> str:

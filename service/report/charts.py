@@ -5,7 +5,8 @@ Each chart is an `<svg class="chart">` whose y-axis label (`text.axis-label.y`, 
 across above the axis so that a long quantity stays readable) names its quantity, the same words
 as the caption of the table beside it; its legend (`g.legend`) sits in a band of its own above
 the plot, so it covers no bar (`rect.bar`) and no point (`circle.point`); the browser test
-measures all of them. A log scale is used when the largest
+measures all of them, and reads each mark's series and value (`data-series`, `data-value`) to
+compare it with the table. A log scale is used when the largest
 value is more than `LOG_RATIO` times the smallest, and the axis label says so.
 """
 
@@ -156,7 +157,9 @@ def bar_chart(title: str, categories: Sequence[str],
                 continue
             top = frame.y(v)
             y, h = min(top, base), abs(base - top)
-            parts.append(f"<rect class='bar' x='{x0 + k * width:.1f}' y='{y:.1f}' "
+            parts.append(f"<rect class='bar' data-series='{html.escape(name)}' "
+                         f"data-category='{html.escape(category)}' data-value='{v!r}' "
+                         f"x='{x0 + k * width:.1f}' y='{y:.1f}' "
                          f"width='{width:.1f}' height='{max(h, 0.5):.1f}' "
                          f"fill='{_colour(name, k)}'><title>{html.escape(name)} "
                          f"{html.escape(category)}: {v:.4g}</title></rect>")
@@ -186,7 +189,8 @@ def line_chart(title: str, x: Mapping[str, Sequence[float]],
         path = " ".join(f"{px(a):.1f},{frame.y(b):.1f}" for a, b in pts)
         parts.append(f"<polyline class='line' points='{path}' fill='none' stroke='{colour}' "
                      "stroke-width='1.5'/>")
-        parts += [f"<circle class='point' cx='{px(a):.1f}' cy='{frame.y(b):.1f}' r='2.5' "
+        parts += [f"<circle class='point' data-series='{html.escape(name)}' data-value='{b!r}' "
+                  f"cx='{px(a):.1f}' cy='{frame.y(b):.1f}' r='2.5' "
                   f"fill='{colour}'><title>{html.escape(name)}: {b:.4g}</title></circle>"
                   for a, b in pts]
     return frame.svg(title, "".join(parts))

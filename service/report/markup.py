@@ -17,10 +17,9 @@ table{border-collapse:collapse;margin:.6em 0}td,th{border:1px solid #bbb;padding
 caption{text-align:left;font-weight:bold;padding:.2em 0}
 .warning{background:#fff3cd;border:1px solid #e0b000;padding:6px}
 .pair{display:flex;flex-wrap:wrap;gap:1em 2em;align-items:flex-start;margin:.8em 0}
-.pair>.table{flex:0 1 auto;max-width:100%;overflow-x:auto}
-.pair>.chart-box{flex:1 1 420px;max-width:640px;min-width:0}
-svg.chart{width:100%;height:auto;font-size:12px;font-family:sans-serif}
-svg.chart .axis-label{font-size:12.5px}
+.pair>.table{flex:0 1 16em;max-width:100%;overflow-x:auto}.pair>.table>table{width:100%}
+.pair>.chart-box{flex:1 1 540px;max-width:640px;min-width:0}
+svg.chart{width:100%;height:auto;font-size:14px;font-family:sans-serif}
 dl.symbols{display:grid;grid-template-columns:max-content 1fr;gap:.1em 1em}
 dl.symbols dt{font-family:monospace;font-weight:bold}dl.symbols dd{margin:0}
 .wide{max-width:100%;overflow-x:auto}

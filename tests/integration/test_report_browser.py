@@ -49,6 +49,10 @@ for (const svg of document.querySelectorAll('svg.chart')) {
     title: svg.querySelector('title').textContent,
     axis_label: svg.querySelector('text.axis-label.y').textContent,
     caption: pair ? pair.querySelector('table caption').textContent : null,
+    table: pair ? [...pair.querySelectorAll('table tr')].map(
+      tr => [...tr.children].map(c => c.textContent)) : [],
+    values: marks.map(m => [m.dataset.series, m.dataset.category || null,
+                            Number(m.dataset.value)]),
     marks: marks.length,
     covered: marks.filter(m => meets(box(m), legend)).length,
     text_outside: [...svg.querySelectorAll('text')].filter(t => {
@@ -79,6 +83,35 @@ def measured(page: Path, profile: Path, width: int) -> dict:
     assert found, dom[-2000:]
     return json.loads(found.group(1).replace("&amp;", "&").replace("&lt;", "<")
                       .replace("&gt;", ">"))
+
+
+def agrees_with_its_table(chart: dict) -> None:
+    """A bar is the table's cell of its series (column) and category (row); a line's largest
+    point is the table's max (peak), its lowest the valley (the table shows 4 decimals, or 2
+    significant digits below 0.01)."""
+    header, *rows = chart["table"]
+
+    def same(cell: str, value: float) -> None:
+        assert float(cell) == pytest.approx(value, rel=0.01, abs=5e-5), (chart["title"], cell,
+                                                                         value)
+
+    checked = 0
+    for series, category, value in chart["values"]:
+        if category is not None:
+            row = next(r for r in rows if r[0] == category)
+            same(row[header.index(series)], value)
+            checked += 1
+    for series in {s for s, c, _ in chart["values"] if c is None}:
+        values = [v for s, _, v in chart["values"] if s == series]
+        row = next(r for r in rows if r[0] == series)
+        for k, name in enumerate(header):
+            if name.startswith(("max", "peak =")):
+                same(row[k], max(values))
+                checked += 1
+            elif name.startswith("valley"):
+                same(row[k], -min(values))
+                checked += 1
+    assert checked, chart
 
 
 async def typical_job_report(service, tmp_path: Path) -> Path:
@@ -124,6 +157,7 @@ async def test_report_of_a_typical_job_reads_right_in_chromium(tmp_path, service
             assert chart["caption"] and chart["axis_label"].startswith(chart["caption"]), chart
             assert chart["marks"] >= 2 and chart["covered"] == 0, chart  # the legend covers none
             assert not chart["text_outside"], chart
+            agrees_with_its_table(chart)
     shot = tmp_path / "report.png"
     chromium(profile, f"--screenshot={shot}", "--window-size=1200,1600", page.as_uri())
     assert shot.stat().st_size > 30_000
