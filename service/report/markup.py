@@ -17,7 +17,8 @@ table{border-collapse:collapse;margin:.6em 0}td,th{border:1px solid #bbb;padding
 caption{text-align:left;font-weight:bold;padding:.2em 0}
 .warning{background:#fff3cd;border:1px solid #e0b000;padding:6px}
 .pair{display:flex;flex-wrap:wrap;gap:1em 2em;align-items:flex-start;margin:.8em 0}
-.pair>.table{flex:0 1 16em;max-width:100%;overflow-x:auto}.pair>.table>table{width:100%}
+.pair>.table{flex:0 1 auto;min-width:16em;max-width:100%;overflow-x:auto}
+.pair>.table>table{width:100%}
 .pair>.chart-box{flex:1 1 540px;max-width:640px;min-width:0}
 svg.chart{width:100%;height:auto;font-size:14px;font-family:sans-serif}
 dl.symbols{display:grid;grid-template-columns:max-content 1fr;gap:.1em 1em}

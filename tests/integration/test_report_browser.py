@@ -39,6 +39,8 @@ for (const e of document.body.querySelectorAll('*')) {
   const r = box(e);
   if (r.width > 0 && r.right > width + 0.5)
     out.overflowing.push(e.tagName + '.' + e.getAttribute('class') + ' ' + r.right);
+  if (e.scrollWidth > e.clientWidth + 1 && getComputedStyle(e).overflowX !== 'visible')
+    out.overflowing.push('clipped ' + e.tagName + '.' + e.getAttribute('class'));
 }
 for (const svg of document.querySelectorAll('svg.chart')) {
   const legend = box(svg.querySelector('g.legend'));
@@ -86,9 +88,10 @@ def measured(page: Path, profile: Path, width: int) -> dict:
 
 
 def agrees_with_its_table(chart: dict) -> None:
-    """A bar is the table's cell of its series (column) and category (row); a line's largest
-    point is the table's max (peak), its lowest the valley (the table shows 4 decimals, or 2
-    significant digits below 0.01)."""
+    """A bar is the table's cell of its series (column) and category (row); a line whose series
+    is a column of the table has that column's values; a line whose series is a row of the table
+    has its largest point in the row's max (peak) and its lowest in the valley (the table shows
+    4 decimals, or 2 significant digits below 0.01)."""
     header, *rows = chart["table"]
 
     def same(cell: str, value: float) -> None:
@@ -103,6 +106,11 @@ def agrees_with_its_table(chart: dict) -> None:
             checked += 1
     for series in {s for s, c, _ in chart["values"] if c is None}:
         values = [v for s, _, v in chart["values"] if s == series]
+        if series in header:
+            column = sorted(float(r[header.index(series)]) for r in rows)
+            assert column == pytest.approx(sorted(values), rel=0.01, abs=5e-5), chart["title"]
+            checked += 1
+            continue
         row = next(r for r in rows if r[0] == series)
         for k, name in enumerate(header):
             if name.startswith(("max", "peak =")):
@@ -116,7 +124,8 @@ def agrees_with_its_table(chart: dict) -> None:
 
 async def typical_job_report(service, tmp_path: Path) -> Path:
     """A procedure on the `typical` robot (it bends, lags, backlashes, drifts), carrying 5 kg
-    with ISO 9283's warm-up, and its report as a file."""
+    with ISO 9283's warm-up, two drift reference poses re-measured every 20 poses and 5
+    calibration poses approached from both sides (backlash), and its report as a file."""
     rig = await start_rig(realism=CARRYING, seed=1)
     try:
         robot = await add_robot(service, rig, emulation=EMULATION)
@@ -124,7 +133,8 @@ async def typical_job_report(service, tmp_path: Path) -> Path:
             "robot_id": robot, "kind": "procedure", "options": {
                 "calibration_poses": 40, "cycles": 3, "warmup_cycles": 2,
                 "arm_position_mm": [500.0, 0.0, 600.0], "payload_kg": 5.0,
-                "payload_cog_mm": [0.0, 0.0, 80.0]}})
+                "payload_cog_mm": [0.0, 0.0, 80.0], "drift_poses": 2,
+                "drift_period_poses": 20, "backlash_poses": 5}})
         job = await wait_state(service, r.json()["id"], timeout_s=240)
     finally:
         await stop_rig(rig)
@@ -151,7 +161,10 @@ async def test_report_of_a_typical_job_reads_right_in_chromium(tmp_path, service
         m = measured(page, profile, width)
         assert m["first_after_header"] == "summary" and m["sections"][0] == "summary", m
         assert m["scroll_width"] <= m["width"] and not m["overflowing"], m["overflowing"]
-        assert len(m["charts"]) >= 5, m["charts"]  # AP, RP, orientation, residual, straightness
+        # AP, RP, orientation, residual, straightness, drift
+        assert len(m["charts"]) >= 6, m["charts"]
+        assert {"summary", "robot", "accuracy", "calibration", "drift", "backlash"} <= set(
+            m["sections"]), m["sections"]
         for chart in m["charts"]:
             # the axis names the quantity of the table beside the chart, in the same words
             assert chart["caption"] and chart["axis_label"].startswith(chart["caption"]), chart
