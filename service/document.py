@@ -91,8 +91,8 @@ class JobOptions(BaseModel):
         "each joint's lost motion (backlash, deg); 0: none")
     drift_poses: int = Field(
         0, ge=0, le=5, description="ISO 9283 drift: this many reference poses (the test "
-        "cube's P1, P2, P4, P3, P5 in that order, each approached from its return point) "
-        "re-measured periodically during the job; 0: none")
+        "cube's P1, P2, P4, P3, P5 in that order, each approached from 1 deg below on every "
+        "joint) re-measured periodically during the job; 0: none")
     drift_period_poses: int = Field(
         40, ge=5, le=1000, description="drift: re-measure the reference poses every this many "
         "measured poses (count)")
@@ -238,8 +238,8 @@ class DiscardedReadings(Section):
 
 class DriftSection(Section):
     """ISO 9283 drift (`screwcal.performance.drift`): reference poses re-measured over the job,
-    each approached from its return point. Per check: its time and how many poses of the job
-    were measured before it; per reference pose: the norm of the change of its measured
+    each approached from 1 deg below on every joint. Per check: its time and how many poses of
+    the job were measured before it; per reference pose: the norm of the change of its measured
     position since its first measurement under the same payload (mm)."""
 
     reference: list[str]

@@ -1,12 +1,13 @@
 """Drift over a long job (ISO 9283 drift of pose characteristics, issue 25 point 5).
 
 A few reference poses (`drift_poses`: the test cube's P1, P2, P4, P3, P5 in that order, each
-approached from its ISO return point, so every check comes from the same side) are measured as
-the job's first poses, then again every `drift_period_poses` measured poses (or every
-`drift_period_s` seconds), and after each measured list. They are committed like every other
-pose, in their own phase `drift` (index = check x poses per check + position in the check): a
-check is due, and which poses of it are missing, is decided from the store alone, so a restart or
-a lease takeover completes a check begun, never measures a pose twice, and loses none.
+approached from 1 deg below on every joint, so every joint comes from the same side at every
+check) are measured as the job's first poses, then again every `drift_period_poses` measured
+poses (or every `drift_period_s` seconds), and after each measured list. They are committed like
+every other pose, in their own phase `drift` (index = check x poses per check + position in the
+check): a check is due, and which poses of it are missing, is decided from the store alone, so a
+restart or a lease takeover completes a check begun, never measures a pose twice, and loses
+none.
 
 The result's `drift` section is the series of Eq. D.1 (`screwcal.performance.drift`): per check
 its time (s since the first check, the store's clock) and per reference pose the norm of the
@@ -154,8 +155,8 @@ def drift_section(schedule: DriftSchedule, drift_rows: Sequence[Mapping[str, Any
         quantity="norm of the change of the reference pose's measured position since its "
                  "first measurement under the same payload, mm (Eq. D.1)",
         meaning="ISO 9283 drift of pose characteristics: the reference poses (the test "
-                "cube's points, each approached from its return point) re-measured during the "
-                "job; t_s seconds since the first check")
+                "cube's points, each approached from 1 deg below on every joint) re-measured "
+                "during the job; t_s seconds since the first check")
     cal = [i for i, x in enumerate(lists) if x in calibration_phases]
     if promised_sigma is not None and cal:
         section.since_calibration = _since_calibration(

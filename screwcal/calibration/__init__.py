@@ -12,6 +12,7 @@ May import: `screwcal.kinematics`, `screwcal.rapid` (the RAPID parser), `screwca
 from screwcal._lazy import lazy_exports
 
 _EXPORTS = {
+    "BacklashEstimate": "backlash",
     "CalibrationResult": "identify_result",
     "Compensation": "correction",
     "Design": "design",
@@ -27,6 +28,7 @@ _EXPORTS = {
     "THESIS_TABLE11": "virtual_joints",
     "after_zero": "correction",
     "apply_virtual_joints": "virtual_joints",
+    "backlash_from_pairs": "backlash",
     "base_from_sweeps": "base_alignment",
     "candidate_params": "error_parameters",
     "compensate": "correction",

@@ -14,14 +14,16 @@ joints that differ, cancels). Stacked over the pairs, b is the weighted least-sq
 Eq. B.1; its covariance is (A^T W A)^-1 scaled by the pairs' reduced chi-square (Eq. B.2), so the
 uncertainty is what the pairs themselves show, whatever noise levels were assumed.
 
-Pure functions over numpy arrays: what pairs are, and how they were approached, is the caller's
-(the service's calibration list, `service/plans.py`; an offline file's direction columns).
+Pure functions over numpy arrays: how pairs were approached is the caller's (the service's
+calibration list, `service/plans.py`), or the measurement file's optional direction columns
+dir1..dirn (`direction_pairs`, `backlash_of_file`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -30,6 +32,11 @@ from screwcal.errors import InputError
 from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, rotvec_from_rotation
+from screwcal.tables import read_numeric_csv
+
+if TYPE_CHECKING:
+    from screwcal.calibration.identify_result import CalibrationResult
+    from screwcal.calibration.measurements import MeasurementSet
 
 # What the compensation can and cannot do about lost motion, said in every result that shows it.
 COMPENSATION_NOTE = (
@@ -168,3 +175,28 @@ def direction_pairs(q_deg: ArrayLike, directions: ArrayLike,
             used[[i, j]] = True
     a, b = np.array(first, dtype=int), np.array(second, dtype=int)
     return a, b, flips[a, b] if len(a) else np.zeros((0, q.shape[1]))
+
+
+def backlash_of_file(path: str | Path, result: CalibrationResult, data: MeasurementSet
+                     ) -> dict[str, Any] | None:
+    """Lost motion per joint when the measurement file `path` (read as `data`) has the optional
+    approach directions dir1..dirn and poses measured from both sides (`direction_pairs`),
+    against the calibrated model (its readings corrected for the lag it found, `calibration.lag`);
+    None otherwise."""
+    n = result.model.n_joints
+    columns = [f"{DIRECTION_COLUMNS_PREFIX}{j + 1}" for j in range(n)]
+    table = read_numeric_csv(path, [], optional_groups=[columns])
+    if columns[0] not in table.columns:
+        return None
+    a, b, flipped = direction_pairs(np.degrees(data.q), table.take(columns))
+    if len(a) < 2:
+        return None
+    q = data.q
+    if result.reading_lag is not None and data.q_previous is not None:
+        q = q + result.reading_lag * np.nan_to_num(q - data.q_previous)
+    T = forward_kinematics(result.model, q)  # the orientation where only positions are measured
+    T[:, :3, 3] = data.positions_mm
+    if data.rotations is not None:
+        T[:, :3, :3] = data.rotations
+    return backlash_from_pairs(result.model, q[a], q[b], T[a], T[b], flipped,
+                               position_only=data.rotations is None).to_dict()

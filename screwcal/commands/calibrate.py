@@ -35,8 +35,6 @@ from screwcal.commands.options import (
 )
 
 if TYPE_CHECKING:
-    from screwcal.calibration.identify_result import CalibrationResult
-    from screwcal.calibration.measurements import MeasurementSet
     from screwcal.calibration.plausible import PlausibleRanges
     from screwcal.kinematics.model import SerialModel
 
@@ -79,6 +77,7 @@ solution.
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
+    from screwcal.calibration.backlash import backlash_of_file
     from screwcal.calibration.base_alignment import base_from_sweeps, read_sweeps_csv
     from screwcal.calibration.identify import NoiseModel, identify
     from screwcal.calibration.measurements import read_measurements_csv
@@ -113,7 +112,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
                 "poses": len(data), "compliance": args.compliance, "lag": args.lag,
                 "outliers": args.outliers, "joint_convention": convention}
     doc = result_document(result, nominal.name, settings)
-    backlash = backlash_of_file(args.data, nominal, result, data)
+    backlash = backlash_of_file(args.data, result, data)
     if backlash is not None:
         doc["backlash"] = backlash
     write_json_atomic(args.out, doc)
@@ -151,40 +150,6 @@ def run_calibrate(args: argparse.Namespace) -> int:
         print("warning: some requested parameters cannot be identified from these data; see "
               "removed_parameters in the result")
     return 0 if result.converged else 1
-
-
-def backlash_of_file(path: str, nominal: SerialModel, result: CalibrationResult,
-                     data: MeasurementSet) -> dict | None:
-    """Lost motion per joint (`calibration.backlash`) when the measurement file has the optional
-    approach directions dir1..dirn (the sign of each joint's last move before the pose) and
-    poses measured from both sides; None otherwise (the file's rows as `data` read them)."""
-    import numpy as np
-
-    from screwcal.calibration.backlash import (
-        DIRECTION_COLUMNS_PREFIX,
-        backlash_from_pairs,
-        direction_pairs,
-    )
-    from screwcal.kinematics.forward import forward_kinematics
-    from screwcal.tables import read_numeric_csv
-
-    columns = [f"{DIRECTION_COLUMNS_PREFIX}{j + 1}" for j in range(nominal.n_joints)]
-    table = read_numeric_csv(path, [], optional_groups=[columns])
-    if columns[0] not in table.columns:
-        return None
-    a, b, flipped = direction_pairs(np.degrees(data.q), table.take(columns))
-    if len(a) < 2:
-        return None
-    lag = result.reading_lag if result.reading_lag is not None else 0.0
-    q = data.q + lag * np.nan_to_num(data.q - data.q_previous) \
-        if data.q_previous is not None else data.q  # calibration.lag's correction
-    T = forward_kinematics(result.model, q)  # where the rows' own pose is not measured
-    T[:, :3, 3] = data.positions_mm
-    if data.rotations is not None:
-        T[:, :3, :3] = data.rotations
-    est = backlash_from_pairs(result.model, q[a], q[b], T[a], T[b], flipped,
-                              position_only=data.rotations is None)
-    return est.to_dict()
 
 
 RANGE_KEYS = {"zero": "zero_deg", "tilt": "tilt_deg", "length": "length_mm",
