@@ -354,7 +354,7 @@ class JobRunner:
         rows = self.store.measurements(self.job_id)
         drift_rows = [r for r in rows if r["phase"] == DRIFT_PHASE]
         others = [r for r in rows if r["phase"] != DRIFT_PHASE]
-        loads = {r["phase"]: analysis.payload_label(self.options, r["phase"]) for r in others}
+        loads = {r["phase"]: self._series_of(r["phase"]) for r in others}
         promised, cal_phases = None, []
         for suffix in ROUND_SUFFIXES:
             est = doc.estimation_of(suffix)
@@ -365,3 +365,13 @@ class JobRunner:
                 promised = float(sigma)
         return doc.model_copy(update={"drift": drift_section(
             schedule, drift_rows, others, loads, cal_phases, promised)})
+
+    def _series_of(self, phase: str) -> str:
+        """Which drift series a check interleaved with `phase` belongs to: what the flange
+        carries, and on a ZERO route how many ZEROs came before (a ZERO moves the joints'
+        zeros, so the same commanded joints put the arm elsewhere: no drift)."""
+        label = analysis.payload_label(self.options, phase)
+        steps = self.steps()
+        zeros = sum(1 for step in steps[:steps.index(phase)] if step.startswith("correction")) \
+            if self.route.startswith("zero") and phase in steps else 0
+        return f"{label}, after {zeros} ZERO" if zeros else label

@@ -26,7 +26,8 @@ from simulators.arm import ArmEmulator
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
 from simulators.realism import IDEAL, realism_from_document
 from simulators.truth import make_world
-from tests.integration.conftest import ARM_POSITION, add_robot
+from tests.integration.conftest import ARM_POSITION, FAST, add_robot
+from tests.integration.test_jobs import wait_state
 
 # harsh's drift (80 ppm) on a robot that warms up fast (time constant 300 s of its own clock):
 # a job of a few hundred poses (about 1.5 s each) sees most of the warm-up
@@ -255,3 +256,21 @@ async def test_report_and_table_show_drift_and_backlash(service):
     table = result_table(JobResult.model_validate({**full, **result}))
     assert "lost motion (backlash): J1" in table and "drift of the reference poses" in table
 
+
+
+async def test_a_zero_correction_starts_a_new_drift_series(service, rig):
+    """ZERO moves the joints' zeros (Table 11's offsets, degrees): the same commanded reference
+    poses land millimetres away after it; that is no drift, so the checks after the ZERO start
+    their own series and the drift since the calibration is measured from there."""
+    robot = await add_robot(service, rig)
+    r = await service.post("/jobs", json={"robot_id": robot, "kind": "procedure", "options": {
+        **FAST, "correction": "zero", "drift_poses": 2, "drift_period_poses": 20}})
+    job = await wait_state(service, r.json()["id"], operator=True)
+    assert job["state"] == "done", job["reason"]
+    drift = (await service.get(f"/jobs/{job['id']}/result")).json()["drift"]
+    after = [k for k, lst in enumerate(drift["list_of_check"]) if lst == "perf_after"]
+    assert after and drift["list_of_check"][after[0] - 1] == "home_after"
+    for label in drift["reference"]:
+        assert max(drift["deviation_mm"][label]) < 0.1, drift  # no jump of the ZERO's size
+    since = drift["since_calibration"]
+    assert since is not None and not since["exceeded"], since
