@@ -99,19 +99,24 @@ def _is_robtarget(node: object) -> TypeGuard[list[list[Token]]]:
 
 def _targets(name: str, value: Aggregate, line_of: Callable[[int], int]) -> list[_Target]:
     """Every robtarget in a declaration's value (one, or the elements of an array)."""
+    if _is_robtarget(value):  # one target: most declarations
+        tokens = [*value[0], *value[1], *value[2]]
+        return [_Target(name, name, line_of(tokens[0].start), tokens)]
     out: list[_Target] = []
-
-    def walk(node: object, index: list[int]) -> None:
-        if _is_robtarget(node):
-            label = name + (f"{{{','.join(str(i + 1) for i in index)}}}" if index else "")
-            tokens = [t for part in node[:3] for t in part]
-            out.append(_Target(label, name, line_of(tokens[0].start), tokens))
-        elif isinstance(node, list):
-            for k, child in enumerate(node):
-                walk(child, [*index, k])
-
-    walk(value, [])
+    _walk(name, value, [], line_of, out)
     return out
+
+
+def _walk(name: str, node: object, index: list[int], line_of: Callable[[int], int],
+          out: list[_Target]) -> None:
+    """The robtargets of an array's value, labelled by their indices (1-based)."""
+    if _is_robtarget(node):
+        tokens = [*node[0], *node[1], *node[2]]
+        label = name + (f"{{{','.join(str(i + 1) for i in index)}}}" if index else "")
+        out.append(_Target(label, name, line_of(tokens[0].start), tokens))
+    elif isinstance(node, list):
+        for k, child in enumerate(node):
+            _walk(name, child, [*index, k], line_of, out)
 
 
 def _frame(trans: list[Token], rot: list[Token]) -> Array:
@@ -276,12 +281,16 @@ def _compensated_text(text: str, targets: list[_Target], frames: list[tuple[Arra
         new_target[:, :3, 3] - T_target[idx, :3, 3], axis=1).max())
     report.max_rotation_change_deg = float(rotation_angle_deg(
         new_target[:, :3, :3], T_target[idx, :3, :3]).max())
-    out, last = [], 0
-    for k, values in zip(idx.tolist(), rows, strict=True):  # targets are in file order
-        for tok, value in zip(targets[k].tokens, values, strict=True):
-            out += [text[last:tok.start], value]
-            last = tok.end
-    out.append(text[last:])
+    # the text between the replaced numbers, and the numbers (targets are in file order)
+    tokens = [tok for k in idx.tolist() for tok in targets[k].tokens]
+    values = [v for row in rows for v in row]
+    if len(values) != len(tokens):
+        raise AssertionError("a target's new numbers do not match its old ones")
+    ends = [0, *(tok.end for tok in tokens)]
+    starts = [*(tok.start for tok in tokens), len(text)]
+    out = [""] * (2 * len(values) + 1)
+    out[::2] = [text[a:b] for a, b in zip(ends, starts, strict=True)]
+    out[1::2] = values
     return "".join(out)
 
 
