@@ -228,14 +228,15 @@ class ExpressionParser(Scanner):
             at = after + 1
         return tuple(rows)
 
-    def item(self) -> Expr:
-        """An item of an aggregate: most often an aggregate itself, read without going down
-        the operator levels (and again as an expression when an operator follows it)."""
+    def item(self, follow: tuple[str, ...] = (",", "]")) -> Expr:
+        """An item of an aggregate (or a data value, followed by ';'): most often an
+        aggregate itself, read without going down the operator levels (and again as an
+        expression when anything but `follow` comes after it)."""
         if self.kind == "op" and self.value == "[":
             saved = (self.pos, self.kind, self.value, self.start, self.end, self.last_end,
                      len(self.comments))
             value = self.aggregate()
-            if self.kind == "op" and self.value in (",", "]"):
+            if self.kind == "op" and self.value in follow:
                 return value
             (self.pos, self.kind, self.value, self.start, self.end, self.last_end, n) = saved
             del self.comments[n:]

@@ -146,7 +146,7 @@ class _Parser(ExpressionParser):
             dims = self.expr_list("}")
         value = None
         if self.accept(":="):
-            value = self.expr()
+            value = self.item((";",))
         if not self.accept(";"):
             self.fail(f"the declaration of {name} does not end with ';' (found "
                       f"{self.shown()})")
