@@ -1,5 +1,5 @@
-"""`screwcal calibrate` (this docstring is its --help), `compensate` and `align`
-(COMPENSATE_DOC, ALIGN_DOC); docs/formats.md.
+"""`screwcal calibrate` (this docstring is its --help) and `align` (ALIGN_DOC);
+docs/formats.md. `compensate` is in commands/compensate.py.
 
     screwcal calibrate --robot irb1600 --data measurements.csv --out result.json
                        [--error-model full|thesis|joints|frames] [--solver lm|de]
@@ -19,15 +19,11 @@ the noise levels, which are estimated from the data (variance components) unless
 from __future__ import annotations
 
 import argparse
-import json
-import sys
-from pathlib import Path
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING
 
-from screwcal.commands.joint_convention import add_joint_convention, joint_convention
+from screwcal.commands.joint_convention import add_joint_convention
 from screwcal.commands.options import (
     ERROR_MODELS,
-    add_option,
     add_vector,
     check_outputs,
     non_negative_float,
@@ -37,8 +33,6 @@ from screwcal.commands.options import (
 if TYPE_CHECKING:
     from screwcal.calibration.plausible import PlausibleRanges
     from screwcal.kinematics.model import SerialModel
-
-PARTIAL_EXIT = 3  # compensate: some targets refused (listed), the others written
 
 # The numeric modules are imported inside each command: `screwcal --help` and the other
 # subcommands do not pay for scipy.optimize and pydantic.
@@ -53,27 +47,6 @@ origin and x axis from them. The sweeps file has the columns joint (1 or 2), q1 
 reading), x, y, z (mm), in the order probed, at least 8 rows.
 """
 
-COMPENSATE_DOC = """`screwcal compensate`: make the calibrated robot reach what is asked of it.
-
-    screwcal compensate --result result.json --rapid IN.mod --out OUT.mod [--tool T] [--wobj W]
-    screwcal compensate --result result.json --targets base.csv --out compensated.csv
-    screwcal compensate --result result.json --measuring-targets meas.csv \
-        --out compensated.csv
-
---rapid rewrites every robtarget so that the nominal controller drives the joints to where the
-calibrated robot reaches the original target (confdata recomputed), keeps the rest of the file
-byte for byte, and lists what a static filter cannot compensate (Offs, RelTool, CRobT, inline
-targets, stationary tools, moving work objects) with its line. --targets takes tool0 poses in
-the robot base frame (what a program commands); --measuring-targets poses of the measured point
-in the measuring system's frame (what the measuring system will see).
-
-Exit status: 0 every target compensated; 3 some refused (each listed on stderr with its line
-and why; the others are written); 2 nothing written: no target could be compensated, the
-input is not a RAPID module, --out names an input, or the model is position-only (calibrated
-from positions of a point on joint 6's axis: it does not know the orientation).
-A target at the wrist singularity is solved with joints 4 and 6 kept nearest the nominal
-solution.
-"""
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
@@ -202,119 +175,6 @@ def _noise_line(noise: dict) -> str:
     return ", ".join(parts)
 
 
-def run_compensate(args: argparse.Namespace) -> int:
-    from screwcal.calibration.correction import compensate_each
-    from screwcal.errors import DataFileError
-    from screwcal.kinematics.modelfile import load_model
-    from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
-    from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
-
-    source = args.rapid or args.targets or args.measuring_targets
-    check_outputs([args.out], [args.result, source])
-    calibrated = with_payload(load_model(args.result), args)  # a payload other than the result's
-    document = json.loads(Path(args.result).read_text(encoding="utf-8"))
-    nominal = nominal_of(document, args.result, args.robot) or calibrated
-    _refuse_position_only(document, args.result)
-    if args.rapid:
-        return _compensate_rapid(args, calibrated, nominal)
-    frame: Literal["base", "measuring"] = "base" if args.targets else "measuring"
-    table = read_numeric_csv(source, ["x", "y", "z", "rx", "ry", "rz"])
-    T = transform_from_pose(table.take(["x", "y", "z", "rx", "ry", "rz"]))
-    comp = compensate_each(calibrated, nominal, T, frame=frame)
-    ok = comp.ok
-    for k, why in comp.refused:
-        print(f"refused: {table.path}, line {table.lines[k]} (id {table.ids[k]}): {why}",
-              file=sys.stderr)
-    if not ok.any():
-        raise DataFileError(table.path, f"no target compensated ({len(comp.refused)} refused, "
-                            f"listed above); {args.out} not written")
-    from screwcal.kinematics.readings import readings_from_serial
-
-    convention = joint_convention(args, document, nominal)
-    q_deg = readings_from_serial(calibrated.joints_to_deg(comp.q_rad), convention)
-    poses = pose_from_transform(comp.nominal_tool0)
-    header = ["id", *joint_columns(calibrated.n_joints), "x", "y", "z", "rx", "ry", "rz"]
-    write_csv_atomic(args.out, header, ([i, *(f"{v:.4f}" for v in q), *(f"{v:.4f}" for v in p)]
-                                        for i, q, p, good in zip(table.ids, q_deg, poses, ok,
-                                                                 strict=True) if good))
-    where = "tool0 in the robot base frame" if frame == "base" else \
-        "measured point in the measuring frame"
-    print(f"compensated {int(ok.sum())} of {len(ok)} targets ({where}) -> {args.out}: joint "
-          f"targets, and the nominal tool0 poses of model '{nominal.name}' to program; largest "
-          f"joint change {comp.max_change_deg:.3f} deg"
-          + ("; joint 3 as FANUC counts it (to the horizontal)" if convention == "fanuc"
-             else ""))
-    if comp.refused:
-        print(f"{len(comp.refused)} targets refused (listed on stderr), not in {args.out}")
-        return PARTIAL_EXIT
-    return 0
-
-
-def _refuse_position_only(document: dict, path: str) -> None:
-    """A model that predicts positions but not the orientation cannot compensate targets that
-    carry one (every robtarget and target row does)."""
-    from screwcal.errors import DataFileError
-
-    why = document.get("predicts", {}).get("orientation_unknown") \
-        if isinstance(document.get("predicts"), dict) else None
-    if why:
-        raise DataFileError(path, f"the model is position-only ({why}): it cannot compensate "
-                            "targets with an orientation; calibrate with full-pose data or a "
-                            "measured point off joint 6's axis")
-
-
-def nominal_of(doc: object, result_path: str, robot: str | None) -> SerialModel | None:
-    """The nominal robot a result was calibrated against: `--robot` when given, else the
-    result's own `nominal_model`, else (older results) its robot's library name; None for a
-    model file that names none."""
-    from screwcal.errors import ModelError
-    from screwcal.kinematics.modelfile import parse_model, resolve_model
-    from screwcal.kinematics.robots import BUILTIN_MODELS, accepted_robots
-
-    if robot:
-        return resolve_model(robot)
-    if not isinstance(doc, dict):
-        return None
-    if isinstance(doc.get("nominal_model"), dict):
-        return parse_model(doc["nominal_model"], f"{result_path}, nominal_model")
-    name = doc.get("robot")
-    if not name:
-        return None
-    if name not in BUILTIN_MODELS:
-        raise ModelError(f"{result_path} was calibrated against robot '{name}', which is not in "
-                         "the library, and (written before results carried their robot) does "
-                         "not hold its nominal model: give --robot FILE, the robot file it was "
-                         f"calibrated with; --robot takes {accepted_robots()}")
-    return resolve_model(name)
-
-
-def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
-                      nominal: SerialModel) -> int:
-    from screwcal.calibration.rapid_filter import filter_rapid
-    from screwcal.calibration.rapid_source import read_rapid_module
-    from screwcal.errors import DataFileError
-    from screwcal.rapid.acyclic import cycle_collection_paused
-    from screwcal.tables import write_text_atomic
-
-    path = Path(args.rapid)
-    try:
-        raw = path.read_bytes()
-    except OSError as err:
-        raise DataFileError(str(path), f"cannot read the RAPID module ({err.strerror})") from None
-    text = raw.decode("latin-1")  # RAPID files are 8-bit; every byte round-trips
-    with cycle_collection_paused():  # the module's tree lives through the filter: no cycle
-        module = read_rapid_module(str(path), text)  # in it, nothing for passes over it
-        out_text, report = filter_rapid(module, calibrated, nominal, tool=args.tool,
-                                        wobj=args.wobj)
-        del module  # freed here, not gone through once more by the collector it resumes
-    if report.compensated == 0:
-        print(report.summary(), file=sys.stderr)
-        raise DataFileError(str(path), f"no robtarget compensated; {args.out} not written")
-    write_text_atomic(args.out, out_text.encode("latin-1"))
-    print(report.summary().replace(f"{path}:", f"{path} -> {args.out}:", 1))
-    return PARTIAL_EXIT if report.refused else 0
-
-
 def run_align(args: argparse.Namespace) -> int:
     from screwcal.calibration.base_alignment import base_from_sweeps, fit_circle, read_sweeps_csv
     from screwcal.kinematics.modelfile import pose_document, resolve_model
@@ -339,7 +199,6 @@ def run_align(args: argparse.Namespace) -> int:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     _add_align(sub)
     _add_calibrate(sub)
-    _add_compensate(sub)
 
 
 def _add_align(sub: argparse._SubParsersAction) -> None:
@@ -410,30 +269,3 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
     add_joint_convention(p, "how the file's q1..q6 count joint 3")
     add_payload_arguments(p)
     p.set_defaults(func=run_calibrate)
-
-
-def _add_compensate(sub: argparse._SubParsersAction) -> None:
-    c = sub.add_parser(
-        "compensate", help="targets and RAPID programs compensated for the calibrated robot",
-        description=COMPENSATE_DOC, formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_option(c, "--result", renamed=["--model"], required=True,
-               help="calibration result (screwcal calibrate), or a calibrated model file "
-               "(screwcal job model)")
-    what = c.add_mutually_exclusive_group(required=True)
-    what.add_argument("--rapid", metavar="IN.mod", help="a RAPID module: every robtarget "
-                      "declaration rewritten (tool and work object applied)")
-    what.add_argument("--targets", metavar="CSV", help="desired tool0 poses in the robot base "
-                      "frame: id, x, y, z, rx, ry, rz (mm, deg)")
-    what.add_argument("--measuring-targets", metavar="CSV", help="desired poses of the "
-                      "measured point in the measuring system's frame: id, x, y, z, rx, ry, rz")
-    c.add_argument("--out", required=True, help="the compensated module (--rapid), or a CSV: "
-                   "id, q1..q6, x..rz (the nominal tool0 pose to program)")
-    c.add_argument("--tool", default="tool0", help="--rapid: the tooldata for targets no motion "
-                   "instruction of the module uses (default tool0)")
-    c.add_argument("--wobj", default="wobj0", help="--rapid: the wobjdata for those targets "
-                   "(default wobj0)")
-    c.add_argument("--robot", help="the nominal robot (library name or robot file); default: "
-                   "the one the result holds")
-    add_joint_convention(c, "how the written joint targets count joint 3")
-    add_payload_arguments(c)
-    c.set_defaults(func=run_compensate)

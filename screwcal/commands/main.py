@@ -23,7 +23,7 @@ from screwcal.errors import ScrewcalError
 COMMANDS = {
     "simulate": "screwcal.commands.simulate",
     "calibrate": "screwcal.commands.calibrate",
-    "compensate": "screwcal.commands.calibrate",
+    "compensate": "screwcal.commands.compensate",
     "align": "screwcal.commands.calibrate",
     "predict": "screwcal.commands.predict",
     "evaluate": "screwcal.commands.evaluate",
