@@ -81,12 +81,18 @@ def format_table(rows: list[EfficiencyRow], samples: int) -> str:
     return "\n".join(lines)
 
 
+def parser() -> argparse.ArgumentParser:
+    """`python -m screwcal.studies.montecarlo`'s options."""
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--samples", type=int, default=200,
+                   help="simulated calibrations of the Table 11 robot (default 200)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    return p
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--samples", type=int, default=200)
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args()
+    args = parser().parse_args()
     print(format_table(efficiency_study(args.samples, args.seed), args.samples))
 
 

@@ -111,13 +111,20 @@ def format_table(results: dict[str, list[Sample]]) -> str:
     return "\n".join(lines)
 
 
+def parser() -> argparse.ArgumentParser:
+    """`python -m screwcal.studies.position_only`'s options."""
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--samples", type=int, default=100,
+                   help="random true robots calibrated (default 100)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--poses", type=int, default=30,
+                   help="calibration poses per robot (default 30)")
+    return p
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--samples", type=int, default=100)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--poses", type=int, default=30)
-    args = parser.parse_args()
+    args = parser().parse_args()
     print(format_table(run(args.samples, args.seed, args.poses)))
 
 

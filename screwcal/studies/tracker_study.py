@@ -126,21 +126,28 @@ def format_study(s: dict) -> str:
     return "\n".join(lines)
 
 
+def parser() -> argparse.ArgumentParser:
+    """`python -m screwcal.studies.tracker_study`'s options."""
+    p = argparse.ArgumentParser(description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", default=None, metavar="DIR",
+                   help=f"the irb120-laser-tracker folder (default: ${DATA_DIR_ENV})")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the calibration/validation split (default 0)")
+    p.add_argument("--joints", choices=["measured", "commanded", "both"], default="both",
+                   help="the joints read back (before the arm settled) or the targets sent")
+    p.add_argument("--position-only", action="store_true",
+                   help="use reflector 1's position only, not the three-reflector frame")
+    return p
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--data", default=None, metavar="DIR",
-                        help=f"the irb120-laser-tracker folder (default: ${DATA_DIR_ENV})")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--joints", choices=["measured", "commanded", "both"], default="both",
-                        help="the joints read back (before the arm settled) or the targets sent")
-    parser.add_argument("--position-only", action="store_true",
-                        help="use reflector 1's position only, not the three-reflector frame")
-    args = parser.parse_args()
+    parser_ = parser()
+    args = parser_.parse_args()
     try:
         folder = locate_dataset(args.data)
     except DataFileError as err:
-        parser.exit(2, f"error: {err}\n")
+        parser_.exit(2, f"error: {err}\n")
     for joints in (("measured", "commanded") if args.joints == "both" else (args.joints,)):
         dataset = read_tracker_dataset(folder, joints=joints)
         if joints == "measured" or args.joints != "both":

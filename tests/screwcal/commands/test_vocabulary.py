@@ -64,7 +64,16 @@ def _walk(parser, path=()):
             yield " ".join(path), parser, action
 
 
-ALL = list(_walk(build_parser()))
+def _entry_points():
+    """Every parser users run: the `screwcal` command and the studies run as modules."""
+    from screwcal.studies import montecarlo, position_only, tracker_study
+
+    yield from _walk(build_parser())
+    for module in (montecarlo, position_only, tracker_study):
+        yield from _walk(module.parser(), (module.__name__,))
+
+
+ALL = list(_entry_points())
 
 
 def _name(action):
@@ -76,7 +85,8 @@ def test_every_entry_point_is_walked():
     assert commands >= {"simulate", "calibrate", "compensate", "align", "predict", "evaluate",
                         "testcube", "study", "robot", "rapid", "demo", "emulator", "serve",
                         "job"}
-    assert {"emulator irc5", "emulator arm", "job start", "job robot-add"} <= {c for c, _, _ in ALL}
+    assert {"emulator irc5", "emulator arm", "job start", "job robot-add",
+            "screwcal.studies.montecarlo"} <= {c for c, _, _ in ALL}
 
 
 def test_every_option_has_help():
