@@ -74,6 +74,7 @@ def test_emulated_backlash_on_j2_is_identified_within_its_uncertainty():
     est = backlash_from_pairs(truth, np.array(read["a"]), np.array(read["b"]),
                               np.array(measured["a"]), np.array(measured["b"]),
                               np.ones((12, 6)))
+    print(f"J2 {est.backlash_deg[1]:.4f} +- {est.std_deg[1]:.4f} deg (imposed 0.010)")
     assert est.identifiable.all()
     assert est.backlash_deg[1] == pytest.approx(0.010, abs=max(3 * est.std_deg[1], 5e-4))
     assert est.std_deg[1] < 0.002
