@@ -77,6 +77,13 @@ def in_words(name: str) -> str:
         if m.group(4):
             return f"joint {joint}'s compliance"
         return f"joint {joint}'s zero offset"
+    m = re.match(r"^J(\d)(?:r[xyz]|p([xyz])|c\.m(\d))$", name)
+    if m:
+        if m.group(2):
+            return f"the link offset after joint {m.group(1)} along {m.group(2)}"
+        if m.group(3):
+            return f"joint {m.group(1)}'s compliance under arm mass {m.group(3)}"
+        return f"joint {m.group(1)}'s zero offset"
     return name
 
 

@@ -1,0 +1,76 @@
+"""The report's words: every parameter symbol an identification can produce is defined, what a
+parameter could not be separated from is read from the identification's own sentence, and the
+fit's chi2/dof is explained as it was computed. The page as a whole, laid out by a browser:
+tests/integration/test_report_browser.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from screwcal.calibration.error_parameters import candidate_params
+from screwcal.calibration.identifiability import explain_removed
+from screwcal.kinematics.robots import builtin_model
+from service.document import EstimationSummary, RemovedParameter
+from service.report.calibration import fit_words
+from service.report.symbols import (
+    CONSEQUENCES,
+    family,
+    in_words,
+    legend,
+    partners,
+    taken_up_by,
+)
+
+
+@pytest.mark.parametrize("kind", ["full", "thesis", "joints"])
+@pytest.mark.parametrize("compliance", ["none", "j23", "wrist", "j23-free"])
+def test_every_parameter_an_identification_can_name_has_its_symbol_defined(kind, compliance):
+    names = [p.name for p in candidate_params(builtin_model("irb1600"), kind, base=True,
+                                              tool_rotation=True, tool_position=True,
+                                              compliance=compliance)]
+    undefined = [n for n in names if family(n) is None]
+    assert not undefined
+    symbols = dict(legend(names))
+    assert all(meaning for meaning in symbols.values())
+    assert [n for n in names if in_words(n) == n] == []  # each in words too
+
+
+def test_what_a_parameter_moves_with_is_read_from_the_identifications_sentence():
+    """explain_removed writes the combination; the report names its parameters, strongest
+    first, and says what took up the effect."""
+    names = ["base.rz", "J2", "J1", "J5.dir.u", "J4"]
+    rng = np.random.default_rng(3)
+    J = rng.normal(size=(30, 5))
+    J[:, 2] = 1.02 * J[:, 0] - 0.3 * J[:, 1]  # J1 ~ base.rz and J2
+    J[:, 3] = 0.0  # no effect at all
+    out = dict(explain_removed(J, np.array([0, 1, 4]), np.array([2, 3]), names,
+                               np.linalg.norm(J, axis=0)))
+    j1 = RemovedParameter(name="J1", reason=out["J1"])
+    assert partners(j1) == ["base.rz", "J2"]
+    assert taken_up_by(j1) == "frame"
+    dead = RemovedParameter(name="J5.dir.u", reason=out["J5.dir.u"])
+    assert partners(dead) == [] and taken_up_by(dead) == "none"
+    wrist = RemovedParameter(name="J6", reason="not separable from +1 home.rx (scaled columns)")
+    assert taken_up_by(wrist) == "robot" and "near the calibration poses" in CONSEQUENCES[
+        "robot"]
+
+
+def _estimation(noise: dict | None, chi2: float) -> EstimationSummary:
+    return EstimationSummary(parameters=[], rank=30, condition_number=92.3, chi2_reduced=chi2,
+                             converged=True, noise=noise, residual_before_mm=12.9,
+                             residual_after_mm=0.1)
+
+
+def test_chi2_of_estimated_noise_levels_is_one_by_construction_and_the_report_says_so():
+    """With the noise levels estimated from the data chi2/dof is ~1 whatever the fit: the report
+    gives the position noise the fit needed instead of 'as large as the noise explains' (which
+    it said beside a warning that the residuals needed 5.6 times the instrument's noise)."""
+    estimated = {"position": {"value": 0.0729, "unit": "mm", "estimated": True, "std": 0.008,
+                              "measured": True}}
+    words = fit_words(_estimation(estimated, 0.99))
+    assert "by construction" in words and "0.073 mm" in words
+    assert "as large as" not in words
+    stated = fit_words(_estimation({"position": {"value": 0.013, "estimated": False}}, 0.95))
+    assert "as large as the stated measuring noise" in stated
+    assert "larger than" in fit_words(_estimation(None, 4.0))
