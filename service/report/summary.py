@@ -108,7 +108,10 @@ def summary_section(ctx: ReportContext) -> str | None:
     if not figures and not result.warnings:
         return None
     names = [PERF_PHASE_NAMES[p] for p in phases] if phases else ["before", "after"]
-    body = [table(["figure", "unit", *names, "factor", "what it measures"], figures,
+    emulated = ctx.robot.get("emulation") or []
+    body = [sentence(f"These figures come from an emulated robot ({emulated[0].rstrip(':')}): "
+                     "what it carries is listed under the robot below")] if emulated else []
+    body += [table(["figure", "unit", *names, "factor", "what it measures"], figures,
                   text_columns=(len(names) + 3,), cls="summary")] if figures else []
     if result.frame_note:
         body.append(sentence(result.frame_note))

@@ -155,6 +155,8 @@ async def test_report_of_a_typical_job_reads_right_in_chromium(tmp_path, service
                  "payload (calibration list)</td><td class='text'>5 kg at (0, 0, 80)",
                  "payload (performance lists)</td><td class='text'>5 kg at (0, 0, 80)",
                  "2 test cycles run unmeasured before the test", "cycles</td><td class='text'>3",
+                 "These figures come from an emulated robot (geometric errors drawn from seed 1; "
+                 "realism typical)",
                  "speed</td>", "compliance J2c</td>"):
         assert said in html, said
     for width in (1200, 800):  # a desktop window, and a narrow one (A4 paper is ~790 px)
