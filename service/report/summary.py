@@ -24,30 +24,34 @@ PREDICTED_MEANING = ("the calibrated model's own forecast of the flange error on
 def _figure_rows(result: ResultDocument, phases: tuple[str, ...], rows: list[SummaryRow]
                  ) -> list[list[Any]]:
     """Rows of (figure, unit, value per column, factor, meaning); the columns are the
-    performance phases, or before/after when there are none."""
+    performance phases (before, after, round 2), or before/after when there are none. A
+    figure of the first round's correction goes under "after", of the second under
+    "round 2"."""
     columns = len(phases) if phases else 2
     out: list[list[Any]] = [[r.label, r.unit, *r.values,
                              "-" if r.factor is None else f"{r.factor:.1f}x", r.meaning]
                             for r in rows]
 
-    def row(label: str, unit: str, before: float | None, after: float | None, meaning: str
-            ) -> list[Any]:
-        cells = [before, *([None] * (columns - 2)), after] if columns >= 2 else [before]
-        return [label, unit, *cells, "", meaning]
+    def row(label: str, unit: str, meaning: str, *cells: float | None) -> list[Any]:
+        return [label, unit, *cells[:columns], *([None] * (columns - len(cells))), "",
+                meaning]
 
     home = result.home_check
     if home is not None and (home.before or home.after):
-        out.append(row("home position error |e|", "mm",
+        out.append(row("home position error |e|", "mm", HOME_MEANING,
                        home.before.distance_mm if home.before else None,
-                       home.after.distance_mm if home.after else None, HOME_MEANING))
-    est = result.estimation
-    if est is not None:
-        out.append(row("calibration residual, mean", "mm", est.residual_before_mm,
-                       est.residual_after_mm, RESIDUAL_MEANING))
-    predicted = result.correction.predicted_position_error_mm if result.correction else None
-    if predicted is not None:
-        out.append(row("model-predicted error on the ISO targets", "mm", predicted.before,
-                       predicted.after, PREDICTED_MEANING))
+                       home.after.distance_mm if home.after else None))
+    estimations = [e for e in (result.estimation, result.estimation_2) if e is not None]
+    if estimations:
+        out.append(row("calibration residual, mean", "mm", RESIDUAL_MEANING,
+                       estimations[0].residual_before_mm,
+                       *(e.residual_after_mm for e in estimations)))
+    predicted = [c.predicted_position_error_mm for c in (result.correction,
+                                                         result.correction_2)
+                 if c is not None and c.predicted_position_error_mm is not None]
+    if predicted:
+        out.append(row("model-predicted error on the ISO targets", "mm", PREDICTED_MEANING,
+                       predicted[0].before, *(p.after for p in predicted)))
     return out
 
 
