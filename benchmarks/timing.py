@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 
@@ -48,3 +48,20 @@ def _timed_runs(repeat: int, fn: Callable[[], object]) -> list[float]:
         fn()
         times.append(time.perf_counter() - start)
     return times
+
+
+def interleaved(rounds: int, fns: Sequence[Callable[[], object]]) -> list[Spread]:
+    """Per function, the median, min and max of `rounds` runs, the functions run in turn in
+    every round after one warm-up each (what else the host runs weighs on all of them alike);
+    at least 5 rounds (issue 29)."""
+    if rounds < 5:
+        raise ValueError(f"rounds = {rounds}: interleaved medians need at least 5 rounds")
+    for fn in fns:
+        fn()
+    times: list[list[float]] = [[] for _ in fns]
+    for _ in range(rounds):
+        for fn, out in zip(fns, times, strict=True):
+            start = time.perf_counter()
+            fn()
+            out.append(time.perf_counter() - start)
+    return [Spread(statistics.median(t), min(t), max(t), rounds) for t in times]

@@ -50,7 +50,7 @@ from screwcal.calibration.lag import correct_lag, lag_increment
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.outlier_rounds import reject_in_rounds
 from screwcal.calibration.plausible import PlausibleRanges
-from screwcal.calibration.single_fit import fit_once
+from screwcal.calibration.single_fit import WarmStart, fit_once
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
@@ -219,14 +219,17 @@ def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: Id
     """One identification (see `identify`) of the poses `data` (`found`: rejected before),
     rejecting outliers: after a fit, rounds on its linearisation find the poses to reject
     (`outlier_rounds`: the clearly worst first, no refit per round), then the poses kept are
-    fitted once more and that fit's own tests confirm it (a pose still beyond its limit starts
-    new rounds)."""
+    fitted once more, from the first fit's start and parameters and the rounds' estimate and
+    noise levels (`single_fit.WarmStart`), and that fit's own tests confirm it (a pose still
+    beyond its limit starts new rounds)."""
     started = time.perf_counter()
     rejected = list(found)
     current = data
     limit = max(1, int(MAX_OUTLIER_FRACTION * (len(data) + len(found))))
+    warm = None
     while True:
-        result, problem, x = fit_once(nominal, current, settings)
+        fit = fit_once(nominal, current, settings, warm)
+        result, problem, x = fit.result, fit.problem, fit.x
         if result.residual_kind == "distance" or not settings.statistical:
             return replace(result, outliers=tuple(rejected),
                            seconds=time.perf_counter() - started), current
@@ -240,9 +243,10 @@ def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: Id
         rounds = reject_in_rounds(e, A, problem.components(x), theta, free, problem.prior, x,
                                   problem.whiten, limit - len(rejected))
         rejected += [Outlier(current.ids[r.index], current.line_of(r.index), r.residual_mm,
-                             r.statistic, r.threshold, rejected=True) for r in rounds]
-        current = current.take(np.setdiff1d(np.arange(len(current)),
-                                            [r.index for r in rounds]))
+                             r.statistic, r.threshold, rejected=True) for r in rounds.rejected]
+        kept_poses = np.setdiff1d(np.arange(len(current)), [r.index for r in rounds.rejected])
+        warm = WarmStart(fit.selection, kept_poses, rounds.x, rounds.theta)
+        current = current.take(kept_poses)
     kept = [Outlier(current.ids[k], current.line_of(int(k)), float(np.linalg.norm(e[k, :3])),
                     float(test.statistic[k]), limit_T, rejected=False)
             for k in np.flatnonzero(test.statistic > limit_T)]

@@ -55,12 +55,13 @@ def fixed_levels(noise: NoiseModel, rows: int) -> NoiseEstimate:
 
 
 def estimate_with_joint_check(problem: ResidualProblem, noise: NoiseModel, x: Array,
-                              solve: Solve) -> NoiseFit:
-    """The free levels estimated (`estimate_noise`); when the joint level was estimated above
-    zero, is it noise, or what the model misses (compliance, lag) soaked up, down-weighting
-    the far poses that show the geometry? The weighting that predicts left-out poses better
-    (PRESS, from this one linearisation) is kept."""
-    fit = estimate_noise(problem, noise, x, solve)
+                              solve: Solve, start: Array | None = None) -> NoiseFit:
+    """The free levels estimated (`estimate_noise`, from the variance components `start`
+    when given); when the joint level was estimated above zero, is it noise, or what the
+    model misses (compliance, lag) soaked up, down-weighting the far poses that show the
+    geometry? The weighting that predicts left-out poses better (PRESS, from this one
+    linearisation) is kept."""
+    fit = estimate_noise(problem, noise, x, solve, start)
     if noise.joint_deg is not None or fit.noise.joint_deg <= 0.0:
         return fit
     problem, x = fit.problem, fit.solution.x
@@ -107,13 +108,17 @@ def _scoring_step(e: Array, A: Array, V: Array, W: Array, Ninv: Array
     return score, information
 
 
-def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve: Solve
-                   ) -> NoiseFit:
+def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve: Solve,
+                   start: Array | None = None) -> NoiseFit:
     """The free noise levels and the parameters together, by restricted maximum likelihood
     (Fisher scoring on the variance components, a Gauss-Newton step of the parameters with the
-    weights of each step, LM at the end)."""
+    weights of each step, LM at the end). The free components start from `start` (3,) where
+    it holds one above detection (a fit of nearly the same poses), else from the priors."""
     theta = variance_from_levels(noise.filled())
     free = np.array(noise.free)
+    if start is not None:
+        usable = free & (start > 1e-4 * variance_from_levels(PRIOR_NOISE))
+        theta[usable] = start[usable]
     if problem.rows == 3:
         free[1] = False  # no orientation measured
         theta[1] = 0.0

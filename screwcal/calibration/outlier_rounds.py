@@ -53,6 +53,16 @@ class Rejection:
     threshold: float
 
 
+@dataclass(frozen=True)
+class Rounds:
+    """What the rounds found: the poses rejected, in order, and the estimate (p,) and
+    variance components (3,) of the poses kept, on the linearisation (a refit's start)."""
+
+    rejected: list[Rejection]
+    x: Array
+    theta: Array
+
+
 def worst_poses(statistic: Array, limit: float, cap: int) -> Index:
     """The poses a round rejects: above the limit and within `WORST_SHARE` of the worst
     statistic, the worst first, at most `cap`."""
@@ -62,8 +72,9 @@ def worst_poses(statistic: Array, limit: float, cap: int) -> Index:
 
 
 def reject_in_rounds(e: Array, A: Array, V: Array, theta: Array, free: Index, prior: Array,
-                     x: Array, whiten: Array, cap: int) -> list[Rejection]:
-    """The poses to reject, in the order the rounds reject them (at most `cap`).
+                     x: Array, whiten: Array, cap: int) -> Rounds:
+    """The poses to reject, in the order the rounds reject them (at most `cap`), with the
+    estimate and the variance components of the poses kept.
 
     At the fit's estimate x: residuals e (N, k), their Jacobian A (N, k, p), the unit
     variance components V (3, N, k, k) and the components theta (3,) the fit used (those in
@@ -94,7 +105,7 @@ def reject_in_rounds(e: Array, A: Array, V: Array, theta: Array, free: Index, pr
         dx = _linear_step(e[kept], A[kept], W, prior, x)
         x, e = x + dx, e + A @ dx
         estimated = False
-    return out
+    return Rounds(out, x, theta)
 
 
 def _whitening(theta: Array, V: Array) -> Array:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg
@@ -68,14 +68,57 @@ class Selection:
     degenerate: bool
     notes: tuple[str, ...]  # data warnings
 
+    def rows(self, kept: Array, data: MeasurementSet, residual: Residual) -> Selection:
+        """The same start and parameters for the poses `kept` of those selected on (`data`:
+        them), e.g. after outliers were left out."""
+        k = self.problem.rows
+        N = len(self.T0)
+        problem = ResidualProblem(self.errors, data, residual, self.problem.whiten[kept],
+                                  self.problem.ranges)
+        r0 = self.r0.reshape(N, k)[kept].reshape(-1)
+        notes = data_warnings(self.start, data, residual, len(r0), self.rank,
+                              [n for n, _ in self.removed])
+        return replace(self, problem=problem, r0=r0,
+                       J0=self.J0.reshape(N, k, -1)[kept].reshape(len(r0), -1),
+                       T0=self.T0[kept], notes=tuple(notes))
 
-def fit_once(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings
-             ) -> tuple[CalibrationResult, ResidualProblem, Array]:
-    """One fit of all the poses given: the result, the final problem and its estimate."""
+
+@dataclass(frozen=True)
+class WarmStart:
+    """A fit of most of the poses of an earlier one (after outlier rounds): the earlier fit's
+    selection, which of its poses are kept, and the estimate and variance components (3,) the
+    rounds found for them."""
+
+    selection: Selection
+    kept: Array
+    x: Array
+    theta: Array
+
+
+@dataclass(frozen=True)
+class SingleFit:
+    """One fit: the result, the final problem, its estimate and the selection it started
+    from."""
+
+    result: CalibrationResult
+    problem: ResidualProblem
+    x: Array
+    selection: Selection
+
+
+def fit_once(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
+             warm: WarmStart | None = None) -> SingleFit:
+    """One fit of all the poses given. `warm`: the poses are those an earlier fit kept; its
+    start, frames and identifiable parameters are kept, and the solve (LM with the noise
+    levels) starts from the rounds' estimate and levels instead of the start's Gauss-Newton
+    step and the priors."""
     started = time.perf_counter()
     residual = resolved_residual(settings, data.full_pose)
-    chosen = _select(nominal, data, residual, settings)
-    problem, solution, noise = _solve(chosen, data, residual, settings)
+    if warm is None or settings.solver != "lm" or not _estimates_noise(settings, residual):
+        chosen, warm = _select(nominal, data, residual, settings), None
+    else:
+        chosen = warm.selection.rows(warm.kept, data, residual)
+    problem, solution, noise = _solve(chosen, data, residual, settings, warm)
     converged, message = solution.converged, solution.message
     if not converged and stationary(problem, solution.x):
         converged, message = True, f"{message}; at a stationary point of the cost (the " \
@@ -84,7 +127,7 @@ def fit_once(nominal: SerialModel, data: MeasurementSet, settings: IdentifySetti
         message += NOT_CONVERGED_HINT
     solution = Solution(solution.x, converged, message, solution.nfev)
     result = _result(chosen, data, residual, settings, problem, solution, noise, started)
-    return result, problem, solution.x
+    return SingleFit(result, problem, solution.x, chosen)
 
 
 def _estimates_noise(settings: IdentifySettings, residual: Residual) -> bool:
@@ -147,13 +190,17 @@ def _select(nominal: SerialModel, data: MeasurementSet, residual: Residual,
 
 
 def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
-           settings: IdentifySettings) -> tuple[ResidualProblem, Solution, NoiseEstimate | None]:
-    """The estimate from the start, re-weighted and with the noise levels as asked; the final
-    problem, the solution (nfev: every evaluation) and the noise levels used."""
+           settings: IdentifySettings, warm: WarmStart | None = None
+           ) -> tuple[ResidualProblem, Solution, NoiseEstimate | None]:
+    """The estimate from the start (`warm`: from the rounds' estimate and levels), re-weighted
+    and with the noise levels as asked; the final problem, the solution (nfev: every
+    evaluation) and the noise levels used."""
     problem, statistical, noise = chosen.problem, settings.statistical, settings.noise
     estimate_noise = _estimates_noise(settings, residual)
     reweighted = False
-    if settings.solver == "lm":
+    if warm is not None:  # (LM, noise estimated: fit_once)
+        solution = Solution(warm.x, True, "", 0)
+    elif settings.solver == "lm":
         problem, solution, reweighted = _solve_lm_from_start(chosen, data, residual, settings,
                                                              estimate_noise)
     else:
@@ -165,7 +212,8 @@ def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
         def solve(pr: ResidualProblem, x_start: Array) -> Solution:
             return solve_lm(pr, x_start, 1e-10)
 
-        fit = estimate_with_joint_check(problem, noise, solution.x, solve)
+        fit = estimate_with_joint_check(problem, noise, solution.x, solve,
+                                        None if warm is None else warm.theta)
         problem, noise_used = fit.problem, fit.noise
         solution = Solution(fit.solution.x, fit.solution.converged, fit.solution.message,
                             solution.nfev + fit.solution.nfev)

@@ -98,3 +98,28 @@ def test_rapid_filter_reports_the_median_wall_and_cpu_time():
     assert proc.returncode == 0, proc.stderr
     line = proc.stdout.splitlines()[-1]
     assert "40 robtargets, 3 runs: wall" in line and "CPU" in line and "(target 2 s)" in line
+
+
+def test_interleaved_alternates_and_needs_five_rounds():
+    order = []
+    spreads = timing().interleaved(5, [lambda: order.append("a"), lambda: order.append("b")])
+    assert order == ["a", "b"] * 6  # a warm-up each, then five rounds in turn
+    assert [s.runs for s in spreads] == [5, 5]
+    with pytest.raises(ValueError, match="at least 5"):
+        timing().interleaved(4, [lambda: None])
+
+
+def test_outliers_names_every_gross_error_and_reports_the_ratio():
+    proc = run("outliers.py", "--poses", "300")
+    assert proc.returncode == 0, proc.stderr
+    assert "5 interleaved rounds" in proc.stdout and "dirty / clean" in proc.stdout
+    assert "3 of 3 by pose index, 0 clean poses rejected; all named" in proc.stdout, proc.stdout
+    assert run("outliers.py", "--rounds", "3").returncode != 0
+
+
+def test_identify_cost_reports_the_ratio_to_a_solve_of_its_size():
+    proc = run("identify_cost.py", "--poses", "100")
+    assert proc.returncode == 0, proc.stderr
+    assert "identification / lstsq" in proc.stdout and "600 residuals" in proc.stdout
+    assert "lstsq (600 x" in proc.stdout, proc.stdout
+    assert run("identify_cost.py", "--rounds", "2").returncode != 0

@@ -1,0 +1,76 @@
+"""Benchmark: identification's own cost (issue 29, point 4) against one numpy least-squares
+solve of the same size.
+
+    .venv/bin/python benchmarks/identify_cost.py [--poses 1000] [--rounds 5]
+
+1000 full poses of a true IRB 1600 with the thesis's link offsets and errors (as
+`benchmarks/calibration.py`), identified as `screwcal calibrate` does by default (full model,
+noise levels estimated, outliers tested, compliance and lag auto: here two fits, with and
+without the joint-2/3 compliance). The yardstick is `numpy.linalg.lstsq` of a random matrix
+with the identification's rows (6 per pose) and its identified parameters' count, once with
+one BLAS thread (as the identification runs: `blas_threads`) and once with the threads as
+shipped. All three alternate for `--rounds` rounds; medians with min and max, and the ratios
+of the medians (target <= 40 against the one-thread solve).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+from threadpoolctl import ThreadpoolController
+from timing import interleaved  # the benchmarks' own helper
+
+from screwcal.calibration.identify import identify
+from screwcal.calibration.posesets import random_configurations
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import exp_twist
+from screwcal.studies.simulated_measurements import simulate_measurements
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--poses", type=int, default=1000)
+    parser.add_argument("--rounds", type=int, default=5, help="interleaved rounds (>= 5)")
+    args = parser.parse_args()
+    if args.rounds < 5:
+        parser.error("--rounds: at least 5 (interleaved medians with their spread)")
+    rng = np.random.default_rng(0)
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11).with_frames(
+        exp_twist([0.1, -0.2, 0.3, 1500, -300, 200]), exp_twist([0, 0, 0, 30, -20, 80]))
+    data = simulate_measurements(truth, random_configurations(args.poses, rng), rng)
+    nominal = irb1600()
+
+    def run() -> object:
+        return identify(nominal, data, compliance="auto", lag="auto")
+
+    result = identify(nominal, data, compliance="auto", lag="auto")
+    m, p = 6 * len(data), result.rank
+    A, b = rng.normal(size=(m, p)), rng.normal(size=m)
+
+    blas = ThreadpoolController()  # found once: its lookup is not the solve's cost
+
+    def solve_one_thread() -> object:
+        with blas.limit(limits=1, user_api="blas"):
+            return np.linalg.lstsq(A, b, rcond=None)
+
+    def solve_as_shipped() -> object:
+        return np.linalg.lstsq(A, b, rcond=None)
+
+    t_id, t_one, t_shipped = interleaved(args.rounds, [run, solve_one_thread,
+                                                       solve_as_shipped])
+    ratio = t_id.median / t_one.median
+    print(f"{args.poses} full poses as the command (compliance {result.compliance}, "
+          f"{result.rank} parameters, {m} residuals), {args.rounds} interleaved rounds:")
+    print(f"  identification               {t_id.ms()}")
+    print(f"  lstsq ({m} x {p}), 1 thread   {t_one.ms()}")
+    print(f"  lstsq, BLAS threads as shipped {t_shipped.ms()}")
+    print(f"  identification / lstsq: {ratio:.0f}x one thread (target <= 40) "
+          + ("ok" if ratio <= 40 else "MISSED")
+          + f", {t_id.median / t_shipped.median:.0f}x as shipped")
+
+
+if __name__ == "__main__":
+    main()
