@@ -177,8 +177,9 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
         else:
             j = int(np.argmax(np.abs(change[k])))
             why, error = (f"compensation moves joint {j + 1} by {change[k, j]:+.3f} deg, beyond "
-                          f"the plausible +-{bound_deg:g} deg: check the calibrated model "
-                          "before using it"), CorrectionRefusedError
+                          f"the plausible +-{bound_deg:g} deg: a target next to a singularity, "
+                          "or a wrong calibrated model: check it before using it"), \
+                CorrectionRefusedError
         if strict:
             raise error(f"target {k}: {why}", index=k)
         refused.append((int(k), why))
