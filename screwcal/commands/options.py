@@ -134,7 +134,14 @@ def add_option(p: argparse.ArgumentParser | argparse._ArgumentGroup, name: str, 
                renamed: Sequence[str] = (), **kwargs: Any) -> argparse.Action:
     """An option with a value, by its name and, for one release, its older names (each warns
     when used). The older names are listed in the help after the new one."""
+    kwargs["help"] = _with_older_names(kwargs.get("help"), renamed)
     return p.add_argument(name, *renamed, action=Renamed, renamed=renamed, **kwargs)
+
+
+def _with_older_names(help: str | None, renamed: Sequence[str]) -> str | None:
+    if not renamed or help is None:
+        return help
+    return f"{help} ({', '.join(renamed)}: the older name, deprecated)"
 
 
 class Vector(Renamed):
@@ -151,7 +158,8 @@ def add_vector(p: argparse.ArgumentParser | argparse._ArgumentGroup, name: str, 
                **kwargs: Any) -> argparse.Action:
     """A vector option: `name X Y Z` (three numbers)."""
     return p.add_argument(name, *renamed, action=Vector, renamed=renamed, nargs=3,
-                          type=finite_float, metavar=metavar, help=help, **kwargs)
+                          type=finite_float, metavar=metavar,
+                          help=_with_older_names(help, renamed), **kwargs)
 
 
 def vector_options(parser: argparse.ArgumentParser) -> set[str]:

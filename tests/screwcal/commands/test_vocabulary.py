@@ -138,6 +138,7 @@ def test_one_word_per_concept():
     renamed = {(c, old): a.option_strings[0] for c, _, a in ALL if isinstance(a, Renamed)
                for old in a.renamed}
     assert renamed == RENAMED
+    assert all("deprecated" in a.help for _, _, a in ALL if isinstance(a, Renamed) and a.renamed)
     spelled = {(c, s) for c, _, a in ALL for s in a.option_strings}
     assert CONTRACT_SPELLINGS <= spelled
 
