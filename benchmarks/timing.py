@@ -1,4 +1,4 @@
-"""Shared by the benchmark scripts: median-of-N timing with its spread (and best-of-N).
+"""Shared by the benchmark scripts: median-of-N timing with its spread (never the best run).
 
 BLAS threads are left as a user gets them (the benchmarks once pinned them to one core, which
 hid that numpy's and scipy's two thread pools made identification 3.5x slower on 2 cores:
@@ -32,11 +32,6 @@ def median_of(repeat: int, fn: Callable[[], object]) -> Spread:
         raise ValueError(f"repeat = {repeat}: a median with a spread needs at least 3 runs")
     times = _timed_runs(repeat, fn)
     return Spread(statistics.median(times), min(times), max(times), repeat)
-
-
-def best_of(repeat: int, fn: Callable[[], object]) -> float:
-    """The fastest of `repeat` runs after one warm-up (imports, caches), in seconds."""
-    return min(_timed_runs(repeat, fn))
 
 
 def _timed_runs(repeat: int, fn: Callable[[], object]) -> list[float]:

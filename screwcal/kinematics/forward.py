@@ -180,15 +180,16 @@ def _many_poses(model: SerialModel, q: Array) -> Array:
 
 
 def _few_poses(model: SerialModel, q: Array) -> Array:
-    """A few configurations (N, n): one matrix product gives every exponential of every
-    configuration (the joints' tables side by side in a block-diagonal table,
-    `_few_pose_tables`), then the chain. One pose: 2-D products (`ndarray.dot` costs half of
-    matmul's stacked machinery at this size); several: pairwise, stacked."""
-    B, revolute = _few_pose_tables(model)
+    """A few configurations (N, n). One matrix product gives every exponential of every
+    configuration from their rows (1, f(q_i), g(q_i)) (the joints' tables side by side in a
+    block-diagonal table, `_few_pose_tables`), then the chain. One pose: 2-D products
+    (`ndarray.dot` costs half of matmul's stacked machinery at this size); several: pairwise,
+    stacked."""
+    B = _few_pose_tables(model)
     N, n = q.shape
     sc = np.empty((N, n, 3))
     sc[:, :, 0] = 1.0
-    if revolute:
+    if "P" not in model.joint_types:
         np.sin(q, out=sc[:, :, 1])
         np.cos(q, out=sc[:, :, 2])
     else:
@@ -237,16 +238,17 @@ def _exponential_tables(model: SerialModel) -> tuple[Array, list[Array]]:
 
 
 @once_per_object
-def _few_pose_tables(model: SerialModel) -> tuple[Array, bool]:
+def _few_pose_tables(model: SerialModel) -> Array:
     """B (3 n, 16 n), zero but for joint i's block B[3 i:3 i + 3, 16 i:16 i + 16] =
     `_exponential_tables`' C[i] flattened: (1, f(q_i), g(q_i)) times that block is joint i's
-    exponential, row-major. Also whether every joint is revolute."""
+    exponential, row-major."""
     C, _ = _exponential_tables(model)
     n = model.n_joints
     B = np.zeros((n, 3, n, 16))
     joints = np.arange(n)
     B[joints, :, joints] = C.reshape(n, 3, 16)
-    return B.reshape(3 * n, 16 * n), bool(model.is_revolute.all())
+    table: Array = B.reshape(3 * n, 16 * n)
+    return table
 
 
 def flange_kinematics(model: SerialModel, q: ArrayLike) -> Array:

@@ -123,3 +123,20 @@ def test_identify_cost_reports_the_ratio_to_a_solve_of_its_size():
     assert "identification / lstsq" in proc.stdout and "600 residuals" in proc.stdout
     assert "lstsq (600 x" in proc.stdout, proc.stdout
     assert run("identify_cost.py", "--rounds", "2").returncode != 0
+
+
+def test_kinematics_reports_medians_of_interleaved_rounds_and_checks_ik():
+    proc = run("kinematics.py", "--rounds", "3", "--poses", "200")
+    assert proc.returncode == 0, proc.stderr
+    assert "medians of 3 interleaved rounds; every IK result checked first" in proc.stdout
+    assert "best" not in proc.stdout
+    assert run("kinematics.py", "--rounds", "2").returncode != 0
+
+
+def test_peers_check_ik_results_and_report_spreads():
+    """With or without the peers installed: screwcal's rows, their spreads, the rounds."""
+    proc = run("peers.py", "--rounds", "5", "--batch", "20", "--poses", "40", timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "medians of 5 interleaved rounds; every IK result checked first" in proc.stdout
+    assert "IK one target, warm" in proc.stdout and "screwcal" in proc.stdout
+    assert run("peers.py", "--rounds", "3").returncode != 0  # fewer than 5 rounds per side
