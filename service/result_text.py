@@ -148,6 +148,6 @@ def _route_lines(corr: CorrectionPlan | None, suffix: str) -> list[str]:
     elif corr.left_in_robot is not None:
         lines.append("    left in the robot: nothing the model identified")
     if corr.not_identified:
-        lines.append("    not identified from these data (nothing corrects them): "
-                     + ", ".join(corr.not_identified))
+        lines.append("    held at nominal, not separable from these data (the parameters "
+                     "they move with carry their effect): " + ", ".join(corr.not_identified))
     return lines
