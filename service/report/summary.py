@@ -16,7 +16,8 @@ HOME_MEANING = ("thesis Table 14: how far the flange is from the nominal home wi
                 "at 0, measured before and after the correction")
 RESIDUAL_MEANING = ("how far the calibration poses are from the model, mean over the poses: "
                     "before, the nominal model (measuring frame fitted); after, the calibrated "
-                    "model; on the very poses it was fitted to, so it reads lower than AP")
+                    "model, on the very poses it was fitted to (spread over the workspace, "
+                    "where AP is measured on the cube only)")
 PREDICTED_MEANING = ("the calibrated model's own forecast of the flange error on the ISO "
                      "targets: before, the targets as programmed; after, as corrected")
 

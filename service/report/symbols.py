@@ -30,9 +30,9 @@ _FAMILIES: tuple[tuple[re.Pattern[str], str, str], ...] = (
     (re.compile(r"^J(\d)c$"), "Jic",
      "compliance of joint i under gravity: the joint bends by Jic x its gravity torque "
      "(deg per kN m)"),
-    (re.compile(r"^J(\d)r([xyz])$"), "Jir*",
+    (re.compile(r"^J(\d)r([xyz])$"), "Jirx, Jiry, Jirz",
      "joint i's zero offset, as the thesis names it (Table 11) (deg)"),
-    (re.compile(r"^J(\d)p([xyz])$"), "Jip*",
+    (re.compile(r"^J(\d)p([xyz])$"), "Jipx, Jipy, Jipz",
      "link offset after joint i along the home frame's axis (thesis's virtual prismatic joint) "
      "(mm)"),
     (re.compile(r"^J(\d)$"), "Ji",
