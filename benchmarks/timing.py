@@ -45,10 +45,12 @@ def _timed_runs(repeat: int, fn: Callable[[], object]) -> list[float]:
     return times
 
 
-def interleaved(rounds: int, fns: Sequence[Callable[[], object]]) -> list[Spread]:
+def interleaved(rounds: int, fns: Sequence[Callable[[], object]],
+                clock: Callable[[], float] = time.perf_counter) -> list[Spread]:
     """Per function, the median, min and max of `rounds` runs, the functions run in turn in
     every round after one warm-up each (what else the host runs weighs on all of them alike);
-    at least 5 rounds (issue 29)."""
+    at least 5 rounds (issue 29). `clock`: wall time, or `time.process_time` (the CPU time of
+    the process: what a busy host's other work does not add)."""
     if rounds < 5:
         raise ValueError(f"rounds = {rounds}: interleaved medians need at least 5 rounds")
     for fn in fns:
@@ -56,7 +58,7 @@ def interleaved(rounds: int, fns: Sequence[Callable[[], object]]) -> list[Spread
     times: list[list[float]] = [[] for _ in fns]
     for _ in range(rounds):
         for fn, out in zip(fns, times, strict=True):
-            start = time.perf_counter()
+            start = clock()
             fn()
-            out.append(time.perf_counter() - start)
+            out.append(clock() - start)
     return [Spread(statistics.median(t), min(t), max(t), rounds) for t in times]

@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from screwcal.calibration.error_parameters import ErrorModel, forward_batch
+from screwcal.calibration.error_parameters import ErrorModel
 from screwcal.calibration.identifiability import Residual, pairs
 from screwcal.calibration.identify_settings import IdentifySettings, variance_from_levels
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.plausible import PlausibleRanges, prior_sigma
+from screwcal.calibration.population import forward_batch
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, rotvec_from_rotation

@@ -121,7 +121,7 @@ def test_identify_cost_reports_the_ratio_to_a_solve_of_its_size():
     proc = run("identify_cost.py", "--poses", "100")
     assert proc.returncode == 0, proc.stderr
     assert "identification / lstsq" in proc.stdout and "600 residuals" in proc.stdout
-    assert "lstsq (600 x" in proc.stdout, proc.stdout
+    assert "lstsq (600 x" in proc.stdout and "CPU time (one thread both)" in proc.stdout
     assert run("identify_cost.py", "--rounds", "2").returncode != 0
 
 
