@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import time
 from typing import Any
 
 from service.document import JobRecord
@@ -40,8 +41,10 @@ def report_html(job: JobRecord, robot: dict[str, Any]) -> str:
               "<meta name='viewport' content='width=device-width, initial-scale=1'>"
               f"<title>{esc(title)}</title><style>{CSS}</style></head><body>"
               f"<header><h1>{esc(title)}</h1><p>State: <b id='state'>{esc(job.state)}</b> "
-              f"{esc(job.reason)} &middot; mode {esc(job.mode)} &middot; units mm and degrees"
-              "</p></header>")
+              f"{esc(job.reason)} &middot; mode {esc(job.mode)} &middot; created "
+              f"{time.strftime('%Y-%m-%d %H:%M', time.gmtime(job.created))} UTC, last updated "
+              f"{time.strftime('%Y-%m-%d %H:%M', time.gmtime(job.updated))} UTC &middot; "
+              "units mm and degrees</p></header>")
     for section in SECTIONS:
         html = section(ctx)
         if html:
