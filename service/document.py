@@ -104,6 +104,14 @@ class JobOptions(BaseModel):
         "earlier job's calibration identified (default: a frame fitted to the job's own data, "
         "which hides what such a frame absorbs)")
 
+    @model_validator(mode="after")
+    def _something_to_zero(self) -> JobOptions:
+        """The frames model identifies no joint offset: a ZERO route would send nothing."""
+        if self.model == "frames" and self.correction.startswith("zero"):
+            raise ValueError("the frames model identifies no joint offset, so a ZERO would "
+                             "change nothing: use correction compensate, or another model")
+        return self
+
 
 class PhaseRecord(Section):
     """A step of a job: claimed (`started`), then `done` with the seconds it took."""

@@ -114,3 +114,17 @@ def test_every_service_error_the_api_raises_has_one_status():
     unmapped = {c.__name__ for c in leaves(ServiceError)
                 if not any(issubclass(c, k) for k in HTTP_STATUS)}
     assert unmapped == set()
+
+
+def test_every_error_model_of_the_command_line_is_a_job_option():
+    """One list of error models (issue 27): calibrate's, demo's and job start's choices are the
+    service's; the frames model with a ZERO route is refused (it identifies no offset)."""
+    from pydantic import ValidationError
+
+    from screwcal.commands.options import ERROR_MODELS
+    from service.document import JobOptions
+
+    for model in ERROR_MODELS:
+        assert JobOptions(model=model).model == model
+    with pytest.raises(ValidationError, match="identifies no joint offset"):
+        JobOptions(model="frames", correction="zero+compensate")
