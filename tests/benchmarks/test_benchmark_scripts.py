@@ -113,6 +113,7 @@ def test_outliers_names_every_gross_error_and_reports_the_ratio():
     proc = run("outliers.py", "--poses", "300")
     assert proc.returncode == 0, proc.stderr
     assert "5 interleaved rounds" in proc.stdout and "dirty / clean" in proc.stdout
+    assert "CPU time: clean" in proc.stdout
     assert "3 of 3 by pose index, 0 clean poses rejected; all named" in proc.stdout, proc.stdout
     assert run("outliers.py", "--rounds", "3").returncode != 0
 
