@@ -132,7 +132,7 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
     robot = calibrated if frame == "measuring" else \
         calibrated.with_frames(base=np.eye(4), tool=np.eye(4))
     if q_ref is None:
-        q = numerical_ik(robot, T).nearest(np.zeros(calibrated.n_joints))
+        q = nearest_home_solution(robot, T)
         calibrated.check_limits(q, "compensated target")
         return Compensation(q, flange_kinematics(nominal, q), np.zeros_like(q))
     ref = np.broadcast_to(np.asarray(q_ref, float), (T.shape[0], calibrated.n_joints))
@@ -347,16 +347,18 @@ def _compensate_from_home(calibrated: SerialModel, nominal: SerialModel, T: Arra
                           ) -> Compensation:
     if frame == "measuring":
         return compensate(calibrated, nominal, T, frame=frame, bound_deg=bound_deg)
-    q_ref = _nominal_reference(nominal.with_frames(np.eye(4), np.eye(4)), T)
+    q_ref = nearest_home_solution(nominal.with_frames(np.eye(4), np.eye(4)), T)
     return compensate(calibrated, nominal, T, q_ref, frame=frame, bound_deg=bound_deg,
                       strict=False)
 
 
-def _nominal_reference(robot: SerialModel, T: Array) -> Array:
-    """The nominal solution nearest home of flange targets T (N, 4, 4). Next to the stretched
+def nearest_home_solution(robot: SerialModel, T: Array) -> Array:
+    """The solution nearest home of targets T (N, 4, 4) (tool poses of `robot` with its frames:
+    the nominal robot's flange, or the calibrated one's measured point). Next to the stretched
     arm the numerical IK's Gauss-Newton may stop short of its 1e-9 mm; a single target is then
-    solved to 1e-6 mm with more iterations and polished by Levenberg-Marquardt (a batch raises
-    UnreachableError: compensate_each then takes its targets one by one)."""
+    solved to 1e-6 mm with more iterations (or, where that finds none, from home itself) and
+    polished by Levenberg-Marquardt, accepted on the wrist singularity's tolerances (a batch
+    raises UnreachableError: compensate_each then takes its targets one by one)."""
     home = np.zeros(robot.n_joints)
     try:
         return numerical_ik(robot, T).nearest(home)
@@ -369,8 +371,7 @@ def _nominal_reference(robot: SerialModel, T: Array) -> Array:
         q0 = home[None, :]  # (a target next to the stretched zero pose): from home itself
     q = _turned_toward(_fit_poses(robot, T, q0)[0], q0)
     if not _meets(T, robot, q)[0]:  # the singular tolerances: a reference, not a target
-        raise UnreachableError("target 0 is out of the nominal arm's reach on every branch",
-                               index=0)
+        raise UnreachableError("target 0 is out of the arm's reach on every branch", index=0)
     return q
 
 
