@@ -39,7 +39,8 @@ def pairs(n: int) -> tuple[Index, Index]:
     return i, j
 
 
-def select_identifiable(J: Array, priority: Array, names: list[str]
+def select_identifiable(J: Array, priority: Array, names: list[str],
+                        triangle: Array | None = None
                         ) -> tuple[Array, int, Array, list[str], Array]:
     """Kept column indices (in candidate order), the rank, the column norms, the null-space
     combinations, and the triangle of the scaled columns (`explain_removed` reads it).
@@ -47,11 +48,12 @@ def select_identifiable(J: Array, priority: Array, names: list[str]
 
     Every question here is about the columns' independence, which the QR factor R of the
     column-scaled J answers as J does (J = Q R, Q keeps lengths): one factorisation of the
-    tall J, then the SVD and the pivoted QR of R (p, p)."""
+    tall J, then the SVD and the pivoted QR of R (p, p). `triangle`: R already at hand (the
+    columns of a richer selection's R: Q R[:, S] are the columns S)."""
     norms = np.linalg.norm(J, axis=0)
     live = norms > 1e-12 * max(norms.max(), 1e-300)
     Js = np.where(live, J / np.where(live, norms, 1.0), 0.0)
-    Rs = scipy.linalg.qr(Js, mode="r")[0][:J.shape[1]]
+    Rs = scipy.linalg.qr(Js, mode="r")[0][:J.shape[1]] if triangle is None else triangle
     _, s, Vt = svd(Rs)
     rank = int(np.sum(s > RANK_TOL * s[0]))
     combos = []

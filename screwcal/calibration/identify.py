@@ -50,7 +50,7 @@ from screwcal.calibration.lag import correct_lag, lag_increment
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.outlier_rounds import reject_in_rounds
 from screwcal.calibration.plausible import PlausibleRanges
-from screwcal.calibration.single_fit import WarmStart, fit_once
+from screwcal.calibration.single_fit import Selection, WarmStart, fit_once
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
@@ -162,11 +162,13 @@ def _with_compliance(nominal: SerialModel, data: MeasurementSet, settings: Ident
     poses `data` (`found`: rejected before). The models "auto" compares after the first fit
     start from the poses it kept: the outliers are searched for once, then only confirmed."""
     if settings.compliance != "auto":
-        result, kept = _identify_rejecting(nominal, data, settings, found)
+        result, kept, _ = _identify_rejecting(nominal, data, settings, found)
         return replace(result, compliance=settings.compliance), kept
-    why = _compliance_not_tried(nominal, settings)
+    why, richer = _compliance_not_tried(nominal, settings), None
     if not why:
-        bent, kept = _with_compliance(nominal, data, replace(settings, compliance="j23"), found)
+        bent, kept, richer = _identify_rejecting(nominal, data,
+                                                 replace(settings, compliance="j23"), found)
+        bent = replace(bent, compliance="j23")
         t = {p.name: abs(v) / s for p, v, s in zip(bent.params, bent.values, bent.std_errors,
                                                     strict=True)
              if p.kind.startswith("compliance") and s > 0}
@@ -177,7 +179,8 @@ def _with_compliance(nominal: SerialModel, data: MeasurementSet, settings: Ident
                 f"{COMPLIANCE_T:g})"), n_poses=len(data) + len(found))
         why = f"left out (auto): the data do not support it, |value| / std error: {shown}"
         data, found = kept, _rejected(bent)
-    plain, kept = _with_compliance(nominal, data, replace(settings, compliance="none"), found)
+    plain, kept, _ = _identify_rejecting(nominal, data, replace(settings, compliance="none"),
+                                         found, richer)
     return replace(plain, compliance="none", compliance_note=why), kept
 
 
@@ -215,24 +218,27 @@ def _nested_f_test(simple: CalibrationResult, rich: CalibrationResult) -> float:
 
 
 def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
-                        found: tuple[Outlier, ...] = ()) -> Fit:
+                        found: tuple[Outlier, ...] = (), richer: Selection | None = None
+                        ) -> tuple[CalibrationResult, MeasurementSet, Selection]:
     """One identification (see `identify`) of the poses `data` (`found`: rejected before),
     rejecting outliers: after a fit, rounds on its linearisation find the poses to reject
     (`outlier_rounds`: the clearly worst first, no refit per round), then the poses kept are
     fitted once more, from the first fit's start and parameters and the rounds' estimate and
     noise levels (`single_fit.WarmStart`), and that fit's own tests confirm it (a pose still
-    beyond its limit starts new rounds)."""
+    beyond its limit starts new rounds). `richer`: the selection of the model with the
+    joint-2/3 compliance on these poses (`single_fit.fit_once`). Also returns the poses kept
+    and the last fit's selection."""
     started = time.perf_counter()
     rejected = list(found)
     current = data
     limit = max(1, int(MAX_OUTLIER_FRACTION * (len(data) + len(found))))
     warm = None
     while True:
-        fit = fit_once(nominal, current, settings, warm)
-        result, problem, x = fit.result, fit.problem, fit.x
+        fit = fit_once(nominal, current, settings, warm, richer)
+        result, problem, x, richer = fit.result, fit.problem, fit.x, None  # (its poses only)
         if result.residual_kind == "distance" or not settings.statistical:
             return replace(result, outliers=tuple(rejected),
-                           seconds=time.perf_counter() - started), current
+                           seconds=time.perf_counter() - started), current, fit.selection
         e, A = problem.raw(x)
         test = pose_tests(e, A, problem.whiten)
         limit_T = test.threshold()
@@ -256,7 +262,7 @@ def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: Id
                            current.ids, estimated, settings.stated_position_mm(),
                            acquisition_order(current.ids, current.lines))
     return replace(result, outliers=tuple(rejected + kept), diagnostics=quality,
-                   seconds=time.perf_counter() - started), current
+                   seconds=time.perf_counter() - started), current, fit.selection
 
 
 def _levels(noise: NoiseEstimate | None) -> tuple[Array, Index]:

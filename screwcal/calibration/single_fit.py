@@ -61,6 +61,7 @@ class Selection:
     r0: Array  # weighted residuals at the start
     J0: Array  # weighted Jacobian of every candidate at the start
     T0: Array  # (N, 4, 4) the start model's tool poses
+    Rs: Array  # the QR triangle of J0's scaled columns (identifiability.select_identifiable)
     keep: Array
     rank: int
     removed: tuple[tuple[str, str], ...]  # (name, why)
@@ -81,6 +82,17 @@ class Selection:
         return replace(self, problem=problem, r0=r0,
                        J0=self.J0.reshape(N, k, -1)[kept].reshape(len(r0), -1),
                        T0=self.T0[kept], notes=tuple(notes))
+
+
+    def without_compliance(self, data: MeasurementSet, residual: Residual,
+                           settings: IdentifySettings) -> Selection:
+        """The selection of the same start and poses (`data`) with the compliance candidates
+        left out (the nested model "auto" compares): their columns of J0 and of its triangle,
+        chosen again; no frames aligned, no Jacobian built, no tall factorisation."""
+        cols = [k for k, p in enumerate(self.candidates) if not p.kind.startswith("compliance")]
+        return _choose(self.start, tuple(self.candidates[k] for k in cols), self.problem.whiten,
+                       self.r0, self.J0[:, cols], self.T0, self.Rs[:, cols], data, residual,
+                       settings)
 
 
 @dataclass(frozen=True)
@@ -107,17 +119,21 @@ class SingleFit:
 
 
 def fit_once(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
-             warm: WarmStart | None = None) -> SingleFit:
+             warm: WarmStart | None = None, richer: Selection | None = None) -> SingleFit:
     """One fit of all the poses given. `warm`: the poses are those an earlier fit kept; its
     start, frames and identifiable parameters are kept, and the solve (LM with the noise
     levels) starts from the rounds' estimate and levels instead of the start's Gauss-Newton
-    step and the priors."""
+    step and the priors. `richer`: the selection of the same model with a compliance, on
+    these poses: this fit's candidates are its without the compliance (the same start, the
+    same Jacobian columns; the solve as from scratch)."""
     started = time.perf_counter()
     residual = resolved_residual(settings, data.full_pose)
-    if warm is None or settings.solver != "lm" or not _estimates_noise(settings, residual):
-        chosen, warm = _select(nominal, data, residual, settings), None
-    else:
+    if warm is not None and settings.solver == "lm" and _estimates_noise(settings, residual):
         chosen = warm.selection.rows(warm.kept, data, residual)
+    elif richer is not None and settings.compliance == "none":
+        chosen, warm = richer.without_compliance(data, residual, settings), None
+    else:
+        chosen, warm = _select(nominal, data, residual, settings), None
     problem, solution, noise = _solve(chosen, data, residual, settings, warm)
     converged, message = solution.converged, solution.message
     if not converged and stationary(problem, solution.x):
@@ -163,6 +179,18 @@ def _select(nominal: SerialModel, data: MeasurementSet, residual: Residual,
     problem_all = ResidualProblem.weighted_at(errors_all, data, residual, settings)
     r0, J0 = problem_all.weighted(np.zeros(len(cands)))
     T0 = problem_all.linearisation(np.zeros(len(cands)))[0]
+    return _choose(start, tuple(cands), problem_all.whiten, r0, J0, T0, None, data, residual,
+                   settings)
+
+
+def _choose(start: SerialModel, cands: tuple[Param, ...], whiten: Array, r0: Array, J0: Array,
+            T0: Array, triangle: Array | None, data: MeasurementSet, residual: Residual,
+            settings: IdentifySettings) -> Selection:
+    """The identifiable candidates, from their weighted Jacobian J0 at the start (`triangle`:
+    the QR triangle of its scaled columns, when at hand); refuses data with fewer equations
+    than the model's identifiable parameters."""
+    kind = settings.kind
+    errors_all = ErrorModel(start, cands)
     # The frames are unknown whatever the robot: take them first, then the model's own
     # parameters (joint and link offsets: what a controller can correct), then axis terms.
     priority = np.array([2 if p.group != "robot" else 1 if p.kind in ("zero", "link") else 0
@@ -175,7 +203,7 @@ def _select(nominal: SerialModel, data: MeasurementSet, residual: Residual,
         raise IdentificationError(f"{len(data)} poses give {m} equations for the {needed} "
                                   f"parameters this model can identify: measure more poses{more}")
     names = [p.name for p in cands]
-    keep, rank, norms, combos, Rs = select_identifiable(J0, priority, names)
+    keep, rank, norms, combos, Rs = select_identifiable(J0, priority, names, triangle)
     removed_idx = np.setdiff1d(np.arange(len(cands)), keep)
     removed = explain_removed(Rs, keep, removed_idx, names, norms)
     # Degenerate: the poses separate fewer parameters than well-spread data would, or (for
@@ -185,8 +213,9 @@ def _select(nominal: SerialModel, data: MeasurementSet, residual: Residual,
                                                           for k in requested_robot))
     notes = data_warnings(start, data, residual, m, rank, [n for n, _ in removed])
     errors = errors_all.subset([int(k) for k in keep])
-    return Selection(start, tuple(cands), errors, problem_all.restricted(errors), r0, J0, T0,
-                     keep, rank, tuple(removed), tuple(combos), degenerate, tuple(notes))
+    return Selection(start, cands, errors,
+                     ResidualProblem(errors, data, residual, whiten, settings.ranges), r0, J0,
+                     T0, Rs, keep, rank, tuple(removed), tuple(combos), degenerate, tuple(notes))
 
 
 def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
