@@ -3,6 +3,7 @@ them; the service itself never imports them), the service through httpx's ASGI t
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import sqlite3
 
@@ -37,6 +38,11 @@ class Rig:
     @property
     def address(self) -> tuple[str, int]:
         return self.emu.address
+
+    @property
+    def world(self):
+        """The true robot both emulators serve (simulators/truth.py), its observers too."""
+        return self.emu.world
 
 
 async def start_rig(time_scale: float = 0.0, realism: Realism = IDEAL, seed: int | None = None
@@ -74,6 +80,16 @@ async def service(tmp_path):
         async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
                                      base_url="http://service", headers=AUTH) as http:
             yield http
+
+
+async def finished(http, job_id: int, timeout_s: float = 300.0) -> dict:
+    """The job once it has ended (done, failed or aborted)."""
+    async with asyncio.timeout(timeout_s):
+        while True:
+            job = (await http.get(f"/jobs/{job_id}")).json()
+            if job["state"] in ("done", "failed", "aborted"):
+                return job
+            await asyncio.sleep(0.2)
 
 
 async def add_robot(http, rig, **record) -> int:

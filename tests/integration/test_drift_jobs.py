@@ -5,7 +5,6 @@ calibration list with two-direction pairs identifies the backlash imposed."""
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 
 import numpy as np
@@ -22,11 +21,8 @@ from service.drift import (
     drift_warnings,
 )
 from service.plans import PlannedPose, plan_for
-from simulators.arm import ArmEmulator
-from simulators.irc5 import EmulatorSettings, IRC5Emulator
 from simulators.realism import HARSH, IDEAL, realism_from_document
-from simulators.truth import make_world
-from tests.integration.conftest import ARM_POSITION, FAST, add_robot
+from tests.integration.conftest import ARM_POSITION, FAST, add_robot, finished, start_rig, stop_rig
 from tests.integration.test_jobs import wait_state
 
 # harsh's drift (80 ppm) on a robot that warms up fast (time constant 300 s of its own clock):
@@ -36,35 +32,15 @@ WARMING = realism_from_document({"preset": "harsh", "warmup_s": 300.0}, "test")
 
 @contextlib.asynccontextmanager
 async def cell(realism):
-    world = make_world(None, 1, realism=realism)
-    emu = IRC5Emulator(world, EmulatorSettings(time_scale=0.0))
-    emu.address = await emu.start("127.0.0.1", 0)
-    arm = ArmEmulator(world, seed=1)
-    host, port = await arm.start("127.0.0.1", 0)
-    arm.url = f"socket://{host}:{port}"
-    clock: list[float] = []  # the robot's own running time at each arrival
-    world.observers.append(lambda w: clock.append(w.running_s))
-
-    class Rig:
-        address = emu.address
-
-    rig = Rig()
-    rig.arm, rig.world, rig.clock = arm, world, clock  # type: ignore[attr-defined]
+    """The seed-1 robot with `realism`; `rig.clock`: the robot's own running time at each
+    arrival."""
+    rig = await start_rig(realism=realism, seed=1)
+    rig.clock = []
+    rig.world.observers.append(lambda w: rig.clock.append(w.running_s))
     try:
         yield rig
     finally:
-        await arm.stop()
-        with contextlib.suppress(Exception):
-            await emu.stop()
-
-
-async def _finish(service, job_id: int, timeout_s: float = 300.0) -> dict:
-    async with asyncio.timeout(timeout_s):
-        while True:
-            job = (await service.get(f"/jobs/{job_id}")).json()
-            if job["state"] in ("done", "failed", "aborted"):
-                return job
-            await asyncio.sleep(0.2)
+        await stop_rig(rig)
 
 
 async def _procedure(service, rig, **options) -> tuple[dict, dict]:
@@ -73,7 +49,7 @@ async def _procedure(service, rig, **options) -> tuple[dict, dict]:
         "calibration_poses": 60, "cycles": 8, "arm_position_mm": ARM_POSITION,
         "drift_poses": 3, "drift_period_poses": 30, **options}})
     assert r.status_code == 202, r.text
-    job = await _finish(service, r.json()["id"])
+    job = await finished(service, r.json()["id"])
     assert job["state"] == "done", job["reason"]
     return job, (await service.get(f"/jobs/{job['id']}/result")).json()
 
@@ -247,7 +223,7 @@ async def test_calibration_with_two_direction_pairs_identifies_the_backlash(serv
                                               "options": {"calibration_poses": 40,
                                                           "backlash_poses": 10}})
         assert r.status_code == 202, r.text
-        job = await _finish(service, r.json()["id"])
+        job = await finished(service, r.json()["id"])
         assert job["state"] == "done", job["reason"]
         result = (await service.get(f"/jobs/{job['id']}/result")).json()
     joints = {j["joint"]: j for j in result["backlash"]["joints"]}

@@ -5,7 +5,6 @@ lag the emulated robot has, compensates with them and the performance list's pay
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import re
 
 import numpy as np
@@ -16,45 +15,20 @@ from service.analysis import list_payload, measurement_set
 from service.document import JobOptions
 from service.result_text import result_table
 from service.schemas import JobResult
-from simulators.arm import ArmEmulator
-from simulators.irc5 import EmulatorSettings, IRC5Emulator
 from simulators.realism import TYPICAL, ListPayloads
-from simulators.truth import make_world
-from tests.integration.conftest import ARM_POSITION, add_robot
+from tests.integration.conftest import ARM_POSITION, add_robot, finished, start_rig, stop_rig
 
 CAL_PAYLOAD = Payload(10.0, (0.0, 0.0, 100.0))
 
 
 @pytest.fixture
 async def typical_rig():
-    world = make_world(None, 1, realism=TYPICAL)
-    emu = IRC5Emulator(world, EmulatorSettings(time_scale=0.0))
+    rig = await start_rig(realism=TYPICAL, seed=1)
     # the operator mounts 10 kg for the calibration list and takes it off for the performance
-    world.observers.insert(0, ListPayloads(lambda: emu.list_name,
-                                           {"CAL": CAL_PAYLOAD, "PERF": Payload()}))
-    emu.address = await emu.start("127.0.0.1", 0)
-    arm = ArmEmulator(world, seed=1)
-    host, port = await arm.start("127.0.0.1", 0)
-    arm.url = f"socket://{host}:{port}"
-
-    class Rig:
-        address = emu.address
-
-    rig = Rig()
-    rig.arm, rig.world = arm, world  # type: ignore[attr-defined]
+    rig.world.observers.insert(0, ListPayloads(lambda: rig.emu.list_name,
+                                               {"CAL": CAL_PAYLOAD, "PERF": Payload()}))
     yield rig
-    await arm.stop()
-    with contextlib.suppress(Exception):
-        await emu.stop()
-
-
-async def _finish(service, job_id: int, timeout_s: float = 240.0) -> dict:
-    async with asyncio.timeout(timeout_s):
-        while True:
-            job = (await service.get(f"/jobs/{job_id}")).json()
-            if job["state"] in ("done", "failed", "aborted"):
-                return job
-            await asyncio.sleep(0.2)
+    await stop_rig(rig)
 
 
 async def test_procedure_carrying_10_kg_names_the_compliance_and_lag_it_identified(
@@ -66,7 +40,7 @@ async def test_procedure_carrying_10_kg_names_the_compliance_and_lag_it_identifi
             "payload_kg": 0.0, "calibration_payload_kg": CAL_PAYLOAD.kg,
             "calibration_payload_cog_mm": list(CAL_PAYLOAD.cog_mm)}})
     assert r.status_code == 202, r.text
-    job = await _finish(service, r.json()["id"])
+    job = await finished(service, r.json()["id"])
     assert job["state"] == "done", job["reason"]
     result = (await service.get(f"/jobs/{job['id']}/result")).json()
     est = result["estimation"]
@@ -181,7 +155,7 @@ async def test_iso_warmup_runs_the_test_cycle_unmeasured_before_the_test(service
         "cycles": 2, "cube_edge_mm": 250.0, "arm_position_mm": ARM_POSITION,
         "warmup_cycles": 3}})
     assert r.status_code == 202, r.text
-    job = await _finish(service, r.json()["id"])
+    job = await finished(service, r.json()["id"])
     assert job["state"] == "done", job["reason"]
     assert list(job["phases"])[:3] == ["setup", "warmup", "perf_before"], job["phases"]
     measured = (await service.get(f"/jobs/{job['id']}/measurements")).json()
