@@ -19,6 +19,7 @@ from collections.abc import Callable
 from screwcal.errors import ScrewcalError
 from service.errors import ConflictError, ServiceError, StoreError, StoreLostError
 from service.events import EventBus
+from service.plans import PlannedPose
 from service.runner import JobRunner
 from service.settings import ServiceSettings
 from service.store import Store
@@ -70,12 +71,13 @@ class JobManager:
         if self._on_fatal is not None:
             self._on_fatal(reason)
 
-    def start(self, job_id: int) -> bool:
+    def start(self, job_id: int, plans: dict[str, list[PlannedPose]] | None = None) -> bool:
         """Run a job; one whose records cannot make a runner (a robot stored before its fields
-        were validated, say) fails with the reason instead. True when it runs."""
+        were validated, say) fails with the reason instead. True when it runs. `plans`: its
+        lists as the request that posted it built them (else the runner builds them)."""
         try:
             runner = JobRunner(self.store, self.settings, self.events.of(job_id), job_id,
-                               on_fatal=self.fatal)
+                               on_fatal=self.fatal, plans=plans)
         except (ScrewcalError, ServiceError, ValueError, KeyError, TypeError) as err:
             self.store.fail(job_id, f"cannot run: {err}")
             return False

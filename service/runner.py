@@ -66,7 +66,7 @@ from service.phases import (
     job_steps,
     round_suffix,
 )
-from service.plans import PlannedPose, plan_for
+from service.plans import LISTS_OF_KIND, PlannedPose, plan_for
 from service.settings import ServiceSettings
 from service.store import Store
 from service.verify import VERIFY_PHASE, verification_targets
@@ -75,7 +75,8 @@ from service.verify import drift_warnings as alarm_warnings
 
 class JobRunner:
     def __init__(self, store: Store, settings: ServiceSettings, events: JobEvents, job_id: int,
-                 on_fatal: Callable[[str], None] | None = None):
+                 on_fatal: Callable[[str], None] | None = None,
+                 plans: dict[str, list[PlannedPose]] | None = None):
         self.store, self.settings, self.events, self.job_id = store, settings, events, job_id
         self.on_fatal = on_fatal
         self.job = store.job(job_id)
@@ -85,15 +86,24 @@ class JobRunner:
         self.gate = OperatorGate(step_mode=self.job.mode == "STEP")
         self.acquisition = Acquisition(store, settings, events, job_id, self.robot, self.model,
                                        self.gate)
-        self._plans: dict[str, list[PlannedPose]] = {}
+        self._plans: dict[str, list[PlannedPose]] = dict(plans or {})
         self._compensated: dict[str, list[PlannedPose]] = {}
 
     # -- plans ---------------------------------------------------------------------------------
     def plan(self, kind: str) -> list[PlannedPose]:
-        """The job's "cal" or "perf" list (deterministic from its options; built once)."""
+        """The job's "cal" or "perf" list (deterministic from its options; built once: by the
+        request that posted the job, else by `_build_plans` when the runner starts)."""
         if kind not in self._plans:
             self._plans[kind] = plan_for(self.model, kind, self.options)
         return self._plans[kind]
+
+    async def _build_plans(self) -> None:
+        """The lists the job's kind runs, built in a worker thread (tens of ms of IK each:
+        not on the event loop, where every other job's link waits meanwhile)."""
+        for kind in LISTS_OF_KIND[self.job.kind]:
+            if kind not in self._plans:
+                self._plans[kind] = await asyncio.to_thread(plan_for, self.model, kind,
+                                                            self.options)
 
     @property
     def route(self) -> str:
@@ -145,6 +155,7 @@ class JobRunner:
         try:
             self._set("running", "")
             t0 = time.perf_counter()
+            await self._build_plans()
             await self._with_links("setup")
             if "setup" not in self.job.phases:
                 self.store.finish_step(self.job_id, "setup", time.perf_counter() - t0)

@@ -57,13 +57,13 @@ async def _plan_and_add(body: JobCreate, robot: dict, store: Store, manager: Job
     try:  # a job that cannot run is refused now, with the reason, not at run time
         model = parse_model(robot["model"], f"robot {body.robot_id}")
         async with plans:  # a bounded number of plans at once: each takes a worker thread
-            for kind in LISTS_OF_KIND[body.kind]:
-                await asyncio.to_thread(plan_for, model, kind, body.options)
+            built = {kind: await asyncio.to_thread(plan_for, model, kind, body.options)
+                     for kind in LISTS_OF_KIND[body.kind]}
     except ScrewcalError as err:
         raise HTTPException(422, f"this job cannot run on robot {body.robot_id}: "
                             f"{err}") from None
     job = store.add_job(body.robot_id, body.kind, body.mode, body.options.model_dump())
-    manager.start(job.id)
+    manager.start(job.id, built)  # the runner's plans: built once, here, off the event loop
     return public(job, manager)
 
 @router.get("", response_model=list[JobPublic])

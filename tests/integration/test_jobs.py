@@ -1,11 +1,15 @@
 """Each job kind through the REST API, against the emulators, in AUTO and STEP."""
 
 import asyncio
+import threading
 
 import numpy as np
 import pytest
 
+import service.api.jobs as api_jobs
+import service.runner as runner_module
 from screwcal.kinematics.modelfile import parse_model
+from service.plans import plan_for
 from tests.integration.conftest import AUTH, FAST, add_robot
 
 THESIS_OFFSETS = {"J2ry": 1.1, "J3rz": 3.1, "J4rx": -2.0, "J5ry": 3.7, "J6rx": -4.6}
@@ -311,3 +315,24 @@ async def test_a_performance_job_measures_in_an_earlier_jobs_frame(service, rig)
     bad = await service.post("/jobs", headers=AUTH, json={
         "robot_id": robot, "kind": "performance", "options": {**FAST, "frame_from_job": 999}})
     assert bad.status_code == 404
+
+
+async def test_a_posted_jobs_plan_is_built_once_and_never_on_the_event_loop(service, rig,
+                                                                           monkeypatch):
+    """The request that posts a job builds its list to refuse one that cannot run; the runner
+    takes that list (it built it a second time, on the event loop, where every other job's
+    link waited meanwhile)."""
+    built = []
+
+    def counted(model, kind, options):
+        built.append((kind, threading.current_thread() is threading.main_thread()))
+        return plan_for(model, kind, options)
+
+    monkeypatch.setattr(api_jobs, "plan_for", counted)
+    monkeypatch.setattr(runner_module, "plan_for", counted)
+    robot = await add_robot(service, rig)
+    r = await service.post("/jobs", headers=AUTH, json={
+        "robot_id": robot, "kind": "calibration", "options": FAST})
+    job = await wait_state(service, r.json()["id"])
+    assert job["state"] == "done", job["reason"]
+    assert built == [("cal", False)]
