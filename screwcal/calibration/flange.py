@@ -14,6 +14,7 @@ swapped, a wrong feature probed) are refused with the reason.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from itertools import permutations
 
 import numpy as np
@@ -131,8 +132,14 @@ class MeasuringFlange:
         check_holes(holes)
         return cls(frame_from_holes(holes)[0], hole_distances(holes)[0])
 
+    @cached_property
+    def ef_in_tcp(self) -> Array:
+        """(T_tcp^ef)^-1, once per flange: the service applies it to every probed pose."""
+        return invert_transform(self.tcp_in_ef)
+
     def flange_poses(self, holes_mm: ArrayLike, tol_mm: float = 0.5) -> Array:
         """T_ef^b (N, 4, 4) from probed holes (N, 3, 3) in the measuring frame, Eq. 4.6."""
         holes = _as_points(holes_mm)
         check_holes(holes, self.hole_distances_mm, tol_mm)
-        return frame_from_holes(holes) @ invert_transform(self.tcp_in_ef)
+        poses: Array = frame_from_holes(holes) @ self.ef_in_tcp
+        return poses
