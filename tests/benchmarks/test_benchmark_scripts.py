@@ -43,6 +43,14 @@ def test_jobs_repeats_and_reports_the_spread():
     assert run("jobs.py", "--rounds", "0").returncode != 0
 
 
+def test_jobs_beside_cpu_bound_processes_reports_each_pair():
+    proc = run("jobs.py", "--robots", "2", "--rounds", "3", "--hogs", "1")
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert "beside 1 CPU-bound processes" in lines[2] and "3 runs)" in lines[2], proc.stdout
+    assert "beside them / alone, pair by pair" in lines[3] and "CPU/wall" in lines[1]
+
+
 def test_calibration_reports_medians_and_the_commands_defaults():
     proc = run("calibration.py", "--repeat", "3", "--poses", "60", "--no-de")
     assert proc.returncode == 0, proc.stderr
