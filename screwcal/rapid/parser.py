@@ -53,6 +53,7 @@ from screwcal.rapid.scanner import KEYWORDS, RapidSyntaxError
 __all__ = ["KEYWORDS", "RapidSyntaxError", "parse_expression", "parse_module"]
 
 # A procedure call whose arguments are all names, on one line (the rest of most statements).
+_DECL_HEAD = re.compile(r"[ \t]+([A-Za-z]\w*)[ \t]+([A-Za-z]\w*)[ \t]*(:=)")
 _PLAIN_CALL = re.compile(r"[ \t]+([A-Za-z]\w*(?:[ \t]*,[ \t]*[A-Za-z]\w*)*)[ \t]*;")
 _ENDS = {"PROC": "ENDPROC", "FUNC": "ENDFUNC", "TRAP": "ENDTRAP"}
 _HANDLERS = ("BACKWARD", "ERROR", "UNDO")
@@ -138,12 +139,18 @@ class _Parser(ExpressionParser):
 
     def data_decl(self, start: int, scope: str | None) -> DataDecl:
         storage = self.value
-        self.advance()
-        type_ = self.ident("a data type")
-        name = self.ident("the data's name")
         dims: tuple[Expr, ...] = ()
-        if self.accept("{"):
-            dims = self.expr_list("}")
+        head = _DECL_HEAD.match(self.text, self.end)
+        if head and head[1].upper() not in KEYWORDS and head[2].upper() not in KEYWORDS:
+            type_, name = head[1], head[2]  # `CONST robtarget p10 :=` on one line: the
+            self.pos = head.start(3)  # two names read in one match, the scanner at ':='
+            self.advance()
+        else:
+            self.advance()
+            type_ = self.ident("a data type")
+            name = self.ident("the data's name")
+            if self.accept("{"):
+                dims = self.expr_list("}")
         value = None
         if self.accept(":="):
             value = self.item((";",))

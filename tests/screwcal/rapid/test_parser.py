@@ -257,3 +257,23 @@ def test_parsing_pauses_the_cycle_collector_and_resumes_it():
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+@pytest.mark.parametrize("head", ["CONST robtarget p10 :=", "CONST  robtarget\tp10:=",
+                                  "CONST robtarget ! a comment\n  p10 :=",
+                                  "CONST robtarget\n    p10\n    :="])
+def test_a_declaration_reads_the_same_on_one_line_or_several(head):
+    """`CONST type name :=` on one line is read in one match; across lines or comments, token
+    by token: the same declaration either way."""
+    value = "[[1,2,3],[1,0,0,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]"
+    decl = parse_module(f"MODULE m\n{head} {value};\nENDMODULE\n").data[0]
+    assert (decl.storage, decl.type, decl.name, decl.dims) == ("CONST", "robtarget", "p10", ())
+    assert [row.texts for row in decl.value.items] == [
+        ("1", "2", "3"), ("1", "0", "0", "0"), ("0", "0", "0", "0"), ("9E+09",) * 6]
+
+
+@pytest.mark.parametrize("text, where", [("VAR num TO := 1;", "the data's name"),
+                                         ("VAR IF x := 1;", "a data type")])
+def test_a_keyword_as_a_declared_name_or_type_is_refused(text, where):
+    with pytest.raises(RapidSyntaxError, match=f"expected {where}"):
+        parse_module(f"MODULE m\n{text}\nENDMODULE\n")
