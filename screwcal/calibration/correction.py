@@ -142,21 +142,28 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
     reached, inside = reached.astype(bool), calibrated.within_limits(q).astype(bool)
     plausible = np.abs(change).max(axis=1, initial=0.0) <= bound_deg
     beyond: dict[int, tuple[float, float]] = {}  # unreached: how near the calibrated robot gets
-    stuck = np.flatnonzero(~reached & ~_wrist_singular(nominal, ref))
-    if stuck.size:  # Gauss-Newton stalls next to the stretched arm: LM from the reference
+    near_wrist = _wrist_singular(nominal, ref)
+    # Gauss-Newton stalls next to the stretched arm, or runs off along a singular direction
+    # (joint 1 at -733 deg for a target whose solution is 2 deg from the reference, next to
+    # the shoulder singularity): LM from the reference, which stays next to it
+    stuck = np.flatnonzero(~(reached & inside & plausible) & ~near_wrist)
+    if stuck.size:
         q_s, met, gap = _near_singular_solutions(robot, T[stuck], ref[stuck])
         q[stuck[met]], reached[stuck[met]] = q_s[met], True
         inside[stuck] = calibrated.within_limits(q[stuck]).astype(bool)
         change[stuck] = calibrated.joints_to_deg(q[stuck] - ref[stuck])
         plausible[stuck] = np.abs(change[stuck]).max(axis=1, initial=0.0) <= bound_deg
-        beyond.update(zip(stuck[~met].tolist(), gap[~met].tolist(), strict=True))
-    wrist = _wrist_singular(nominal, ref) & ~(reached & inside & plausible)
+        beyond.update(zip(stuck[~met & ~reached[stuck]].tolist(),
+                          gap[~met & ~reached[stuck]].tolist(), strict=True))
+    wrist = near_wrist & ~(reached & inside & plausible)
     if wrist.any():  # joints 4 and 6 trade freely there: solve on every branch instead
         at = np.flatnonzero(wrist)
-        q_w, ok_w, measure = _wrist_solutions(robot, T[at], ref[at])
-        usable = ok_w.astype(bool) & (measure <= bound_deg)
-        at, q_w = at[usable], q_w[usable]
-        q[at], reached[at], inside[at], plausible[at] = q_w, True, True, True
+        q_w, _, measure = _wrist_solutions(robot, T[at], ref[at])
+        met_w = np.isfinite(measure)  # the solution next to the reference, usable or not: a
+        at, q_w, measure = at[met_w], q_w[met_w], measure[met_w]  # refusal names its joints
+        q[at], reached[at] = q_w, True
+        inside[at] = calibrated.within_limits(q_w).astype(bool)
+        plausible[at] = measure <= bound_deg  # joints 4 and 6 counted by their combined turn
         change[at] = calibrated.joints_to_deg(q_w - ref[at])
     refused = []
     error: type[TargetRefusedError]
