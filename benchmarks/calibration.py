@@ -21,15 +21,14 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from measured_robot import table11_robot_in_a_cell  # the benchmarks' own robot
 from timing import median_of  # the benchmarks' own helper
 
 from screwcal.calibration.identify import identify
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.posesets import random_configurations
-from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.pose import euler_zyx_deg_from_rotation
 from screwcal.kinematics.robots import irb1600
-from screwcal.kinematics.se3 import exp_twist
 from screwcal.studies.simulated_measurements import simulate_measurements
 
 
@@ -51,8 +50,7 @@ def main() -> None:
     if args.repeat < 3:
         parser.error("--repeat: at least 3 runs (a median with its spread)")
     rng = np.random.default_rng(0)
-    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11).with_frames(
-        exp_twist([0.1, -0.2, 0.3, 1500, -300, 200]), exp_twist([0, 0, 0, 30, -20, 80]))
+    truth = table11_robot_in_a_cell()
     d40 = simulate_measurements(truth, random_configurations(40, rng), rng)
     big = args.poses
     d1000 = simulate_measurements(truth, random_configurations(big, rng), rng)

@@ -21,14 +21,13 @@ import argparse
 import time
 
 import numpy as np
+from measured_robot import table11_robot_in_a_cell  # the benchmarks' own robot
 from threadpoolctl import ThreadpoolController
 from timing import interleaved  # the benchmarks' own helper
 
 from screwcal.calibration.identify import identify
 from screwcal.calibration.posesets import random_configurations
-from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.robots import irb1600
-from screwcal.kinematics.se3 import exp_twist
 from screwcal.studies.simulated_measurements import simulate_measurements
 
 
@@ -41,8 +40,7 @@ def main() -> None:
     if args.rounds < 5:
         parser.error("--rounds: at least 5 (interleaved medians with their spread)")
     rng = np.random.default_rng(0)
-    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11).with_frames(
-        exp_twist([0.1, -0.2, 0.3, 1500, -300, 200]), exp_twist([0, 0, 0, 30, -20, 80]))
+    truth = table11_robot_in_a_cell()
     data = simulate_measurements(truth, random_configurations(args.poses, rng), rng)
     nominal = irb1600()
 
