@@ -21,7 +21,6 @@ from typing import NamedTuple
 from screwcal.errors import DataFileError
 from screwcal.rapid import RapidSyntaxError, parse_module
 from screwcal.rapid import ast as rapid
-from screwcal.rapid.acyclic import cycle_collection_paused
 
 # A number as RAPID writes it (with its sign): where the filter's numbers are in a text.
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
@@ -153,12 +152,9 @@ def _motion(call: rapid.ProcCall, text: str, line: int) -> Motion:
 
 
 def read_rapid_module(path: str, text: str) -> RapidModule:
-    """The module's data declarations, motion instructions and run-time targets."""
-    with cycle_collection_paused():  # the module's tokens hold no cycle (rapid/acyclic.py)
-        return _read(path, text)
-
-
-def _read(path: str, text: str) -> RapidModule:
+    """The module's data declarations, motion instructions and run-time targets (a large
+    module's caller pauses the cyclic collector around this and the filter:
+    `screwcal.rapid.acyclic`)."""
     try:
         parsed = parse_module(text, path)
     except RapidSyntaxError as err:
