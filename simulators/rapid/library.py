@@ -10,6 +10,12 @@ from typing import Any
 
 import numpy as np
 
+from screwcal.kinematics.pose import (
+    euler_zyx_deg_from_rotation,
+    quaternion_wxyz_from_rotation,
+    rotation_from_euler_zyx_deg,
+    rotation_from_quaternion_wxyz,
+)
 from simulators.rapid.builtins import builtin
 from simulators.rapid.control import ExitCycle, Stopped
 from simulators.rapid.errors import RapidError
@@ -177,48 +183,35 @@ def _dim(task: Any, pos: list, opt: dict) -> float:
 
 
 def quaternion_of(R: np.ndarray) -> tuple[float, float, float, float]:
-    """(q1 = w, q2, q3, q4) of a rotation matrix, w >= 0."""
-    w = math.sqrt(max(0.0, 1 + R[0, 0] + R[1, 1] + R[2, 2])) / 2
-    x = math.copysign(math.sqrt(max(0.0, 1 + R[0, 0] - R[1, 1] - R[2, 2])) / 2, R[2, 1] - R[1, 2])
-    y = math.copysign(math.sqrt(max(0.0, 1 - R[0, 0] + R[1, 1] - R[2, 2])) / 2, R[0, 2] - R[2, 0])
-    z = math.copysign(math.sqrt(max(0.0, 1 - R[0, 0] - R[1, 1] + R[2, 2])) / 2, R[1, 0] - R[0, 1])
+    """(q1 = w, q2, q3, q4) of a rotation matrix, w >= 0 (RAPID's orient)."""
+    w, x, y, z = quaternion_wxyz_from_rotation(R).tolist()
     return (w, x, y, z)
 
 
 def matrix_of(q: Record) -> np.ndarray:
-    w, x, y, z = (q.f["q1"], q.f["q2"], q.f["q3"], q.f["q4"])
-    n = math.sqrt(w * w + x * x + y * y + z * z)
+    """The rotation of an orient; one not normalised (beyond 1e-4) is RAPID's ERR_ARGVALERR."""
+    wxyz = np.array([q.f["q1"], q.f["q2"], q.f["q3"], q.f["q4"]], dtype=float)
+    n = float(np.linalg.norm(wxyz))
     if abs(n - 1) > 1e-4:
         raise RapidError("ERR_ARGVALERR", f"orient not normalised (|q| = {n:.6f})")
-    w, x, y, z = w / n, x / n, y / n, z / n
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    R: np.ndarray = rotation_from_quaternion_wxyz(wxyz)
+    return R
 
 
 @builtin("OrientZYX", "func")
 def _orientzyx(task: Any, pos: list, opt: dict) -> Record:
     """orient from Euler angles (deg) about Z, then Y, then X: R = Rz Ry Rx."""
-    z, y, x = (math.radians(a) for a in pos)
-    cz, sz, cy, sy, cx, sx = math.cos(z), math.sin(z), math.cos(y), math.sin(y), \
-        math.cos(x), math.sin(x)
-    R = np.array([[cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx],
-                  [sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx],
-                  [-sy, cy * sx, cy * cx]])
-    return record("orient", *quaternion_of(R))
+    z, y, x = pos
+    return record("orient", *quaternion_of(rotation_from_euler_zyx_deg([x, y, z])))
 
 
 @builtin("EulerZYX", "func")
 def _eulerzyx(task: Any, pos: list, opt: dict) -> float:
     """One Euler angle (deg) of an orient: \\X, \\Y or \\Z of R = Rz Ry Rx."""
-    R = matrix_of(pos[0])
-    y = math.degrees(math.asin(max(-1.0, min(1.0, -R[2, 0]))))
-    if opt.get("x"):
-        return num(math.degrees(math.atan2(R[2, 1], R[2, 2])))
-    if opt.get("y"):
-        return num(y)
-    if opt.get("z"):
-        return num(math.degrees(math.atan2(R[1, 0], R[0, 0])))
+    rx, ry, rz = euler_zyx_deg_from_rotation(matrix_of(pos[0])).tolist()
+    for name, angle in (("x", rx), ("y", ry), ("z", rz)):
+        if opt.get(name):
+            return num(angle)
     raise RapidError("ERR_ARGVALERR", "EulerZYX needs \\X, \\Y or \\Z")
 
 
