@@ -243,9 +243,7 @@ class Acquisition:
         """Run the robot through `plan` without measuring (a warm-up), in lists of at most
         MAX_LIST; the operator's gate before each move, as for a measured list."""
         assert self.client is not None
-        for p in plan:
-            if not self.model.within_limits(np.radians(p.joints_deg)):
-                raise SafetyError(f"{phase} pose {p.idx} is outside the joint limits")
+        self._check_limits(phase, plan)
         for start in range(0, len(plan), MAX_LIST):
             chunk = plan[start:start + MAX_LIST]
             await self.client.load("PERF", [p.joints_deg for p in chunk])

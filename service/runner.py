@@ -365,7 +365,7 @@ class JobRunner:
         rows = self.store.measurements(self.job_id)
         drift_rows = [r for r in rows if r["phase"] == DRIFT_PHASE]
         others = [r for r in rows if r["phase"] != DRIFT_PHASE]
-        loads = {r["phase"]: self._series_of(r["phase"]) for r in others}
+        loads = {phase: self._series_of(phase) for phase in {r["phase"] for r in others}}
         promised, cal_phases = None, []
         for suffix in ROUND_SUFFIXES:
             est = doc.estimation_of(suffix)
