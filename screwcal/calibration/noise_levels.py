@@ -28,7 +28,7 @@ from screwcal.calibration.identify_settings import (
     levels_from_variance,
     variance_from_levels,
 )
-from screwcal.calibration.residual_problem import ResidualProblem, whitening
+from screwcal.calibration.residual_problem import ResidualProblem, whitening_of_levels
 from screwcal.calibration.solvers import Solution, Solve
 from screwcal.kinematics.se3 import Array
 
@@ -69,7 +69,7 @@ def estimate_with_joint_check(problem: ResidualProblem, noise: NoiseModel, x: Ar
     V = problem.components(x)
     theta = variance_from_levels((fit.noise.position_mm, fit.noise.orientation_deg
                                   if problem.rows == 6 else 0.0, 0.0))
-    without = loo_position_error(e, A, whitening(np.einsum("k,knij->nij", theta, V)))
+    without = loo_position_error(e, A, whitening_of_levels(theta, V))
     with_joint = loo_position_error(e, A, problem.whiten)
     if without >= (1.0 - PRESS_MARGIN) * with_joint:
         return fit
@@ -129,7 +129,7 @@ def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve:
     e, A = problem.raw(x)
     levels = levels_on_linearisation(e, A, problem.components(x), theta, idx, problem.prior, x)
     V = problem.components(levels.x)
-    problem = problem.with_whitening(whitening(np.einsum("k,knij->nij", levels.theta, V)))
+    problem = problem.with_whitening(whitening_of_levels(levels.theta, V))
     solution = solve(problem, levels.x)
     return NoiseFit(problem, solution, _estimate(levels.theta, idx, levels.information,
                                                  problem.rows, levels.iterations,
@@ -162,7 +162,7 @@ def levels_on_linearisation(e: Array, A: Array, V: Array, theta: Array, idx: Ind
     P = prior
     while iteration < VCE_MAX_ITER:
         iteration += 1
-        W = whitening(np.einsum("k,knij->nij", theta, V))
+        W = whitening_of_levels(theta, V)
         # The weighted linear least-squares step by its normal equations (their inverse is
         # the scoring's too), and the residuals carried there.
         WA = (W @ A).reshape(-1, A.shape[-1])

@@ -11,8 +11,9 @@ estimate x instead (Gauss-Newton on the normal equations):
   the rows kept (what a refit moves to first order: gross errors move the estimate by
   hundredths of a millimetre or degree, where the model is linear to far below the noise);
 - the residuals of every pose are carried by that step (e + A dx);
-- the free noise levels are rescaled by the variance factor of the rows kept (the components'
-  shares held: one scalar, where a refit re-ran the whole variance-component estimation);
+- the noise levels are held between re-estimations (rescaling them by the kept rows' variance
+  factor, the components' shares held, rejected clean poses with 0.01 mm residuals: held
+  levels can only err on the safe side);
 - when no pose exceeds its limit, the variance components are estimated again on the
   linearisation (`noise_levels.levels_on_linearisation`); the rounds go on while that
   uncovers more.
@@ -35,7 +36,7 @@ import numpy as np
 from screwcal.calibration.diagnostics import pose_tests
 from screwcal.calibration.identifiability import Index
 from screwcal.calibration.noise_levels import levels_on_linearisation
-from screwcal.calibration.residual_problem import whitening
+from screwcal.calibration.residual_problem import whitening_of_levels
 from screwcal.calibration.solvers import gauss_newton_step
 from screwcal.kinematics.se3 import Array
 
@@ -95,21 +96,19 @@ def reject_in_rounds(e: Array, A: Array, V: Array, theta: Array, free: Index, pr
                                              x)
             e = e + A @ (levels.x - x)
             theta, x, estimated = levels.theta, levels.x, True
-            W = _whitening(theta, V[:, kept])
+            W = whitening_of_levels(theta, V[:, kept])
             continue
         drop = worst_poses(test.statistic, limit, cap - len(out))
         out += [Rejection(int(kept[k]), float(np.linalg.norm(e[kept[k], :3])),
                           float(test.statistic[k]), limit) for k in drop]
         kept = np.delete(kept, drop)
-        W = _whitening(theta, V[:, kept])
+        W = whitening_of_levels(theta, V[:, kept])
         dx = _linear_step(e[kept], A[kept], W, prior, x)
         x, e = x + dx, e + A @ dx
         estimated = False
     return Rounds(out, x, theta)
 
 
-def _whitening(theta: Array, V: Array) -> Array:
-    return whitening(np.einsum("k,knij->nij", theta, V))
 
 
 def _linear_step(e: Array, A: Array, W: Array, prior: Array, x: Array) -> Array:

@@ -38,6 +38,12 @@ def whitening(cov: Array) -> Array:
     return np.linalg.inv(np.linalg.cholesky(cov))
 
 
+def whitening_of_levels(theta: Array, V: Array) -> Array:
+    """The whitening of the covariance sum_k theta_k V_k: variance components (K,) and their
+    per-pose matrices (K, N, k, k)."""
+    return whitening(np.einsum("k,knij->nij", theta, V))
+
+
 def prior_weights(errors: ErrorModel, ranges: PlausibleRanges | None) -> Array:
     """1 / sigma of the prior per parameter (numeric units); zeros without one."""
     if ranges is None:
