@@ -28,10 +28,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from screwcal.calibration.lag import correct_lag
 from screwcal.errors import InputError
 from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
+from screwcal.kinematics.ik import pose_error
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.se3 import Array, rotvec_from_rotation
+from screwcal.kinematics.se3 import Array
 from screwcal.tables import read_numeric_csv
 
 if TYPE_CHECKING:
@@ -76,11 +78,9 @@ class BacklashEstimate:
 def pose_residuals(model: SerialModel, q_rad: ArrayLike, T_measured: ArrayLike) -> Array:
     """(N, 6) measured minus predicted flange: position (mm) and the rotation vector (rad) of
     R_measured R_predicted^T, the model's frames included."""
-    T_pred = forward_kinematics(model, q_rad)
-    T = np.asarray(T_measured, dtype=float)
-    dp = T[:, :3, 3] - T_pred[:, :3, 3]
-    dphi = rotvec_from_rotation(T[:, :3, :3] @ np.swapaxes(T_pred[:, :3, :3], 1, 2))
-    return np.concatenate([dp, dphi], axis=1)
+    residuals: Array = pose_error(np.asarray(T_measured, dtype=float),
+                                  forward_kinematics(model, q_rad))
+    return residuals
 
 
 def pair_jacobians(model: SerialModel, q_rad: ArrayLike) -> Array:
@@ -191,9 +191,7 @@ def backlash_of_file(path: str | Path, result: CalibrationResult, data: Measurem
     a, b, flipped = direction_pairs(np.degrees(data.q), table.take(columns))
     if len(a) < 2:
         return None
-    q = data.q
-    if result.reading_lag is not None and data.q_previous is not None:
-        q = q + result.reading_lag * np.nan_to_num(q - data.q_previous)
+    q = data.q if result.reading_lag is None else correct_lag(data, result.reading_lag).q
     T = forward_kinematics(result.model, q)  # the orientation where only positions are measured
     T[:, :3, 3] = data.positions_mm
     if data.rotations is not None:

@@ -37,7 +37,7 @@ from screwcal.kinematics.forward import (
     point_jacobian,
     spatial_jacobian,
 )
-from screwcal.kinematics.ik import _pose_error, local_ik, numerical_ik
+from screwcal.kinematics.ik import local_ik, numerical_ik, pose_error
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, Mask
 
@@ -219,7 +219,11 @@ def _wrist_singular(model: SerialModel, q: Array) -> Mask:
 def _meets(T: Array, robot: SerialModel, q: Array) -> Mask:
     """(M,) whether the joints q (M, 6) put the flange on T (M, 4, 4) within the singular
     tolerances."""
-    err = _pose_error(T, forward_kinematics(robot, q))
+    return _within_singular_tolerances(pose_error(T, forward_kinematics(robot, q)))
+
+
+def _within_singular_tolerances(err: Array) -> Mask:
+    """(M,) pose errors (M, 6) (mm, rad) within SINGULAR_TOL_MM and SINGULAR_TOL_DEG."""
     return (np.linalg.norm(err[:, :3], axis=1) <= SINGULAR_TOL_MM) & \
         (np.linalg.norm(err[:, 3:], axis=1) <= np.radians(SINGULAR_TOL_DEG))
 
@@ -273,10 +277,10 @@ def _near_singular_solutions(robot: SerialModel, T: Array, ref: Array
     a target the calibrated arm cannot reach is refused with that distance."""
     q, _ = _fit_poses(robot, T, ref)
     q = _turned_toward(q, ref)
-    err = _pose_error(T, forward_kinematics(robot, q))
+    err = pose_error(T, forward_kinematics(robot, q))
     gap = np.column_stack([np.linalg.norm(err[:, :3], axis=1),
                            np.degrees(np.linalg.norm(err[:, 3:], axis=1))])
-    return q, _meets(T, robot, q), gap
+    return q, _within_singular_tolerances(err), gap
 
 
 def _fit_poses(robot: SerialModel, T: Array, q0: Array) -> tuple[Array, Array]:
@@ -285,7 +289,7 @@ def _fit_poses(robot: SerialModel, T: Array, q0: Array) -> tuple[Array, Array]:
     _POSE_SCALE, with the analytic Jacobian. Each target stops when a step no longer lowers its
     cost. Returns the joints and their costs (half the squared scaled error) (M,)."""
     q = q0.copy()
-    r = _pose_error(T, forward_kinematics(robot, q)) * _POSE_SCALE
+    r = pose_error(T, forward_kinematics(robot, q)) * _POSE_SCALE
     cost = 0.5 * np.einsum("ij,ij->i", r, r)
     lam = np.full(len(q), 1e-3)
     active = np.ones(len(q), bool)
@@ -301,7 +305,7 @@ def _fit_poses(robot: SerialModel, T: Array, q0: Array) -> tuple[Array, Array]:
         D = np.maximum(np.diagonal(A, axis1=1, axis2=2), 1e-12)
         step = np.linalg.solve(A + (lam[idx, None] * D)[:, :, None] * np.eye(6), g[:, :, None])
         trial = q[idx] + step[:, :, 0]
-        r_trial = _pose_error(T[idx], forward_kinematics(robot, trial)) * _POSE_SCALE
+        r_trial = pose_error(T[idx], forward_kinematics(robot, trial)) * _POSE_SCALE
         c_trial = 0.5 * np.einsum("ij,ij->i", r_trial, r_trial)
         better = c_trial < cost[idx]
         gain = cost[idx] - c_trial

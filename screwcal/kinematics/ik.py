@@ -39,7 +39,7 @@ from screwcal.kinematics.wrist_partitioned import (
 )
 
 __all__ = ["BRANCHES", "IKSolutions", "WristPartitionedGeometry", "closed_form_ik", "local_ik",
-           "numerical_ik"]
+           "numerical_ik", "pose_error"]
 
 
 def _flange_targets(model: SerialModel, T_world_tool: ArrayLike) -> tuple[Array, Array]:
@@ -68,7 +68,7 @@ def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike, require_all: boo
         require_reachable(reach)
     return solutions_of(model, q, reach, within, T_world, check)
 
-def _pose_error(T_target: Array, T: Array) -> Array:
+def pose_error(T_target: Array, T: Array) -> Array:
     """(dp, dphi) taking T to T_target: position difference and world-frame rotation vector."""
     dR = T_target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], 1, 2)
     dphi = rotvec_from_rotation(dR)
@@ -87,7 +87,7 @@ def _refine(model: SerialModel, targets: Array, q0: Array, tol_mm: float, tol_ra
         if idx.size == 0:
             break
         T = forward_kinematics(model, q[idx])
-        err = _pose_error(targets[idx], T)
+        err = pose_error(targets[idx], T)
         done = (np.linalg.norm(err[:, :3], axis=1) < tol_mm) & \
                (np.linalg.norm(err[:, 3:], axis=1) < tol_rad)
         converged[idx[done]] = True
@@ -101,7 +101,7 @@ def _refine(model: SerialModel, targets: Array, q0: Array, tol_mm: float, tol_ra
     # A last check for those that converged on the final step.
     idx = np.flatnonzero(~converged)
     if idx.size:
-        err = _pose_error(targets[idx], forward_kinematics(model, q[idx]))
+        err = pose_error(targets[idx], forward_kinematics(model, q[idx]))
         converged[idx] = (np.linalg.norm(err[:, :3], axis=1) < tol_mm * 10) & \
                          (np.linalg.norm(err[:, 3:], axis=1) < tol_rad * 10)
     return q, converged
