@@ -4,7 +4,6 @@ the calibrated robot where they ask; docs/formats.md."""
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
@@ -44,14 +43,15 @@ solution.
 def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.calibration.correction import compensate_each
     from screwcal.errors import DataFileError
-    from screwcal.kinematics.modelfile import load_model
+    from screwcal.kinematics.modelfile import parse_model, read_model_document
     from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
     source = args.rapid or args.targets or args.measuring_targets
     check_outputs([args.out], [args.result, source])
-    calibrated = with_payload(load_model(args.result), args)  # a payload other than the result's
-    document = json.loads(Path(args.result).read_text(encoding="utf-8"))
+    document = read_model_document(args.result)
+    calibrated = with_payload(parse_model(document, args.result), args)  # a payload other than
+    # the result's
     nominal = nominal_of(document, args.result, args.robot) or calibrated
     _refuse_position_only(document, args.result)
     if args.rapid:
@@ -89,13 +89,13 @@ def run_compensate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _refuse_position_only(document: dict, path: str) -> None:
+def _refuse_position_only(document: object, path: str) -> None:
     """A model that predicts positions but not the orientation cannot compensate targets that
     carry one (every robtarget and target row does)."""
     from screwcal.errors import DataFileError
 
-    why = document.get("predicts", {}).get("orientation_unknown") \
-        if isinstance(document.get("predicts"), dict) else None
+    predicts = document.get("predicts") if isinstance(document, dict) else None
+    why = predicts.get("orientation_unknown") if isinstance(predicts, dict) else None
     if why:
         raise DataFileError(path, f"the model is position-only ({why}): it cannot compensate "
                             "targets with an orientation; calibrate with full-pose data or a "

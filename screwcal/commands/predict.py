@@ -23,20 +23,16 @@ def run(args: argparse.Namespace) -> int:
     from screwcal.commands.joint_convention import joint_convention
     from screwcal.commands.options import check_outputs
     from screwcal.kinematics.forward import forward_kinematics
-    from screwcal.kinematics.modelfile import resolve_model
+    from screwcal.kinematics.modelfile import parse_model, read_model_document, resolve_model
     from screwcal.kinematics.pose import pose_from_transform
     from screwcal.kinematics.readings import serial_from_readings
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
     given = args.result or args.robot or args.model
     check_outputs([args.out], [args.joints, given])
-    if args.result:
-        from screwcal.kinematics.modelfile import load_model
-
-        model = with_payload(load_model(args.result), args)
-    else:
-        model = with_payload(resolve_model(given), args)
-    document = _document(given)
+    document = read_model_document(args.result) if args.result else _document(given)
+    model = with_payload(resolve_model(given) if document is None else
+                         parse_model(document, given), args)
     table = read_numeric_csv(args.joints, joint_columns(model.n_joints))
     q_deg = serial_from_readings(table.values, joint_convention(args, document, model))
     outside = np.logical_not(model.within_limits(model.joints_from_deg(q_deg)))
@@ -52,17 +48,16 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _document(given: str) -> object:
-    """The JSON document of a result or model file (None for a library robot's name)."""
-    import json
+    """The JSON document of a robot, model or result file; None for a library robot's name
+    (or what is neither: `resolve_model` says so)."""
     from pathlib import Path
 
-    path = Path(given)
-    if not path.is_file():
+    from screwcal.kinematics.modelfile import read_model_document
+    from screwcal.kinematics.robots import BUILTIN_MODELS
+
+    if given in BUILTIN_MODELS or not Path(given).is_file():
         return None
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None  # resolve_model has said what is wrong with it
+    return read_model_document(given)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

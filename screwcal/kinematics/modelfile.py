@@ -104,14 +104,20 @@ def parse_model(data: object, source: str = "model") -> SerialModel:
 
 def load_model(path: str | Path) -> SerialModel:
     """Read a model file (any representation)."""
+    return parse_model(read_model_document(path), str(path))
+
+
+def read_model_document(path: str | Path) -> object:
+    """The decoded JSON of a robot, model or result file (what `parse_model` reads; a command
+    that needs the result's other members too reads it once)."""
     path = Path(path)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data: object = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ModelError(f"{path}: model file not found") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ModelError(f"{path}: not a JSON model file ({err})") from None
-    return parse_model(data, str(path))
+    return data
 
 
 def save_model(model: SerialModel, path: str | Path,
