@@ -261,8 +261,9 @@ class JobRunner:
     # -- estimation, correction, evaluation ---------------------------------------------------
     def estimate(self, suffix: Round = "") -> None:
         kind = self.options.model
-        rows = self.store.measurements(self.job_id, "cal" + suffix)
-        data = analysis.measurement_set(rows, self.store.measurements(self.job_id, DRIFT_PHASE))
+        by_phase = self._rows_by_phase()
+        rows = by_phase.get("cal" + suffix, [])
+        data = analysis.measurement_set(rows, by_phase.get(DRIFT_PHASE, []))
         nominal = replace(self.model, payload=analysis.list_payload(self.options, "cal"))
         result = identify(nominal, data, kind=kind, frames="base",
                           compliance=self.options.compliance, lag=self.options.lag)
@@ -276,7 +277,7 @@ class JobRunner:
         doc.base = result.model.base.tolist()
         if self.options.backlash_poses:
             doc.backlash = analysis.backlash_summary(result, rows, self.plan("cal"))
-        doc = self.with_drift(doc)
+        doc = self.with_drift(doc, by_phase)
         doc.warnings = analysis.job_warnings(doc) + drift_warnings(doc)
         try:
             perf_plan = self.plan("perf") if self.route != "none" else []
@@ -314,6 +315,7 @@ class JobRunner:
 
     def evaluate(self) -> None:
         doc = self.job.result.model_copy()
+        by_phase = self._rows_by_phase()
         if doc.base is not None:
             doc.frame_note = ("accuracy measured in the robot base frame identified by this "
                               "job's calibration, before and after alike")
@@ -323,7 +325,7 @@ class JobRunner:
             doc.frame_note = (f"accuracy measured in the robot base frame identified by job "
                               f"{source}'s calibration")
         else:  # a performance job alone: the measuring frame from its own data
-            data = analysis.measurement_set(self.store.measurements(self.job_id, PERF_PHASES[0]))
+            data = analysis.measurement_set(by_phase.get(PERF_PHASES[0], []))
             doc.base = identify(self.model, data, kind="frames", frames="base").model.base.tolist()
             doc.frame_note = (
                 "accuracy measured in a robot base frame fitted to this performance data "
@@ -336,15 +338,14 @@ class JobRunner:
         plan = {p.idx: p for p in self.plan("perf")}
         doc.performance = {
             phase: analysis.performance_figures(rows, plan, base) for phase in PERF_PHASES
-            if (rows := self.store.measurements(self.job_id, phase))}
-        last_home = {phase: rows[-1] for phase in HOME_PHASES
-                     if (rows := self.store.measurements(self.job_id, phase))}
+            if (rows := by_phase.get(phase))}
+        last_home = {phase: rows[-1] for phase in HOME_PHASES if (rows := by_phase.get(phase))}
         home = analysis.home_check(self.model, last_home, base)
         if home is not None:
             doc.home_check = home
         doc.test_conditions = analysis.iso_test_conditions(
             self.robot, self.model, self.options, plan, self.job.created)
-        doc = self.with_drift(doc)
+        doc = self.with_drift(doc, by_phase)
         doc.warnings = analysis.job_warnings(doc) + drift_warnings(doc)
         if self.job.kind == "verify":  # the drift alarm, in the job's own result and report
             doc.warnings += alarm_warnings(self.store, self.job, doc,
@@ -356,16 +357,24 @@ class JobRunner:
         return drift_schedule(self.options, self.plan("perf")) if self.options.drift_poses \
             else None
 
-    def with_drift(self, doc: ResultDocument) -> ResultDocument:
-        """The result with its drift section (service/drift.py) from the committed checks,
-        against the latest calibration's promise (in a thread: it may build the plan)."""
+    def _rows_by_phase(self) -> dict[str, list[dict]]:
+        """The job's committed poses (read once), by phase, each phase's in index order."""
+        by_phase: dict[str, list[dict]] = {}
+        for row in self.store.measurements(self.job_id):  # ordered by phase, then index
+            by_phase.setdefault(row["phase"], []).append(row)
+        return by_phase
+
+    def with_drift(self, doc: ResultDocument, by_phase: dict[str, list[dict]]
+                   ) -> ResultDocument:
+        """The result with its drift section (service/drift.py) from the committed checks
+        (`by_phase`: the job's rows, `_rows_by_phase`), against the latest calibration's
+        promise (in a thread: it may build the plan)."""
         schedule = self.drift_schedule()
         if schedule is None:
             return doc
-        rows = self.store.measurements(self.job_id)
-        drift_rows = [r for r in rows if r["phase"] == DRIFT_PHASE]
-        others = [r for r in rows if r["phase"] != DRIFT_PHASE]
-        loads = {phase: self._series_of(phase) for phase in {r["phase"] for r in others}}
+        drift_rows = by_phase.get(DRIFT_PHASE, [])
+        others = [r for phase, rows in by_phase.items() if phase != DRIFT_PHASE for r in rows]
+        loads = {phase: self._series_of(phase) for phase in by_phase if phase != DRIFT_PHASE}
         promised, cal_phases = None, []
         for suffix in ROUND_SUFFIXES:
             est = doc.estimation_of(suffix)
