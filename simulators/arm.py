@@ -156,10 +156,13 @@ class ArmEmulator:
         return out
 
     def lines(self, probe: list[tuple[str, Array | None]], first_seq: int) -> bytes:
-        reason = "OUT_OF_REACH" if self.source.true_holes_mm() is not None else "NO_ROBOT"
+        reason = ""  # asked of the source only for a hole not measured
         out = b""
         for k, (label, p) in enumerate(probe):
             seq = first_seq + k
+            if p is None and not reason:
+                reason = "OUT_OF_REACH" if self.source.true_holes_mm() is not None \
+                    else "NO_ROBOT"
             out += encode_not_measured(seq, label, reason) if p is None else \
                 encode_point(seq, label, [float(v) for v in p])
         return out

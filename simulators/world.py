@@ -23,7 +23,7 @@ import numpy as np
 from screwcal.calibration.correction import after_zero
 from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM
 from screwcal.kinematics.compliance import Payload
-from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
+from screwcal.kinematics.forward import flange_kinematics, forward_kinematics, joint_bend
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, transform_points
 from simulators.realism import IDEAL, Realism
@@ -53,7 +53,12 @@ class World:
         self._true_minus_read = np.zeros(len(self._commanded))
         self._direction = np.zeros(len(self._commanded))  # sign of each joint's last move
         self._rng = np.random.default_rng(self.realism_seed)
-        self._drifted: tuple[float, SerialModel] | None = None
+        # the drifted robot at one scale, of one true robot (identity-checked: a test or a
+        # ZERO may replace `truth`)
+        self._drifted: tuple[SerialModel, float, SerialModel] | None = None
+        # the true robot rigid and without its tool, whose kinematic tables are built once
+        # per true robot (`true_holes_mm`: every reading)
+        self._rigid: tuple[SerialModel, SerialModel] | None = None
 
     @property
     def true_joints_deg(self) -> Array:
@@ -128,12 +133,25 @@ class World:
         scale = self.realism.drift_scale(self.running_s)
         if scale == 1.0:
             return self.truth
-        if self._drifted is None or self._drifted[0] != scale:
+        if self._drifted is None or self._drifted[0] is not self.truth \
+                or self._drifted[1] != scale:
             flange = self.truth.home_flange.copy()
             flange[:3, 3] *= scale
-            self._drifted = (scale, self.truth.derived(
+            self._drifted = (self.truth, scale, self.truth.derived(
                 axis_points_mm=self.truth.axis_points_mm * scale, home_flange=flange))
-        return self._drifted[1]
+        return self._drifted[2]
+
+    def _rigid_truth(self) -> SerialModel:
+        """The true robot without its tool and its compliance, once per true robot."""
+        if self._rigid is None or self._rigid[0] is not self.truth:
+            truth = self.truth
+            rigid = truth.with_frames(tool=np.eye(4))
+            if truth.has_compliance:
+                zeros = np.zeros(truth.n_joints)
+                zeros.setflags(write=False)
+                rigid = rigid.derived(compliance=zeros, compliance_by_mass=None)
+            self._rigid = (truth, rigid)
+        return self._rigid[1]
 
     def nominal_tool0(self) -> Array:
         """The controller's idea of tool0 (4, 4) in the robot base frame: nominal FK."""
@@ -141,7 +159,17 @@ class World:
         return flange_kinematics(self.nominal, q)[0]
 
     def true_holes_mm(self) -> Array:
-        """Where the three holes really are, in the arm's frame (3, 3)."""
+        """Where the three holes really are, in the arm's frame (3, 3): the forward kinematics
+        of `true_model()` without its tool. The drift scales every length of the chain by s,
+        which scales the chain's translation by s about the base (each joint's screw, and so
+        their product, is conjugated by diag(s, s, s, 1)): the rigid robot's tables serve every
+        reading; a compliant robot's bend is that of the drifted robot, as before."""
         q = np.radians(self.true_joints_deg)[None]
-        T = forward_kinematics(self.true_model().with_frames(tool=np.eye(4)), q)[0]
+        scale = self.realism.drift_scale(self.running_s)
+        if self.truth.has_compliance:
+            q = q + joint_bend(self.true_model(), q)
+        T = forward_kinematics(self._rigid_truth(), q)[0]
+        if scale != 1.0:
+            t_base = self.truth.base[:3, 3]
+            T[:3, 3] = t_base + scale * (T[:3, 3] - t_base)
         return transform_points(T, self.holes_mm)
