@@ -289,6 +289,12 @@ class ResultDocument(Section):
     def correction_of(self, suffix: Round) -> CorrectionPlan | None:
         return self.correction_2 if suffix else self.correction
 
+    def latest_round(self) -> Round:
+        """The newest calibration round this result holds: '_2' once the second round's
+        estimation (stored with its calibration) is in, else '' (also when there is none: its
+        `estimation_of` is then None)."""
+        return "_2" if self.estimation_2 is not None else ""
+
     def with_round(self, suffix: Round, *, estimation: EstimationSummary | None = None,
                    calibration: dict[str, Any] | None = None,
                    correction: CorrectionPlan | None = None) -> ResultDocument:

@@ -59,7 +59,6 @@ from service.phases import (
     ESTIMATION_FOR,
     HOME_PHASES,
     PERF_PHASES,
-    ROUND_SUFFIXES,
     WARMUP,
     Round,
     compensated_list,
@@ -376,13 +375,13 @@ class JobRunner:
         others = [r for phase, rows in by_phase.items() if phase != DRIFT_PHASE for r in rows]
         loads = {phase: self._series_of(phase) for phase in by_phase if phase != DRIFT_PHASE}
         promised, cal_phases = None, []
-        for suffix in ROUND_SUFFIXES:
-            est = doc.estimation_of(suffix)
-            if est is not None:
-                cal_phases = ["cal" + suffix]
-                sigma = (est.noise or {}).get("position", {}).get("value") or \
-                    est.residual_after_mm / np.sqrt(3.0)
-                promised = float(sigma)
+        suffix = doc.latest_round()
+        est = doc.estimation_of(suffix)
+        if est is not None:
+            cal_phases = ["cal" + suffix]
+            sigma = (est.noise or {}).get("position", {}).get("value") or \
+                est.residual_after_mm / np.sqrt(3.0)
+            promised = float(sigma)
         return doc.model_copy(update={"drift": drift_section(
             schedule, drift_rows, others, loads, cal_phases, promised)})
 

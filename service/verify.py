@@ -18,7 +18,6 @@ from service import analysis
 from service.document import JobOptions, JobRecord, ResultDocument
 from service.errors import ConflictError
 from service.history import drift_alarm, robot_history
-from service.phases import Round
 from service.plans import PlannedPose
 from service.store import Store
 
@@ -46,15 +45,11 @@ def verify_options(store: Store, robot_id: int, options: JobOptions) -> JobOptio
     return options.model_copy(update=update)
 
 
-def _model_round(result: ResultDocument) -> Round:
-    return "_2" if result.calibration_2 else ""
-
-
 def verification_targets(store: Store, plan: list[PlannedPose], source_job: int,
                          nominal: SerialModel) -> list[PlannedPose]:
     """The verify list as production would send it with the source job's model."""
     result = store.job(source_job).result
-    suffix = _model_round(result)
+    suffix = result.latest_round()
     correction = result.correction_of(suffix)
     route = correction.route if correction is not None else "none"
     calibration = result.calibration_of(suffix)

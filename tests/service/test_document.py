@@ -84,6 +84,17 @@ def test_the_rounds_are_read_and_written_by_suffix():
     assert "calibration_2" in second.document()
 
 
+def test_the_latest_round_is_the_newest_estimation():
+    """One answer to "which round made the newest model" (the drift section's promise and a
+    verify job's model both read it)."""
+    assert ResultDocument().latest_round() == ""
+    first = ResultDocument.model_validate(STORED)
+    assert first.latest_round() == ""
+    second = first.with_round("_2", estimation=first.estimation, calibration={"model": {}})
+    assert second.latest_round() == "_2"
+    assert second.calibration_of(second.latest_round()) == {"model": {}}
+
+
 def test_warnings_read_the_typed_document():
     doc = ResultDocument.model_validate({
         "estimation": {**ESTIMATION, "chi2_reduced": 12.0},
