@@ -1,8 +1,8 @@
 """Error models: which geometric parameters are identified, their names, units and Jacobians.
 
 A parameter vector x (numeric units: rad, mm) applies to a reference model by `apply`, and
-`jacobian` gives d(tool twist)/dx, spatial, exactly (not only at x = 0), so that scipy's
-least_squares gets the true Jacobian of the residuals at every step.
+`jacobian` gives d(tool twist)/dx, spatial, exactly (not only at x = 0), so that the solver
+gets the true Jacobian of the residuals at every step.
 
 Candidates, per model kind (thesis 2.2.1.2, 3.1, Table 11; Eq. 2.2):
 

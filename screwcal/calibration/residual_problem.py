@@ -204,8 +204,8 @@ class ResidualProblem:
         return self._apply_weights(self.raw_residuals(x))
 
     def weighted(self, x: Array) -> tuple[Array, Array]:
-        """Weighted residuals and Jacobian; the last evaluation is kept, since least_squares
-        asks for the residuals and the Jacobian at the same x one after the other."""
+        """Weighted residuals and Jacobian; the last evaluation is kept (the result's
+        statistics ask at the solver's last estimate again)."""
         key = x.tobytes()
         if self._last is not None and self._last[0] == key:
             return self._last[1]

@@ -1,6 +1,7 @@
-"""The solvers of the identification: Levenberg-Marquardt from the start, or the thesis's
-Differential Evolution within its bounds (thesis 2.2.3) with a bounded least-squares polish;
-and whether a stopped solver sits at the cost's minimum all the same.
+"""The solvers of the identification: Levenberg-Marquardt from the start (on the normal
+equations, `levenberg_marquardt`), or the thesis's Differential Evolution within its bounds
+(thesis 2.2.3) with a bounded least-squares polish; and whether a stopped solver sits at the
+cost's minimum all the same.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import scipy.linalg
 from scipy.optimize import differential_evolution, least_squares
 
 from screwcal.calibration.error_parameters import ErrorModel
+from screwcal.calibration.levenberg_marquardt import levenberg_marquardt
 from screwcal.calibration.residual_problem import ResidualProblem
 from screwcal.kinematics.se3 import Array
 
@@ -40,12 +42,12 @@ Solve = Callable[[ResidualProblem, Array], Solution]
 
 
 def solve_lm(problem: ResidualProblem, x_start: Array, tol: float = 1e-12) -> Solution:
-    """Levenberg-Marquardt on the posterior from x_start."""
-    p = len(problem.errors.params)
-    sol = least_squares(problem.posterior_residuals, x_start, jac=problem.posterior_jacobian,
-                        method="lm", x_scale="jac", xtol=tol, ftol=tol, gtol=tol,
-                        max_nfev=200 * (p + 1))
-    return Solution(sol.x, bool(sol.status > 0), str(sol.message), int(sol.nfev))
+    """Levenberg-Marquardt on the posterior from x_start, on the normal equations of the
+    problem's own linearisation (`levenberg_marquardt`); nfev: its evaluations of the
+    residuals with their Jacobian."""
+    fit = levenberg_marquardt(problem.weighted, x_start, problem.prior, tol)
+    return Solution(fit.x, fit.converged, f"{fit.message}; {fit.iterations} steps",
+                    fit.evaluations)
 
 
 def de_bounds(errors: ErrorModel, link_bounds_mm: tuple[float, float]

@@ -64,13 +64,13 @@ def test_identify_solves_with_one_thread(two_threads, monkeypatch, rng):
     truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
     data = simulate_measurements(truth, random_configurations(30, rng), rng)
     seen = []
-    solve = solvers_module.least_squares
+    solve = solvers_module.levenberg_marquardt
 
     def watched(*args, **kwargs):
         seen.append(blas_threads())
         return solve(*args, **kwargs)
 
-    monkeypatch.setattr(solvers_module, "least_squares", watched)
+    monkeypatch.setattr(solvers_module, "levenberg_marquardt", watched)
     result = identify(irb1600(), data, kind="thesis", frames="known")
     assert seen and all(s == [1] for s in seen)
     assert blas_threads() == [2]

@@ -135,16 +135,31 @@ def test_compensate_refuses_a_position_only_model(tmp_path, capsys):
 
 
 def test_a_fit_at_the_noise_floor_is_converged_whatever_stopped_the_solver(monkeypatch):
-    """The solver stopped on its evaluation budget (here forced to one evaluation) at the
-    minimum: converged, and the message says why; it used to say NOT converged."""
+    """The solver stopped on its evaluation budget (here forced to the start's and one step's)
+    at the minimum: converged, and the message says why; it used to say NOT converged."""
     import screwcal.calibration.solvers as solvers_module
 
-    real = solvers_module.least_squares
-    monkeypatch.setattr(solvers_module, "least_squares",
-                        lambda *a, **k: real(*a, **{**k, "max_nfev": 1}))
+    real = solvers_module.levenberg_marquardt
+    monkeypatch.setattr(solvers_module, "levenberg_marquardt",
+                        lambda *a, **k: real(*a, **{**k, "max_evaluations": 2}))
     _, data, _ = _on_axis(5, poses=60)
     result = identify(irb1600(), data)
     assert result.converged and "stationary point" in result.message
+
+
+def test_a_fit_stopped_short_of_the_minimum_says_so_and_what_to_try(monkeypatch):
+    """Stopped at its start (the linear estimate, before the nonlinear step): not converged,
+    and the message says why and what to try."""
+    import screwcal.calibration.solvers as solvers_module
+
+    real = solvers_module.levenberg_marquardt
+    monkeypatch.setattr(solvers_module, "levenberg_marquardt",
+                        lambda *a, **k: real(*a, **{**k, "max_evaluations": 1}))
+    _, data, _ = _on_axis(5, poses=60)
+    result = identify(irb1600(), data)
+    assert not result.converged
+    assert "stopped after 1 evaluations" in result.message and "try a simpler model" in \
+        result.message
 
 
 def test_position_data_with_every_level_fixed(tmp_path, capsys):
