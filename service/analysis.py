@@ -319,16 +319,14 @@ def job_warnings(result: ResultDocument) -> list[str]:
             out.append(f"poor fit in the estimation{suffix}: chi2/dof {est.chi2_reduced:.1f} "
                        f"(> {POOR_FIT_CHI2:g}): the model misses something (compliance, a loose "
                        "flange, drift) or the noise is larger than stated")
-    perf = result.performance or {}
     first, *later = PERF_PHASES
-    overall = _overall(perf.get(first))
+    before_ap, before_rp = result.overall(first, "ap_mm_mean"), result.overall(first, "rp_mm_mean")
     for phase in later:
-        after = _overall(perf.get(phase))
-        before_ap, after_ap = overall.get("ap_mm_mean"), after.get("ap_mm_mean")
+        after_ap = result.overall(phase, "ap_mm_mean")
         if before_ap is not None and after_ap is not None and after_ap > before_ap:
             out.append(f"accuracy got worse in {phase}: AP mean {before_ap:.3f} -> "
                        f"{after_ap:.3f} mm; do not use this correction")
-        before_rp, after_rp = overall.get("rp_mm_mean"), after.get("rp_mm_mean")
+        after_rp = result.overall(phase, "rp_mm_mean")
         # repeatability is the robot's own: a correction should not change it; a rise beyond
         # 20 % (and 0.01 mm) says the corrected targets sit where the robot repeats worse
         if before_rp is not None and after_rp is not None and \
@@ -337,7 +335,3 @@ def job_warnings(result: ResultDocument) -> list[str]:
                        f"{after_rp:.3f} mm (a correction should leave it unchanged): check "
                        "the cell (warm-up, payload, fixture) before trusting the after-figures")
     return out
-
-
-def _overall(section: PerformanceSection | None) -> dict[str, Any]:
-    return (section.overall if section is not None else None) or {}

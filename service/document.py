@@ -289,6 +289,13 @@ class ResultDocument(Section):
     def correction_of(self, suffix: Round) -> CorrectionPlan | None:
         return self.correction_2 if suffix else self.correction
 
+    def overall(self, phase: str, key: str) -> float | None:
+        """Performance list `phase`'s overall figure `key` (the performance package's
+        `summarise`: ap_mm_mean, rp_mm_max, ...), None when the list or the figure is absent."""
+        section = (self.performance or {}).get(phase)
+        value = (section.overall or {}).get(key) if section is not None else None
+        return None if value is None else float(value)
+
     def latest_round(self) -> Round:
         """The newest calibration round this result holds: '_2' once the second round's
         estimation (stored with its calibration) is in, else '' (also when there is none: its

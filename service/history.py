@@ -73,14 +73,13 @@ class RobotHistory(BaseModel):
 
 def _accuracy(job: JobRecord) -> tuple[float | None, float | None, float | None]:
     """(AP before the correction, AP of the last performance list, its RP) of a job."""
-    sections = job.result.performance or {}
-    measured = [p for p in PERF_PHASES if p in sections and sections[p].overall]
+    result = job.result
+    measured = [p for p in PERF_PHASES if result.overall(p, "ap_mm_mean") is not None]
     if not measured:
         return None, None, None
-    last = sections[measured[-1]].overall or {}
-    first = sections[measured[0]].overall or {}
-    before = first.get("ap_mm_mean") if len(measured) > 1 else None
-    return before, last.get("ap_mm_mean"), last.get("rp_mm_mean")
+    first, last = measured[0], measured[-1]
+    before = result.overall(first, "ap_mm_mean") if len(measured) > 1 else None
+    return before, result.overall(last, "ap_mm_mean"), result.overall(last, "rp_mm_mean")
 
 
 def _entry(job: JobRecord, extra: dict[str, Any], version: int | None,

@@ -62,8 +62,7 @@ def verification_targets(store: Store, plan: list[PlannedPose], source_job: int,
 def drift_warnings(store: Store, job: JobRecord, doc: ResultDocument,
                    threshold_mm: float) -> list[str]:
     """The drift alarm as a warning of the verify job itself (its AP against the model's)."""
-    overall = (doc.performance or {}).get(VERIFY_PHASE)
-    ap = (overall.overall or {}).get("ap_mm_mean") if overall is not None else None
+    ap = doc.overall(VERIFY_PHASE, "ap_mm_mean")
     if ap is None:
         return []
     entries = [e for e in robot_history(store, job.robot_id, threshold_mm).entries

@@ -56,18 +56,12 @@ def _figure_rows(result: ResultDocument, phases: tuple[str, ...], rows: list[Sum
     return out
 
 
-def _overall(result: ResultDocument, phase: str, key: str) -> float | None:
-    section = (result.performance or {}).get(phase)
-    value = (section.overall or {}).get(key) if section is not None else None
-    return None if value is None else float(value)
-
-
 def reading(result: ResultDocument, phases: tuple[str, ...]) -> list[str]:
     """How the figures read together, one sentence each (figures of the document only)."""
     out = []
     first, last = (phases[0], phases[-1]) if phases else (None, None)
-    ap_after = _overall(result, last, "ap_mm_mean") if last and last != first else None
-    rp = _overall(result, last, "rp_mm_max") if last else None
+    ap_after = result.overall(last, "ap_mm_mean") if last and last != first else None
+    rp = result.overall(last, "rp_mm_max") if last else None
     est = result.estimation
     if ap_after is not None and est is not None:
         held_out = ("the model carries over to poses it was not fitted to"
@@ -83,7 +77,7 @@ def reading(result: ResultDocument, phases: tuple[str, ...]) -> list[str]:
         out.append(f"RP max ({number(rp)} mm) is the robot's own scatter: no calibration "
                    "brings AP below the robot's repeatability")
     predicted = result.correction.predicted_position_error_mm if result.correction else None
-    ap_before = _overall(result, first, "ap_mm_mean") if first else None
+    ap_before = result.overall(first, "ap_mm_mean") if first else None
     if predicted is not None and ap_before is not None:
         out.append(f"The calibrated model forecast {number(predicted.before)} mm on the ISO "
                    f"targets as programmed; the robot showed AP mean {number(ap_before)} mm "

@@ -95,6 +95,18 @@ def test_the_latest_round_is_the_newest_estimation():
     assert second.calibration_of(second.latest_round()) == {"model": {}}
 
 
+def test_a_lists_overall_figure_is_read_one_way():
+    doc = ResultDocument.model_validate({
+        "performance": {"perf_before": {"overall": {"ap_mm_mean": 1, "rp_mm_max": 0.02}},
+                        "perf_after": {"points": {}}}})
+    assert doc.overall("perf_before", "ap_mm_mean") == 1.0
+    assert isinstance(doc.overall("perf_before", "ap_mm_mean"), float)
+    assert doc.overall("perf_before", "rp_mm_mean") is None  # a figure not there
+    assert doc.overall("perf_after", "ap_mm_mean") is None  # a list without overall figures
+    assert doc.overall("perf_verify", "ap_mm_mean") is None  # a list not measured
+    assert ResultDocument().overall("perf_before", "ap_mm_mean") is None
+
+
 def test_warnings_read_the_typed_document():
     doc = ResultDocument.model_validate({
         "estimation": {**ESTIMATION, "chi2_reduced": 12.0},
