@@ -60,10 +60,11 @@ def measurement_set(rows: Sequence[Mapping[str, Any]],
     if interleaved and all("id" in r for r in rows):
         between = sorted(interleaved, key=lambda r: int(r["id"]))
         ids = np.array([int(r["id"]) for r in between])
-        for k in range(1, len(rows)):
-            hits = np.flatnonzero((ids > int(rows[k - 1]["id"])) & (ids < int(rows[k]["id"])))
-            if len(hits):
-                previous[k] = np.radians(between[hits[-1]]["joints_deg"])
+        row_ids = np.array([int(r["id"]) for r in rows])
+        last = np.searchsorted(ids, row_ids[1:]) - 1  # the last check committed before a pose
+        after_pose_before = (last >= 0) & (ids[np.maximum(last, 0)] > row_ids[:-1])
+        q_between = np.radians([r["joints_deg"] for r in between])
+        previous[1:][after_pose_before] = q_between[last[after_pose_before]]
     return MeasurementSet(q, T[:, :3, 3].copy(), T[:, :3, :3].copy(),
                           tuple(str(r["idx"]) for r in rows), q_previous=previous)
 

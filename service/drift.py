@@ -27,6 +27,7 @@ cancels).
 
 from __future__ import annotations
 
+from bisect import bisect_left, bisect_right
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -138,9 +139,10 @@ def drift_section(schedule: DriftSchedule, drift_rows: Sequence[Mapping[str, Any
     labels = [p.point for p in schedule.references if p.role == "reference"]
     ks = sorted(checks)
     others = sorted(other_rows, key=lambda r: int(r["id"]))
+    ids = [int(r["id"]) for r in others]
     first_ids = [min(int(r["id"]) for r in checks[k].values()) for k in ks]
-    before = [sum(1 for r in others if int(r["id"]) < i) for i in first_ids]
-    lists = [_list_of(others, i) for i in first_ids]
+    before = [bisect_left(ids, i) for i in first_ids]  # the poses committed before each check
+    lists = [_list_of(others, ids, i) for i in first_ids]
     t = np.array([float(checks[k][labels[0]]["created"]) for k in ks])
     p = np.array([[checks[k][label]["flange_pose"][:3] for label in labels] for k in ks])
     deviation = np.zeros((len(ks), len(labels)))
@@ -164,14 +166,14 @@ def drift_section(schedule: DriftSchedule, drift_rows: Sequence[Mapping[str, Any
     return section
 
 
-def _list_of(others: Sequence[Mapping[str, Any]], first_id: int) -> str:
+def _list_of(others: Sequence[Mapping[str, Any]], ids: Sequence[int], first_id: int) -> str:
     """The list a check was interleaved with: the pose measured just before it (the job's
-    first check: the one just after)."""
-    earlier = [r for r in others if int(r["id"]) < first_id]
+    first check: the one just after). `others` sorted by id, `ids` theirs."""
+    earlier = bisect_left(ids, first_id)
     if earlier:
-        return str(earlier[-1]["phase"])
-    later = [r for r in others if int(r["id"]) > first_id]
-    return str(later[0]["phase"]) if later else ""
+        return str(others[earlier - 1]["phase"])
+    later = bisect_right(ids, first_id)
+    return str(others[later]["phase"]) if later < len(others) else ""
 
 
 def _since_calibration(t: np.ndarray, p: np.ndarray, lists: list[str],

@@ -183,6 +183,23 @@ def test_checks_under_another_payload_start_their_own_series():
     assert section.deviation_mm["P1"] == [0.0, 0.0, 0.0]
 
 
+def test_a_check_counts_the_poses_before_it_and_belongs_to_the_list_it_follows():
+    """Each check: how many other poses were committed before it and the list of the one
+    just before (the job's first check, made before any pose: the list just after)."""
+    refs = (PlannedPose(0, (0.0,) * 6, "approach", "P1"), PlannedPose(1, (0.0,) * 6,
+                                                                      "reference", "P1"))
+
+    def pose(id_, phase, idx=0):
+        return {"id": id_, "idx": idx, "phase": phase, "created": float(id_),
+                "flange_pose": [0.0] * 6}
+    drift_rows = [pose(i, DRIFT_PHASE, k) for k, i in enumerate((1, 2, 6, 7, 11, 12))]
+    others = [pose(9, "cal"), pose(3, "perf_before"), pose(10, "cal"), pose(4, "perf_before"),
+              pose(5, "perf_before")]
+    section = drift_section(DriftSchedule(refs, 10), drift_rows, others, {})
+    assert section.poses_before == [0, 3, 5]
+    assert section.list_of_check == ["perf_before", "perf_before", "cal"]
+
+
 def test_schedule_from_the_store_alone():
     refs = tuple(PlannedPose(i, (0.0,) * 6, role, "P1") for i, role in
                  enumerate(("approach", "reference")))

@@ -80,6 +80,20 @@ def test_measurement_rows_know_the_previous_readings():
     np.testing.assert_allclose(np.degrees(data.q_previous[1:]), [[0.0] * 6, [10.0] * 6])
 
 
+def test_a_poses_previous_readings_are_the_check_measured_just_before_it():
+    """A drift check committed between two poses is where the robot came from: the last such
+    check's readings; a gap with none keeps the pose before; a check before the first pose
+    changes nothing (its previous stays unknown)."""
+    def row(id_, deg):
+        return {"id": id_, "idx": id_, "joints_deg": [float(deg)] * 6,
+                "flange_pose": [0, 0, 1000, 0, 0, 0]}
+    rows = [row(2, 0), row(3, 10), row(7, 20), row(8, 30), row(12, 40)]
+    checks = [row(11, -3), row(1, -1), row(5, -2), row(4, -4)]  # in no particular order
+    data = measurement_set(rows, checks)
+    assert np.all(np.isnan(data.q_previous[0]))
+    np.testing.assert_allclose(np.degrees(data.q_previous[1:, 0]), [0.0, -2.0, 20.0, -3.0])
+
+
 def test_each_list_has_its_payload():
     options = JobOptions(payload_kg=2.0, payload_cog_mm=(0, 0, 50), calibration_payload_kg=10.0)
     assert list_payload(options, "cal") == Payload(10.0, (0.0, 0.0, 50.0))
