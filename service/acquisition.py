@@ -23,7 +23,7 @@ import numpy as np
 from protocol.arm import ArmReader
 from protocol.arm_url import check_arm_url
 from protocol.client import ControllerClient, Timeouts
-from protocol.codec import MAX_LIST
+from protocol.codec import MAX_LIST, Lists
 from protocol.errors import ArmLineError, LinkError, LinkTimeoutError, ProtocolError
 from screwcal.calibration.flange import MeasuringFlange
 from screwcal.kinematics.forward import flange_kinematics
@@ -33,11 +33,14 @@ from service.document import DiscardedReadings
 from service.drift import DRIFT_PHASE, DriftSchedule, DriftState
 from service.errors import SafetyError
 from service.events import JobEvents
+from service.phases import ListKind, list_kind
 from service.plans import PlannedPose
 from service.readings import EarlierReadings, MotionTolerance, PoseReading, refusal
 from service.settings import ServiceSettings
 from service.store import Store
 
+# the controller's list (the RAPID server module's) that runs a job's planned list
+CONTROLLER_LIST: dict[ListKind, Lists] = {"cal": "CAL", "perf": "PERF"}
 LINK_ERRORS = (LinkError,)  # protocol/errors.py: lost, timed out, busy, the arm's line or port
 ZERO_NOTE = ("ZERO: the robot stands at the correction; enter the offsets on the FlexPendant "
              "(calibration data), then give the go-ahead")
@@ -175,7 +178,7 @@ class Acquisition:
         self._check_limits(phase, plan)
         if self.drift is not None:
             self._check_limits(DRIFT_PHASE, self.drift.references)
-        list_name: Literal["CAL", "PERF"] = "CAL" if phase.startswith("cal") else "PERF"
+        list_name = CONTROLLER_LIST[list_kind(phase)]
         seen = self._seen()
         while True:
             measured = self.store.measured_indices(self.job_id, phase)  # once per chunk

@@ -41,7 +41,7 @@ from service.document import (
     RemovedParameter,
     ResultDocument,
 )
-from service.phases import PERF_PHASES, ROUND_SUFFIXES, Round, compensated_list
+from service.phases import PERF_PHASES, ROUND_SUFFIXES, Round, compensated_list, list_kind
 from service.plans import BACKLASH_ROLES, PlannedPose
 
 POOR_FIT_CHI2 = 10.0  # chi2/dof above this with the stated noise: the model misses something
@@ -300,7 +300,7 @@ def iso_test_conditions(robot: Mapping[str, Any], model: SerialModel,
 def payload_label(options: JobOptions, phase: str) -> str:
     """What the flange carries during a measured phase, as text (drift checks compare like
     with like)."""
-    return _payload_text(list_payload(options, "cal" if phase.startswith("cal") else "perf"))
+    return _payload_text(list_payload(options, list_kind(phase)))
 
 
 def _payload_text(payload: Payload) -> str:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import Final, Literal
 
 Round = Literal["", "_2"]  # the suffix of the first and the second calibration round
+ListKind = Literal["cal", "perf"]  # the job's two planned lists: calibration, performance
 
 # A step is a measured list (home_*, perf_*, cal*), an estimation, a correction or the
 # evaluation; "setup" (the links) comes before every job's steps.
@@ -51,6 +52,12 @@ def job_steps(kind: str, rounds: int = 1, warmup: bool = False) -> tuple[str, ..
 def compensated_list(suffix: Round) -> str:
     """The performance list that round `suffix`'s estimation compensates."""
     return next(phase for phase, s in ESTIMATION_FOR.items() if s == suffix)
+
+
+def list_kind(phase: str) -> ListKind:
+    """The planned list a measured phase runs, whose poses and payload it has: "cal" for a
+    calibration list (cal, cal_2), "perf" for the others (performance and home lists)."""
+    return "cal" if phase.startswith("cal") else "perf"
 
 
 def round_suffix(step: str) -> Round:

@@ -63,6 +63,7 @@ from service.phases import (
     Round,
     compensated_list,
     job_steps,
+    list_kind,
     round_suffix,
 )
 from service.plans import LISTS_OF_KIND, PlannedPose, plan_for
@@ -113,7 +114,7 @@ class JobRunner:
         """What a phase sends: its plan, compensated when the route says so (built once)."""
         if phase in HOME_PHASES:
             return [PlannedPose(0, (0.0,) * self.model.n_joints, "home")]
-        plan = self.plan("cal" if phase.startswith("cal") else "perf")
+        plan = self.plan(list_kind(phase))
         if phase == VERIFY_PHASE and self.options.frame_from_job is not None:
             if phase not in self._compensated:  # as production sends it with the model
                 self._compensated[phase] = verification_targets(
