@@ -28,6 +28,7 @@ LAG_MIN_CORRELATION = 0.2
 DRIFT_MIN_CORRELATION = 0.2
 SIGNIFICANCE = 1e-3
 LOW_LEVERAGE = 0.1  # a pose with less than this share of the mean leverage adds nothing
+WELL_CONDITIONED = 1e8  # a (k, k) matrix inverted directly (1-norm condition number under it)
 
 
 @dataclass(frozen=True)
@@ -103,8 +104,26 @@ def acquisition_order(ids: tuple[str, ...], lines: tuple[int, ...]) -> NDArray[n
 
 def explaining_joint_errors(e: Array, Jq: Array) -> Array:
     """(N, n) per pose, the smallest joint change that would remove its residual e (N, k)
-    through the joint Jacobian Jq (N, k, n): what the readings would have to be off by."""
-    return (np.linalg.pinv(Jq) @ e[..., None])[..., 0]
+    through the joint Jacobian Jq (N, k, n): what the readings would have to be off by (the
+    pseudo-inverse's answer). By batched (k, k) or (n, n) inverses (a batched SVD costs
+    eight times as much): Jq^-1 e for k = n, the minimum-norm Jq^T (Jq Jq^T)^-1 e for k < n,
+    (Jq^T Jq)^-1 Jq^T e for k > n; the poses whose matrix is ill-conditioned (condition
+    number over `WELL_CONDITIONED`, e.g. a pose at the wrist singularity, where the SVD cuts
+    the direction no joint change moves) by the SVD."""
+    k, n = Jq.shape[1:]
+    JT = np.swapaxes(Jq, 1, 2)
+    G = Jq if k == n else Jq @ JT if k < n else JT @ Jq
+    try:
+        Ginv = np.linalg.inv(G)
+    except np.linalg.LinAlgError:
+        return (np.linalg.pinv(Jq) @ e[..., None])[..., 0]
+    ev = e[..., None]
+    dq = (Ginv @ ev if k == n else JT @ (Ginv @ ev) if k < n else Ginv @ (JT @ ev))[..., 0]
+    cond = np.abs(G).sum(axis=1).max(axis=1) * np.abs(Ginv).sum(axis=1).max(axis=1)
+    bad = ~(cond < WELL_CONDITIONED)  # (NaN too)
+    if bad.any():
+        dq[bad] = (np.linalg.pinv(Jq[bad]) @ ev[bad])[..., 0]
+    return dq
 
 
 def data_quality(e: Array, Jq: Array, q_deg: Array, test: PoseTest, ids: tuple[str, ...],

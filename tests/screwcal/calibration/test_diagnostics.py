@@ -4,6 +4,7 @@ choice of the joint-noise component."""
 import numpy as np
 import pytest
 
+from screwcal.calibration.diagnostics import explaining_joint_errors
 from screwcal.calibration.identify import NoiseModel, identify
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.posesets import random_configurations
@@ -110,3 +111,20 @@ def test_gross_errors_over_two_decades_are_each_named_with_two_fits(rng, monkeyp
                            - forward_kinematics(clean.model, q)[:, :3, 3], axis=1)
     assert moved.max() < 0.01  # mm: the noise is 0.013 mm per pose, 400 poses
     assert r.noise.position_mm == pytest.approx(clean.noise.position_mm, rel=0.1)
+
+
+@pytest.mark.parametrize(("rows", "joints"), [(6, 6), (3, 6), (6, 4)])
+def test_explaining_joint_errors_is_the_pseudo_inverse_solution(rng, rows, joints):
+    """Pose rows (square joint Jacobian), position rows (3 x 6: the minimum-norm change), a
+    four-joint arm's pose rows (6 x 4: least squares), and a batch with a singular pose (two
+    joint columns equal, or two rows: a pose at a singularity)."""
+    Jq = rng.normal(size=(50, rows, joints))
+    e = rng.normal(size=(50, rows))
+    expected = (np.linalg.pinv(Jq) @ e[..., None])[..., 0]
+    assert np.allclose(explaining_joint_errors(e, Jq), expected, rtol=1e-9, atol=1e-12)
+    if rows >= joints:
+        Jq[7, :, 3] = Jq[7, :, 1]
+    else:
+        Jq[7, 2] = Jq[7, 1]
+    expected = (np.linalg.pinv(Jq) @ e[..., None])[..., 0]
+    assert np.allclose(explaining_joint_errors(e, Jq), expected, rtol=1e-9, atol=1e-12)
