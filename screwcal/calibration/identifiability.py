@@ -18,6 +18,8 @@ Index = NDArray[np.intp]
 Residual = Literal["pose", "position", "distance"]
 
 RANK_TOL = 1e-7  # relative to the largest singular value of the column-scaled Jacobian
+GRAM_COND = 1e4  # up to this condition number, the Gram matrix's eigenvalues give the
+# singular values (relative error eps * cond^2 = 2e-8 at most)
 
 
 def svd(a: Array) -> tuple[Array, Array, Array]:
@@ -31,6 +33,20 @@ def singular_values(a: Array) -> Array:
     """The singular values of `a`, largest first (gesvd, as `svd`)."""
     s: Array = scipy.linalg.svd(a, full_matrices=False, compute_uv=False, lapack_driver="gesvd")
     return s
+
+
+def scaled_singular_values(J: Array, gram: Array) -> Array:
+    """The singular values (largest first) of J (m, p) with its columns scaled to unit length,
+    from its Gram matrix J^T J: the square roots of the scaled Gram matrix's eigenvalues (a
+    (p, p) eigen-decomposition instead of the SVD of the tall J), whose relative error is
+    about eps * cond^2: while the condition number is under `GRAM_COND`; above, by the SVD."""
+    col = np.sqrt(np.diag(gram))
+    col = np.where(col > 0, col, 1.0)
+    ev = np.linalg.eigvalsh(gram / np.outer(col, col))[::-1]
+    if ev[-1] > 0 and ev[0] < GRAM_COND ** 2 * ev[-1]:
+        s: Array = np.sqrt(ev)
+        return s
+    return singular_values(J / col)
 
 
 def pairs(n: int) -> tuple[Index, Index]:

@@ -75,15 +75,15 @@ def prior_sigma(params: Sequence[Param], ranges: PlausibleRanges) -> Array:
                      for p in params]) / RANGE_SIGMAS
 
 
-def held_directions(Jw: Array, sigma: Array, names: Sequence[str], limit: int = 8
+def held_directions(gram: Array, sigma: Array, names: Sequence[str], limit: int = 8
                     ) -> list[str]:
-    """The parameter combinations the prior, not the data, decided (whitened Jacobian Jw
-    (m, p), prior sigma (p,)): each as its largest terms (in units of the prior's sigma), with
-    how much of the prior's information the data give in that direction."""
-    if Jw.shape[1] == 0:
+    """The parameter combinations the prior, not the data, decided (the data's information
+    Jw^T Jw (p, p) of the whitened Jacobian Jw, prior sigma (p,)): each as its largest terms
+    (in units of the prior's sigma), with how much of the prior's information the data give
+    in that direction."""
+    if gram.shape[1] == 0:
         return []
-    D = Jw * sigma
-    information, vectors = np.linalg.eigh(D.T @ D)
+    information, vectors = np.linalg.eigh(gram * np.outer(sigma, sigma))
     out = []
     for k in np.flatnonzero(information < 1.0)[:limit]:
         v = vectors[:, k]

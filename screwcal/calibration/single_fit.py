@@ -20,10 +20,11 @@ import scipy.linalg
 from screwcal.calibration.degenerate import NEAR_AXIS_MM, data_warnings, point_axis_distance_mm
 from screwcal.calibration.error_parameters import ErrorModel, Param, candidate_params
 from screwcal.calibration.identifiability import (
+    GRAM_COND,
     Residual,
     explain_removed,
+    scaled_singular_values,
     select_identifiable,
-    singular_values,
     structural_rank,
 )
 from screwcal.calibration.identify_result import CalibrationResult, NoiseEstimate
@@ -292,14 +293,14 @@ def _result(chosen: Selection, data: MeasurementSet, residual: Residual,
     r, Jw = problem.weighted(x)
     m, p = len(r), len(chosen.keep)
     chi2 = float(r @ r) / max(m - p, 1)
-    cov = scipy.linalg.pinvh(Jw.T @ Jw + np.diag(problem.prior ** 2))  # the posterior's
+    gram = Jw.T @ Jw  # the data's information: the statistics below read it, not Jw
+    cov = scipy.linalg.pinvh(gram + np.diag(problem.prior ** 2))  # the posterior's
     if settings.weighting == "eq2.4" or (settings.statistical and chi2 > 1.0
                                           and not _estimates_noise(settings, residual)):
         cov = cov * chi2  # the noise was understated: the a-posteriori variance factor
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     corr = cov / np.outer(np.where(std > 0, std, 1), np.where(std > 0, std, 1))
-    col = np.linalg.norm(Jw, axis=0)
-    s = singular_values(Jw / np.where(col > 0, col, 1))
+    s = scaled_singular_values(Jw, gram)
     to_if = errors.to_interface
     calibrated = errors.apply(x)
     before = pose_errors(chosen.start, data, residual, chosen.T0)
@@ -314,8 +315,9 @@ def _result(chosen: Selection, data: MeasurementSet, residual: Residual,
         chi2_reduced=chi2, residuals_before=before[0], residuals_after=after[0],
         rotation_before_deg=before[1], rotation_after_deg=after[1],
         degenerate=chosen.degenerate, covariance=cov, noise=noise,
-        unabsorbed=unabsorbed(Jw, errors.params), data_warnings=chosen.notes,
-        held_by_prior=tuple(held_directions(Jw, 1.0 / problem.prior, list(errors.names))
+        unabsorbed=unabsorbed(Jw, gram, errors.params, float(s[0] / s[-1])),
+        data_warnings=chosen.notes,
+        held_by_prior=tuple(held_directions(gram, 1.0 / problem.prior, list(errors.names))
                             if ranges is not None else ()),
         implausible=tuple(outside_ranges(errors.params, to_if(x), to_if(std), ranges)
                           if ranges is not None else ()),
@@ -342,16 +344,23 @@ def orientation_unknown(residual: str, model: SerialModel) -> str:
             "orientation")
 
 
-def unabsorbed(Jw: Array, params: Sequence[Param]) -> dict[str, float]:
+def unabsorbed(Jw: Array, gram: Array, params: Sequence[Param], condition: float
+               ) -> dict[str, float]:
     """Per compliance parameter, the share of its effect on the measurements that the other
     parameters cannot reproduce: 1 - |projection of its column on theirs|^2 / |column|^2
-    (1: nothing of the geometry can imitate it; near 0: the geometry would absorb it)."""
+    (1: nothing of the geometry can imitate it; near 0: the geometry would absorb it). From
+    the Gram matrix `gram` = Jw^T Jw: |column|^2 - |projection|^2 = 1 / (gram^-1)_kk (the
+    Schur complement), when the scaled columns' `condition` number is under `GRAM_COND`;
+    else by least squares of the column on the others."""
     out = {}
-    for k, p in enumerate(params):
-        if p.kind != "compliance":
-            continue
+    cols = [k for k, p in enumerate(params) if p.kind == "compliance"]
+    if cols and condition < GRAM_COND:
+        d = np.sqrt(np.diag(gram))
+        inverse = scipy.linalg.inv(gram / np.outer(d, d))
+        return {params[k].name: float(1.0 / inverse[k, k]) for k in cols}
+    for k in cols:
         col = Jw[:, k]
         others = np.delete(Jw, k, axis=1)
         fit = others @ np.linalg.lstsq(others, col, rcond=None)[0]
-        out[p.name] = float(1.0 - (fit @ fit) / max(col @ col, 1e-300))
+        out[params[k].name] = float(1.0 - (fit @ fit) / max(col @ col, 1e-300))
     return out
