@@ -165,3 +165,8 @@ def write_json_atomic(path: str | Path, document: object) -> None:
 
 def joint_columns(n: int) -> list[str]:
     return [f"q{i}" for i in range(1, n + 1)]
+
+
+def direction_columns(n: int) -> list[str]:
+    """The measurement file's optional approach directions dir1..dirn (+1, -1 or 0)."""
+    return [f"dir{i}" for i in range(1, n + 1)]

@@ -16,13 +16,12 @@ uncertainty is what the pairs themselves show, whatever noise levels were assume
 
 Pure functions over numpy arrays: how pairs were approached is the caller's (the service's
 calibration list, `service/plans.py`), or the measurement file's optional direction columns
-dir1..dirn (`direction_pairs`, `backlash_of_file`).
+dir1..dirn (`MeasurementSet.directions`; `direction_pairs`, `backlash_of_measurements`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -34,7 +33,6 @@ from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spat
 from screwcal.kinematics.ik import pose_error
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
-from screwcal.tables import read_numeric_csv
 
 if TYPE_CHECKING:
     from screwcal.calibration.identify_result import CalibrationResult
@@ -146,7 +144,6 @@ def backlash_from_pairs(model: SerialModel, q_a_rad: ArrayLike, q_b_rad: ArrayLi
                              sigma_mm, sigma_rad)
 
 
-DIRECTION_COLUMNS_PREFIX = "dir"  # the measurement file's optional dir1..dirn: +1, -1 or 0
 SAME_POSE_DEG = 0.01  # two rows whose joints all agree this closely: one commanded pose
 
 
@@ -177,18 +174,15 @@ def direction_pairs(q_deg: ArrayLike, directions: ArrayLike,
     return a, b, flips[a, b] if len(a) else np.zeros((0, q.shape[1]))
 
 
-def backlash_of_file(path: str | Path, result: CalibrationResult, data: MeasurementSet
-                     ) -> dict[str, Any] | None:
-    """Lost motion per joint when the measurement file `path` (read as `data`) has the optional
-    approach directions dir1..dirn and poses measured from both sides (`direction_pairs`),
+def backlash_of_measurements(result: CalibrationResult, data: MeasurementSet
+                             ) -> dict[str, Any] | None:
+    """Lost motion per joint when the measurements `data` carry their approach directions
+    (the file's optional dir1..dirn) and poses measured from both sides (`direction_pairs`),
     against the calibrated model (its readings corrected for the lag it found, `calibration.lag`);
     None otherwise."""
-    n = result.model.n_joints
-    columns = [f"{DIRECTION_COLUMNS_PREFIX}{j + 1}" for j in range(n)]
-    table = read_numeric_csv(path, [], optional_groups=[columns])
-    if columns[0] not in table.columns:
+    if data.directions is None:
         return None
-    a, b, flipped = direction_pairs(np.degrees(data.q), table.take(columns))
+    a, b, flipped = direction_pairs(np.degrees(data.q), data.directions)
     if len(a) < 2:
         return None
     q = data.q if result.reading_lag is None else correct_lag(data, result.reading_lag).q

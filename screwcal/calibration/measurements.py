@@ -18,7 +18,7 @@ from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import rotation_from_euler_zyx_deg
 from screwcal.kinematics.readings import JointConvention, serial_from_readings
 from screwcal.kinematics.se3 import Array, transform_points
-from screwcal.tables import joint_columns, read_numeric_csv
+from screwcal.tables import direction_columns, joint_columns, read_numeric_csv
 
 
 @dataclass(frozen=True)
@@ -31,6 +31,9 @@ class MeasurementSet:
     # (N, n) the readings of the pose measured just before each one (NaN: the first, or
     # unknown), for readings that lag the motion (`lag`); None: not known at all
     q_previous: Array | None = None
+    # (N, n) the sign of each joint's last move before the pose (+1 from below, -1 from above,
+    # 0 unknown), the file's optional dir1..dirn (`backlash.direction_pairs`); None: not given
+    directions: Array | None = None
 
     def __post_init__(self) -> None:
         N = len(self.q)
@@ -41,6 +44,9 @@ class MeasurementSet:
         if self.q_previous is not None and self.q_previous.shape != self.q.shape:
             raise InputError(f"previous readings must be {self.q.shape}; got "
                                 f"{self.q_previous.shape}")
+        if self.directions is not None and self.directions.shape != self.q.shape:
+            raise InputError(f"approach directions must be {self.q.shape}; got "
+                             f"{self.directions.shape}")
         if not self.ids:
             object.__setattr__(self, "ids", tuple(str(k + 1) for k in range(N)))
 
@@ -61,7 +67,8 @@ class MeasurementSet:
                               tuple(np.asarray(self.ids, dtype=object)[idx]),
                               tuple(int(v) for v in np.asarray(self.lines, dtype=int)[idx])
                               if self.lines else (),  # Python ints: they go into JSON
-                              None if self.q_previous is None else self.q_previous[idx])
+                              None if self.q_previous is None else self.q_previous[idx],
+                              None if self.directions is None else self.directions[idx])
 
     def transformed(self, T: Array) -> MeasurementSet:
         """The same measurements seen from another frame: T (4, 4) maps this frame into it."""
@@ -93,7 +100,8 @@ def read_measurements_csv(path: str | Path, model: SerialModel, *, joint_unit: s
                           length_unit: str = "mm",
                           joint_convention: JointConvention = "serial") -> MeasurementSet:
     """The measurement file (docs/formats.md): q1..qn (deg), x, y, z (mm),
-    optionally rx, ry, rz (deg) on every row, optional id. `joint_unit` ("rad") and
+    optionally rx, ry, rz (deg) on every row, optionally the approach directions dir1..dirn
+    on every row, optional id. `joint_unit` ("rad") and
     `length_unit` ("m", "in") read files written in other units; numbers that look like
     another unit than the one given are refused with the fix (`check_units`). The readings
     count joint 3 as `joint_convention` says (`fanuc`: to the horizontal); the set holds the
@@ -101,8 +109,9 @@ def read_measurements_csv(path: str | Path, model: SerialModel, *, joint_unit: s
     if joint_unit not in JOINT_UNITS or length_unit not in LENGTH_UNITS_MM:
         raise InputError(f"joint unit is one of {JOINT_UNITS}, length unit one of "
                             f"{tuple(LENGTH_UNITS_MM)}; not {joint_unit!r}, {length_unit!r}")
+    directions = direction_columns(model.n_joints)
     table = read_numeric_csv(path, [*joint_columns(model.n_joints), "x", "y", "z"],
-                             optional_groups=[["rx", "ry", "rz"]])
+                             optional_groups=[["rx", "ry", "rz"], directions])
     q_given = table.take(joint_columns(model.n_joints))
     # revolute joints in degrees; prismatic ones are lengths
     q_deg = np.where(model.is_revolute, np.degrees(q_given) if joint_unit == "rad" else q_given,
@@ -119,7 +128,8 @@ def read_measurements_csv(path: str | Path, model: SerialModel, *, joint_unit: s
     if "rx" in table.columns:
         rotations = rotation_from_euler_zyx_deg(table.take(["rx", "ry", "rz"]))
     return MeasurementSet(q, positions, rotations, table.ids, table.lines,
-                          previous_rows(q))  # the file's rows are in acquisition order
+                          previous_rows(q),  # the file's rows are in acquisition order
+                          table.take(directions) if directions[0] in table.columns else None)
 
 
 def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array,

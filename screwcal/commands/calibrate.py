@@ -50,7 +50,7 @@ reading), x, y, z (mm), in the order probed, at least 8 rows.
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
-    from screwcal.calibration.backlash import backlash_of_file
+    from screwcal.calibration.backlash import backlash_of_measurements
     from screwcal.calibration.base_alignment import base_from_sweeps, read_sweeps_csv
     from screwcal.calibration.identify import NoiseModel, identify
     from screwcal.calibration.measurements import read_measurements_csv
@@ -85,7 +85,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
                 "poses": len(data), "compliance": args.compliance, "lag": args.lag,
                 "outliers": args.outliers, "joint_convention": convention}
     doc = result_document(result, nominal.name, settings)
-    backlash = backlash_of_file(args.data, result, data)
+    backlash = backlash_of_measurements(result, data)
     if backlash is not None:
         doc["backlash"] = backlash
     write_json_atomic(args.out, doc)

@@ -16,6 +16,7 @@ from screwcal.calibration.backlash import (
     pose_residuals,
 )
 from screwcal.calibration.flange import MeasuringFlange
+from screwcal.calibration.measurements import read_measurements_csv
 from screwcal.calibration.posesets import random_set
 from screwcal.commands.main import main
 from screwcal.errors import InputError
@@ -110,6 +111,21 @@ def test_direction_pairs_are_rows_of_one_pose_from_opposite_sides():
     assert s[0].tolist() == [1.0] * 6 and s[1].tolist() == [0, 0, 1.0, 0, 0, 0]
     with pytest.raises(InputError, match="approach directions"):
         direction_pairs(q, np.full((5, 6), 2.0))
+
+
+def test_the_direction_columns_are_read_with_the_measurements(tmp_path):
+    """dir1..dir6 are an optional group of the measurement file, carried on the set (and on
+    any subset of it); a file without them has none."""
+    head = "q1,q2,q3,q4,q5,q6,x,y,z"
+    path = tmp_path / "m.csv"
+    path.write_text(f"{head},dir6,dir1,dir2,dir3,dir4,dir5\n"
+                    "0,10,10,0,10,0,800,0,900,-1,1,1,0,1,1\n"
+                    "5,10,10,0,10,0,810,0,900,1,-1,-1,-1,-1,-1\n")
+    data = read_measurements_csv(path, irb1600())
+    assert data.directions.tolist() == [[1, 1, 0, 1, 1, -1], [-1, -1, -1, -1, -1, 1]]
+    assert data.take([1]).directions.tolist() == [[-1, -1, -1, -1, -1, 1]]
+    path.write_text(f"{head}\n0,10,10,0,10,0,800,0,900\n")
+    assert read_measurements_csv(path, irb1600()).directions is None
 
 
 def test_offline_calibrate_reports_backlash_from_the_direction_columns(tmp_path, capsys):

@@ -95,6 +95,11 @@ def test_thesis_model_with_known_frames_and_de(tmp_path, rng):
      r"m\.csv: 4 poses give 12 equations .* measure more poses"),  # names the file
     ("q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n0,0,0,0,0,0,1,2,3,0,0,\n", r"line 2, column 'rz'"),
     ("q1,q2,q3,q4,q5,q6,x,y,z\n0,200,0,0,0,0,1,2,3\n", r"line 2: joint values outside"),
+    # the approach directions go together, refused as the file is read (not after the fit)
+    ("q1,q2,q3,q4,q5,q6,x,y,z,dir1,dir2,dir3,dir4,dir5\n0,10,10,0,10,0,800,0,900,1,1,1,1,1\n",
+     r"column 'dir6': columns dir1, dir2, dir3, dir4, dir5, dir6 go together; dir6 missing"),
+    ("q1,q2,q3,q4,q5,q6,x,y,z,dir1,dir2,dir3,dir4,dir5,dir6\n0,0,0,0,0,0,1,2,3,1,1,1,1,1,\n",
+     r"line 2, column 'dir6'"),
 ])
 def test_bad_measurement_files_are_refused(tmp_path, capsys, content, message):
     path = tmp_path / "m.csv"
