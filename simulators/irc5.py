@@ -25,7 +25,7 @@ import numpy as np
 
 from protocol.rapid import MODULE_NAME, module_text
 from simulators.faults import FaultPlan
-from simulators.rapid.interpreter import Task
+from simulators.rapid.interpreter import Task, loaded_module
 from simulators.rapid.motion import Motion
 from simulators.rapid.operator import Event, EventLog, Pendant, Prompt
 from simulators.rapid.sockets import Network
@@ -77,8 +77,7 @@ class IRC5Emulator:
         wanted = {"BIND_ADDRESS": host, "PORT": float(port),
                   "IDLE_S": lambda: float(settings.idle_timeout_s),
                   "POLL_S": lambda: float(settings.poll_s)}
-        from screwcal.rapid import parse_module
-        declared = {d.key for d in parse_module(text).data}
+        declared = {d.key for d in loaded_module(text).data}
         return {k: v for k, v in wanted.items() if k.lower() in declared}
 
     async def start(self, host: str = "127.0.0.1", port: int = 0) -> tuple[str, int]:

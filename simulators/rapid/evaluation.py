@@ -20,6 +20,8 @@ from simulators.rapid.operators import BINARY
 from simulators.rapid.storage import ElemRef, FieldRef, Var
 from simulators.rapid.values import RArray, Record, num
 
+Parameter = tuple[str, bool, str]  # a routine's parameter: lower-case name, by reference, type
+
 
 class Evaluator:
     """The expression half of a task: its data, the system's, ERRNO and the per-node caches."""
@@ -40,52 +42,84 @@ class Evaluator:
         self._keys: dict[int, str] = {}
         self._strs: dict[int, str] = {}  # a Name node's lower-case key (nodes live as long)
         self._rows: dict[int, tuple[A.NumberRow, list[float]]] = {}
+        self._plans: dict[int, tuple[Any, Any, tuple[Any, ...]]] = {}  # per call node
+        self._parameters: dict[int, tuple[list[Parameter], list[Parameter]]] = {}
 
     def call(self, r: A.Routine, pos: list[Any], opt: dict[str, Any], line: int) -> Any:
         """Run a routine (the task's statements do)."""
         raise NotImplementedError
 
     # ------------------------------------------------------------------ arguments
-    def _bind(self, args: tuple[A.Argument, ...], frame: Frame, r: A.Routine
-              ) -> tuple[list[Any], dict[str, Any]]:
-        required = [p for p in r.params if not p.optional]
-        optional = {p.name.lower(): p for p in r.params if p.optional}
-        pos: list[Any] = []
-        opt: dict[str, Any] = {}
-        for a in args:
-            if a.name is None:
-                p = required[len(pos)] if len(pos) < len(required) else None
-                by_ref = p is not None and p.mode is not None
-                pos.append(self.ref(a.value, frame) if by_ref else self.eval(a.value, frame))
-            else:
-                p = optional.get(a.name.lower())
-                if a.value is None:
-                    opt[a.name.lower()] = True
-                elif p is not None and p.mode is not None:
-                    opt[a.name.lower()] = self.ref(a.value, frame)
-                else:
-                    opt[a.name.lower()] = self.eval(a.value, frame)
-        return pos, opt
+    # A call's plan, made once per call node (the routines and built-ins are fixed at load):
+    # what it calls and, per argument, how it is passed: (how, name, expression, line).
+    _POS, _POS_REF, _SWITCH, _OPT, _OPT_REF, _CONDITIONAL = range(6)
 
-    def _builtin_args(self, args: tuple[A.Argument, ...], frame: Frame, b: Any
-                      ) -> tuple[list[Any], dict[str, Any]]:
+    def _plan(self, node: A.Call | A.ProcCall, kind: str) -> tuple[Any, Any, tuple[Any, ...]]:
+        """The routine of that `kind` (FUNC or PROC) named by the call, else the built-in, and
+        how each argument is passed: a VAR/INOUT parameter (a routine's) or a built-in's
+        reference argument by reference, the others by value."""
+        key = node.key
+        r = self.routines.get(key)
+        plan: list[tuple[int, str, Any, int]] = []
+        if r is not None and r.kind == kind:
+            required = [p for p in r.params if not p.optional]
+            optional = {p.name.lower(): p for p in r.params if p.optional}
+            for a in node.args:
+                if a.name is None:
+                    n = sum(1 for step in plan if step[0] <= self._POS_REF)
+                    p = required[n] if n < len(required) else None
+                    plan.append((self._POS_REF if p is not None and p.mode is not None
+                                 else self._POS, "", a.value, a.line))
+                    continue
+                name, p = a.name.lower(), optional.get(a.name.lower())
+                how = self._SWITCH if a.value is None else self._OPT_REF \
+                    if p is not None and p.mode is not None else self._OPT
+                plan.append((how, name, a.value, a.line))
+            return r, None, tuple(plan)
+        b = BUILTINS[key]
+        for a in node.args:
+            if a.name is None:
+                n = sum(1 for step in plan if step[0] <= self._POS_REF)
+                plan.append((self._POS_REF if n in b.refs else self._POS, "", a.value, a.line))
+            elif a.conditional:
+                plan.append((self._CONDITIONAL, "", None, a.line))
+            elif a.value is None:
+                plan.append((self._SWITCH, a.name.lower(), None, a.line))
+            else:
+                name = a.name.lower()
+                plan.append((self._OPT_REF if name in b.optrefs else self._OPT, name, a.value,
+                             a.line))
+        return None, b, tuple(plan)
+
+    def parameters(self, r: A.Routine) -> tuple[list[Parameter], list[Parameter]]:
+        """A routine's required and optional parameters (lower-case name, passed by reference
+        (VAR, PERS, INOUT), type), in their order, once per routine."""
+        got = self._parameters.get(id(r))
+        if got is None:
+            got = self._parameters[id(r)] = (
+                [(p.name.lower(), bool(p.mode), p.type) for p in r.params if not p.optional],
+                [(p.name.lower(), bool(p.mode), p.type) for p in r.params if p.optional])
+        return got
+
+    def _args(self, plan: tuple[Any, ...], frame: Frame) -> tuple[list[Any], dict[str, Any]]:
+        """A call's arguments, in their order: values, references, switches (True)."""
         pos: list[Any] = []
         opt: dict[str, Any] = {}
-        for a in args:
-            if a.name is None:
-                pos.append(self.ref(a.value, frame) if len(pos) in b.refs
-                           else self.eval(a.value, frame))
-            elif a.conditional:
-                raise RapidError("ERR_ARGVALERR", "conditional arguments are not supported",
-                                 a.line)
-            elif a.value is None:
-                opt[a.name.lower()] = True
+        evals = self._eval
+        for how, name, e, line in plan:
+            if how == 0:  # _POS
+                pos.append(evals[type(e)](e, frame))
+            elif how == 1:  # _POS_REF
+                pos.append(self.ref(e, frame))
+            elif how == 2:  # _SWITCH
+                opt[name] = True
+            elif how == 3:  # _OPT
+                opt[name] = evals[type(e)](e, frame)
+            elif how == 4:  # _OPT_REF
+                opt[name] = self.ref(e, frame)
             else:
-                key = self._keys.get(id(a))
-                if key is None:
-                    key = self._keys[id(a)] = a.name.lower()
-                opt[key] = self.ref(a.value, frame) if key in b.optrefs \
-                    else self.eval(a.value, frame)
+                raise RapidError("ERR_ARGVALERR", "conditional arguments are not supported",
+                                 line)
         return pos, opt
 
     # ------------------------------------------------------------------ expressions
@@ -156,19 +190,22 @@ class Evaluator:
         return self._lookup(key, frame, e.line).value
 
     def _index(self, e: A.Index, frame: Frame) -> Any:
-        arr = self.eval(e.base, frame)
+        evals = self._eval
+        base = e.base
+        arr = evals[type(base)](base, frame)
         for ie in e.indices:
             if not isinstance(arr, RArray):
                 raise RapidError("ERR_ARGVALERR", "not an array", e.line)
             try:
-                arr = arr.items[arr.index(self.eval(ie, frame))]
+                arr = arr.items[arr.index(evals[type(ie)](ie, frame))]
             except RapidError as err:
                 err.line = e.line
                 raise
         return arr
 
     def _component(self, e: A.Component, frame: Frame) -> Any:
-        rec = self.eval(e.base, frame)
+        base = e.base
+        rec = self._eval[type(base)](base, frame)
         try:
             return rec.f[e.name.lower()]
         except (AttributeError, KeyError):
@@ -185,7 +222,8 @@ class Evaluator:
         return [self.eval(i, frame) for i in e.items]
 
     def _unary(self, e: A.Unary, frame: Frame) -> Any:
-        v = self.eval(e.operand, frame)
+        operand = e.operand
+        v = self._eval[type(operand)](operand, frame)
         if e.op == "NOT":
             if not isinstance(v, bool):
                 raise RapidError("ERR_ARGVALERR", "NOT needs a bool", e.line)
@@ -195,8 +233,10 @@ class Evaluator:
         return -v if e.op == "-" else v
 
     def _binary(self, e: A.Binary, frame: Frame) -> Any:
-        a = self.eval(e.left, frame)
-        b = self.eval(e.right, frame)
+        evals = self._eval  # the dispatch of `eval`, inline: a binary is the commonest node
+        left, right = e.left, e.right
+        a = evals[type(left)](left, frame)
+        b = evals[type(right)](right, frame)
         op = e.op
         try:
             return BINARY[op](a, b)
@@ -213,15 +253,13 @@ class Evaluator:
     def invoke(self, node: A.Call | A.ProcCall, frame: Frame, kind: str) -> Any:
         """A function call's value, or a procedure call's effect: the module's routine of that
         `kind` (FUNC or PROC) when there is one, else the built-in of that name."""
-        key = self._keys.get(id(node))
-        if key is None:
-            key = self._keys[id(node)] = node.key
-        r = self.routines.get(key)
-        if r is not None and r.kind == kind:
-            pos, opt = self._bind(node.args, frame, r)
+        plan = self._plans.get(id(node))
+        if plan is None:
+            plan = self._plans[id(node)] = self._plan(node, kind)
+        r, b, args = plan
+        pos, opt = self._args(args, frame)
+        if r is not None:
             return self.call(r, pos, opt, node.line)
-        b = BUILTINS[key]
-        pos, opt = self._builtin_args(node.args, frame, b)
         try:
             return b.fn(self, pos, opt)
         except RapidError as err:

@@ -15,6 +15,7 @@ the controller's error handling (RAPID reference, "Error recovery"):
 
 from __future__ import annotations
 
+import functools
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -47,6 +48,18 @@ from simulators.rapid.values import (
 MAX_RETRIES = 4  # the controller's "No Of Retry"
 
 
+@functools.lru_cache(maxsize=16)
+def loaded_module(text: str, path: str = "<module>") -> A.Module:
+    """A program module's tree, parsed once per text and path: the tree is immutable, every
+    task (an emulated cell each) runs the same one. Raises RapidSyntaxError as parse_module."""
+    return parse_module(text, path)
+
+
+# The (text, path) of the modules a task has loaded: what a controller refuses at load
+# (`Task._check`) depends on nothing else (the built-ins and system data are fixed); 64 at most.
+_CHECKED: set[tuple[str, str]] = set()
+
+
 class Task(Evaluator):
     """One RAPID task running one program module. `services` are the controller's other parts
     the built-ins use (sockets, motion); `overrides` replace data declarations' values (the
@@ -59,7 +72,7 @@ class Task(Evaluator):
 
         super().__init__()
         self.path = path
-        self.module = parse_module(text, path)
+        self.module = loaded_module(text, path)
         self.log = log or EventLog()
         self.pendant = pendant or Pendant()
         self.services = services or {}
@@ -74,7 +87,11 @@ class Task(Evaluator):
         self._unwound: list[Frame] = []
         self._skip = False
         self._stack: list[Frame] = []
-        self._check()
+        if (text, path) not in _CHECKED:  # the same text passes the same checks
+            self._check()
+            if len(_CHECKED) >= 64:
+                _CHECKED.clear()
+            _CHECKED.add((text, path))
         unknown = set(self.overrides) - {d.key for d in self.module.data}
         if unknown:
             raise LoadError(path, 1, f"no data named {', '.join(sorted(unknown))} to set")
@@ -211,20 +228,21 @@ class Task(Evaluator):
     # ------------------------------------------------------------------ routines
     def call(self, r: A.Routine, pos: list[Any], opt: dict[str, Any], line: int) -> Any:
         """Run a routine: `pos` values or references (VAR/INOUT parameters), `opt` by name."""
-        frame = Frame(r, {})
-        required = [p for p in r.params if not p.optional]
+        required, optional = self.parameters(r)
         if len(pos) != len(required):
             raise RapidError("ERR_ARGVALERR", f"{r.name} takes {len(required)} arguments",
                              line)
-        for p, v in zip(required, pos, strict=True):
-            frame.vars[p.name.lower()] = v if p.mode else Var(p.type, copy(v),
-                                                              (0,) * p.dims if False else ())
-        for p in r.params:
-            if p.optional and p.name.lower() in opt:
-                v = opt[p.name.lower()]
-                frame.vars[p.name.lower()] = v if p.mode else Var(p.type, copy(v))
+        local: dict[str, Any] = {}
+        frame = Frame(r, local)
+        for (key, by_ref, type_), v in zip(required, pos, strict=True):
+            local[key] = v if by_ref else Var(type_, copy(v))
+        if opt:
+            for key, by_ref, type_ in optional:
+                if key in opt:
+                    v = opt[key]
+                    local[key] = v if by_ref else Var(type_, copy(v))
         for d in r.data:
-            dims = tuple(int(self.eval(e, frame)) for e in d.dims)
+            dims = tuple(int(self.eval(e, frame)) for e in d.dims) if d.dims else ()
             value = convert(d.type, self.eval(d.value, frame), dims) if d.value is not None \
                 else default(d.type, dims)
             frame.vars[d.key] = Var(d.type, value, dims, const=d.storage == "CONST")
@@ -305,7 +323,8 @@ class Task(Evaluator):
 
     # ------------------------------------------------------------------ statements
     def _assign(self, st: A.Assign, frame: Frame) -> None:
-        value = self.eval(st.value, frame)
+        e = st.value
+        value = self._eval[type(e)](e, frame)
         target = self.ref(st.target, frame)
         if isinstance(target, Var) and target.const:
             raise RapidError("ERR_ARGVALERR", "a CONST cannot be assigned", st.line)
@@ -347,11 +366,13 @@ class Task(Evaluator):
                 frame.vars[key] = saved
 
     def _test(self, st: A.Test, frame: Frame) -> None:
-        subject = self.eval(st.subject, frame)
+        evals = self._eval
+        subject = evals[type(st.subject)](st.subject, frame)
         for case in st.cases:
-            if any(self.eval(label, frame) == subject for label in case.labels):
-                self.exec_block(case.body, frame)
-                return
+            for label in case.labels:
+                if evals[type(label)](label, frame) == subject:
+                    self.exec_block(case.body, frame)
+                    return
         if st.default is not None:
             self.exec_block(st.default, frame)
 
@@ -386,8 +407,8 @@ class Task(Evaluator):
         raise Stopped(f"EXIT at {self.path}:{st.line}")
 
     def _bool(self, e: Any, frame: Frame) -> bool:
-        v = self.eval(e, frame)
-        if not isinstance(v, bool):
+        v = self._eval[type(e)](e, frame)
+        if v is not True and v is not False:
             raise RapidError("ERR_ARGVALERR", "a condition must be a bool", e.line)
         return v
 

@@ -51,11 +51,25 @@ def _strfind(task: Any, pos: list, opt: dict) -> float:
     StrLen + 1 when there is none."""
     s, start, chars = pos
     i = _pos_arg(s, start, "StrFind position")
-    outside = bool(opt.get("notinset"))
-    for k in range(i - 1, len(s)):
-        if (s[k] in chars) != outside:
-            return float(k + 1)
-    return float(len(s) + 1)
+    found = _char_set(chars, bool(opt.get("notinset"))).search(s, i - 1)
+    return float(len(s) + 1 if found is None else found.start() + 1)
+
+
+_CHAR_SETS: dict[tuple[str, bool], re.Pattern[str]] = {}
+
+
+def _char_set(chars: str, outside: bool) -> re.Pattern[str]:
+    """One character of `chars` (`outside`: any other character), compiled once per set (a
+    program's sets are its constants; a set made at run time is kept among 256 at most)."""
+    pattern = _CHAR_SETS.get((chars, outside))
+    if pattern is None:
+        if len(_CHAR_SETS) >= 256:
+            _CHAR_SETS.clear()
+        members = "".join(re.escape(c) for c in dict.fromkeys(chars))
+        text = ("[^" + members + "]" if outside else "[" + members + "]") if members else \
+            ("(?s:.)" if outside else "(?!)")
+        pattern = _CHAR_SETS[(chars, outside)] = re.compile(text)
+    return pattern
 
 
 @builtin("StrMemb", "func")

@@ -1,0 +1,67 @@
+"""Loading a module once per text (every emulated cell runs the same tree), and the call paths
+made once per call node and routine: what a controller refuses is refused every time, and the
+argument passing and StrFind keep their definitions."""
+
+from __future__ import annotations
+
+import random
+import string
+
+import pytest
+
+from protocol.rapid import MODULE_NAME, module_text
+from simulators.rapid.errors import LoadError
+from simulators.rapid.interpreter import Task, loaded_module
+from simulators.rapid.library import _strfind
+
+
+def test_tasks_of_one_module_share_its_tree():
+    text = module_text()
+    first, second = Task(text, MODULE_NAME), Task(text, MODULE_NAME)
+    assert first.module is second.module is loaded_module(text, MODULE_NAME)
+    assert first.data is not second.data  # each cell its own data
+
+
+def test_a_refused_module_is_refused_every_time():
+    bad = "MODULE T\nPROC main()\nSetDO do1, 1;\nENDPROC\nENDMODULE\n"
+    for _ in range(2):
+        with pytest.raises(LoadError, match=r"T.mod:3: instruction SetDO"):
+            Task(bad, "T.mod")
+    with pytest.raises(LoadError, match=r"no data named nope to set"):  # after a clean load
+        Task(module_text(), MODULE_NAME, overrides={"NOPE": 1.0})
+
+
+def test_arguments_by_value_by_reference_and_switches_on_every_call():
+    task = Task("MODULE T\nVAR num x := 1;\nVAR num y := 0;\nVAR num n := 0;\n"
+                "PROC main()\nFOR i FROM 1 TO 3 DO\nAdd x, i \\Extra:=i;\n"
+                "Add x, i \\Extra:=y;\ny := y + Twice(x);\nENDFOR\nENDPROC\n"
+                "PROC Add(INOUT num a, num b, \\num Extra)\nb := b * 10;\n"
+                "Extra := Extra * 2;\na := a + b + Extra;\nIncr n;\nENDPROC\n"
+                "FUNC num Twice(num v)\nv := 2 * v;\nRETURN v;\nENDFUNC\nENDMODULE\n",
+                "T.mod")
+    task.run()
+    assert "main returned" in task.stop_reason, task.stop_reason
+    x, y = 1.0, 0.0
+    for i in (1, 2, 3):  # b and Extra by value: the caller's i and y unchanged
+        x += 10 * i + 2 * i
+        x += 10 * i + 2 * y
+        y += 2 * x
+    assert (task.data["x"].value, task.data["y"].value, task.data["n"].value) == (x, y, 6.0)
+
+
+def test_strfind_is_the_first_position_in_or_not_in_the_set():
+    def definition(s: str, start: int, chars: str, outside: bool) -> float:
+        for k in range(start - 1, len(s)):
+            if (s[k] in chars) != outside:
+                return float(k + 1)
+        return float(len(s) + 1)
+
+    rng = random.Random(7)
+    alphabet = string.printable + "]^-\\[\x7f"
+    for _ in range(3000):
+        s = "".join(rng.choice(alphabet) for _ in range(rng.randint(0, 20)))
+        chars = "".join(rng.choice(alphabet) for _ in range(rng.randint(0, 6)))
+        start = rng.randint(1, len(s) + 1)
+        for outside in (False, True):
+            got = _strfind(None, [s, float(start), chars], {"notinset": True} if outside else {})
+            assert got == definition(s, start, chars, outside), (s, start, chars, outside)
