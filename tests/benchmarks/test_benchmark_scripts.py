@@ -40,7 +40,36 @@ def test_jobs_repeats_and_reports_the_spread():
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     assert len(lines) == 2 and all("3 runs)" in line for line in lines), proc.stdout
+    # the cells run in a process of their own: its CPU is reported beside the service's
+    assert "CPU/wall service" in lines[1] and ", cells " in lines[1], proc.stdout
     assert run("jobs.py", "--rounds", "0").returncode != 0
+
+
+def test_jobs_cells_in_the_services_process_on_request():
+    proc = run("jobs.py", "--robots", "2", "--rounds", "1", "--cells-in-process")
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert "(cells included)" in lines[1] and "1 runs)" in lines[1], proc.stdout
+
+
+def test_the_cells_process_answers_and_ends_with_its_input():
+    with subprocess.Popen([sys.executable, str(BENCH / "cells.py")], stdin=subprocess.PIPE,
+                          stdout=subprocess.PIPE, text=True, cwd=BENCH) as proc:
+        try:
+            proc.stdin.write("start 2\n")
+            proc.stdin.flush()
+            cells = json.loads(proc.stdout.readline())
+            assert len(cells) == 2 and all(arm.startswith("socket://") for _, _, arm in cells)
+            proc.stdin.write("cpu\nbogus\nstop\n")
+            proc.stdin.flush()
+            assert float(json.loads(proc.stdout.readline())) > 0
+            assert "unknown command 'bogus'" in json.loads(proc.stdout.readline())["error"]
+            assert json.loads(proc.stdout.readline()) == "stopped"
+            proc.stdin.close()
+            assert proc.wait(timeout=30) == 0
+        finally:
+            if proc.poll() is None:
+                proc.kill()
 
 
 def test_jobs_beside_cpu_bound_processes_reports_each_pair():
