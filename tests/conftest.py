@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.se3 import exp_twist
+from screwcal.kinematics.se3 import exp_twist, rotvec_from_rotation
 from screwcal.studies.tracker_dataset import DATA_DIR_ENV, DATASET_NAME, WHERE_TO_GET
 
 
@@ -49,6 +49,16 @@ def random_model(rng: np.random.Generator, joint_types: str = "RRRRRR",
 
 def random_q(model: SerialModel, rng: np.random.Generator, n: int) -> np.ndarray:
     return rng.uniform(model.limits[:, 0], model.limits[:, 1], (n, model.n_joints))
+
+
+
+def point_rates(T_plus: np.ndarray, T_minus: np.ndarray, step: float) -> np.ndarray:
+    """Finite-difference rates (N, 6) of the tool point and of its rotation vector, rows as
+    `ErrorModel.linearisation`'s: from poses (N, 4, 4) at the two ends of `step` (the whole
+    step: 2h for central differences, h for forward ones)."""
+    dR = T_plus[:, :3, :3] @ np.swapaxes(T_minus[:, :3, :3], 1, 2)
+    return np.c_[(T_plus[:, :3, 3] - T_minus[:, :3, 3]) / step,
+                 rotvec_from_rotation(dR) / step]
 
 
 @pytest.fixture

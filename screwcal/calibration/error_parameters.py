@@ -1,8 +1,9 @@
 """Error models: which geometric parameters are identified, their names, units and Jacobians.
 
 A parameter vector x (numeric units: rad, mm) applies to a reference model by `apply`, and
-`jacobian` gives d(tool twist)/dx, spatial, exactly (not only at x = 0), so that the solver
-gets the true Jacobian of the residuals at every step.
+`linearisation` gives the rates of the tool point and of its rotation w.r.t. x (and the
+joints) exactly (not only at x = 0), so that the solver gets the true Jacobian of the
+residuals at every step.
 
 Candidates, per model kind (thesis 2.2.1.2, 3.1, Table 11; Eq. 2.2):
 
@@ -345,14 +346,6 @@ class ErrorModel:
         if tau is not None:
             self._scale_compliance(J[:, :, :P], tau, len(model.masses))
         return T, J[:, :, :P], J[:, :, P:]
-
-    def jacobian(self, x: ArrayLike, q: ArrayLike) -> tuple[Array, Array]:
-        """Tool poses (N, 4, 4) and d(spatial tool twist)/dx (N, 6, P), rows (omega, v), exact
-        at x: `linearisation`'s point rates read as a spatial twist (v = dp - omega x p)."""
-        T, J, _ = self.linearisation(x, q)
-        w = J[:, 3:]
-        v = J[:, :3] - np.swapaxes(cross(np.swapaxes(w, 1, 2), T[:, None, :3, 3]), 1, 2)
-        return T, np.concatenate([w, v], axis=1)
 
     @cached_property
     def _has_compliance_columns(self) -> bool:

@@ -4,29 +4,27 @@ import pytest
 from screwcal.calibration.error_parameters import ErrorModel, candidate_params
 from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
 from screwcal.kinematics.robots import irb1600
-from screwcal.kinematics.se3 import exp_twist, twist_from_transform_difference
-from tests.conftest import random_q
+from screwcal.kinematics.se3 import exp_twist
+from tests.conftest import point_rates, random_q
 
 
 @pytest.mark.parametrize("kind", ["joints", "thesis", "full"])
-def test_error_model_jacobian_is_exact_away_from_zero(rng, kind):
-    """d(tool twist)/dx against central differences at a random, non-zero x."""
+def test_error_model_linearisation_is_exact_away_from_zero(rng, kind):
+    """The tool point's and rotation's rates w.r.t. x against central differences at a
+    random, non-zero x."""
     model = irb1600().with_frames(exp_twist([0.3, -0.2, 1.0, 1500, -200, 300]),
                                   exp_twist([0.1, 0.2, 0.0, 20, -30, 100]))
     params = candidate_params(model, kind, base=True, tool_rotation=True, tool_position=True)
     errors = ErrorModel(model, tuple(params))
     x = rng.normal(0, 0.02, len(params)) * np.where([p.unit == "mm" for p in params], 100, 1)
     q = random_q(model, rng, 8)
-    T, J = errors.jacobian(x, q)
+    _, J, _ = errors.linearisation(x, q)
     h = 1e-6
     for k, p in enumerate(params):
         step = np.zeros(len(params))
         step[k] = h
-        fd = twist_from_transform_difference(
-            forward_kinematics(
-                errors.apply(x + step), q),
-            forward_kinematics(
-                errors.apply(x - step), q), T, h)
+        fd = point_rates(forward_kinematics(errors.apply(x + step), q),
+                         forward_kinematics(errors.apply(x - step), q), 2 * h)
         np.testing.assert_allclose(J[:, :, k], fd, atol=2e-5 * max(1, np.abs(fd).max()),
                                    err_msg=p.name)
 
@@ -46,7 +44,6 @@ def test_linearisation_is_exact_for_parameters_and_joints(rng, compliance):
     from dataclasses import replace
 
     from screwcal.kinematics.compliance import Payload
-    from screwcal.kinematics.se3 import rotvec_from_rotation
 
     model = replace(irb1600(), payload=Payload(5.0, (0.0, 30.0, 80.0))).with_frames(
         exp_twist([0.3, -0.2, 1.0, 1500, -200, 300]), exp_twist([0.1, 0.2, 0.0, 20, -30, 100]))
@@ -60,25 +57,20 @@ def test_linearisation_is_exact_for_parameters_and_joints(rng, compliance):
     x[bending] = 0.0
     q = random_q(model, rng, 7)
     T, J, Jq = errors.linearisation(x, q)
-
-    def rates(Tp, Tm, h):
-        dR = Tp[:, :3, :3] @ np.swapaxes(Tm[:, :3, :3], 1, 2)
-        return np.c_[(Tp[:, :3, 3] - Tm[:, :3, 3]) / (2 * h), rotvec_from_rotation(dR) / (2 * h)]
-
     h = 1e-6
     for k, p in enumerate(params):
         step = np.zeros(len(params))
         step[k] = h
-        fd = rates(forward_kinematics(errors.apply(x + step), q),
-                   forward_kinematics(errors.apply(x - step), q), h)
+        fd = point_rates(forward_kinematics(errors.apply(x + step), q),
+                         forward_kinematics(errors.apply(x - step), q), 2 * h)
         np.testing.assert_allclose(J[:, :, k], fd, atol=2e-5 * max(1, np.abs(fd).max()),
                                    err_msg=p.name)
     straight = errors.apply(x)
     for j in range(model.n_joints):
         step = np.zeros(model.n_joints)
         step[j] = h
-        fd = rates(forward_kinematics(straight, q + step), forward_kinematics(straight, q - step),
-                   h)
+        fd = point_rates(forward_kinematics(straight, q + step),
+                         forward_kinematics(straight, q - step), 2 * h)
         np.testing.assert_allclose(Jq[:, :, j], fd, atol=2e-5 * max(1, np.abs(fd).max()),
                                    err_msg=f"joint {j + 1}")
     x[bending] = np.radians(5.0)  # deg per kN m
