@@ -27,6 +27,7 @@ from typing import Literal
 import numpy as np
 from scipy.special import fdtrc
 
+from screwcal.calibration import empirical_prior
 from screwcal.calibration.blas_threads import one_blas_thread
 from screwcal.calibration.diagnostics import (
     MAX_OUTLIER_FRACTION,
@@ -50,12 +51,15 @@ from screwcal.calibration.lag import correct_lag, lag_increment
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.outlier_rounds import reject_in_rounds
 from screwcal.calibration.plausible import PlausibleRanges
+from screwcal.calibration.residual_problem import residual_rows
 from screwcal.calibration.single_fit import Selection, WarmStart, fit_once
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
 __all__ = ["CalibrationResult", "Frames", "IdentifySettings", "NoiseEstimate", "NoiseModel",
-           "Outlier", "identify"]
+           "Outlier", "PriorScale", "identify"]
+
+PriorScale = Literal["learned", "plausible"]  # the prior's scale on small sets
 
 LAG_ROUNDS = 4  # estimate-correct-refit rounds of lag="auto", while the residual falls
 COMPLIANCE_T = 5.0  # |value| / std error above which "auto" keeps a joint compliance
@@ -73,7 +77,8 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
              outliers: Outliers = "reject",
              de_polish: bool = True, compliance: str = "none",
              lag: Literal["none", "auto"] = "none",
-             plausible: PlausibleRanges | None = DEFAULT_RANGES) -> CalibrationResult:
+             plausible: PlausibleRanges | None = DEFAULT_RANGES,
+             prior_scale: PriorScale = "learned") -> CalibrationResult:
     """Identify the error model `kind` of `nominal` from measured data. With unknown frames,
     `base_guess` (e.g. from `base_alignment.base_from_sweeps`) starts the base there. With
     `solver="de"`, `de_polish=False` returns differential evolution's own best (the thesis's
@@ -97,14 +102,50 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
     `plausible`: every parameter carries a weak zero-mean prior scaled by its plausible range
     (`screwcal.calibration.plausible`): among models that fit equally, the one nearest nominal;
     the result names the directions the prior decided (`held_by_prior`) and warns of any
-    parameter beyond its range. None: plain least squares."""
+    parameter beyond its range. None: plain least squares. `prior_scale="learned"`: on a small
+    set for the model (`empirical_prior.is_small`) the prior's scale per group of parameters is
+    then learned from the data (empirical Bayes, a few refits; `prior_note` says the scales),
+    within the plausible ranges; "plausible": the plausible ranges' scale only."""
     settings = IdentifySettings(
         kind=kind, residual=residual, frames=frames, solver=solver, weighting=weighting,
         weight_mm=weight_mm, noise=noise or NoiseModel(), de_link_bounds_mm=de_link_bounds_mm,
         seed=seed, base_guess=base_guess, link_offsets=link_offsets, outliers=outliers,
         de_polish=de_polish, compliance=compliance, ranges=plausible)
     with one_blas_thread():  # small dense problems: threads only compete (blas_threads)
-        return _with_lag(nominal, data, settings, lag)
+        if prior_scale == "plausible":
+            return _with_lag(nominal, data, settings, lag)
+        return _with_learned_prior(nominal, data, settings, lag)
+
+
+def _with_learned_prior(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
+                        lag: Literal["none", "auto"]) -> CalibrationResult:
+    """One identification (`_with_lag`); on a small set for the model, repeated with the
+    prior's scales learned from the data (`empirical_prior`) until they settle. The refits
+    take the poses the first kept (its outliers stand); a learned prior under which a pose
+    looks like an outlier is too narrow for this robot: the rounds stop at the one before."""
+    result = _with_lag(nominal, data, settings, lag)
+    plausible = settings.ranges
+    numbers = residual_rows(result.residual_kind) * len(result.residuals_after)
+    if plausible is None or settings.solver != "lm" or settings.kind == "frames" or \
+            not empirical_prior.is_small(numbers, result.rank):
+        return result
+    first = _rejected(result)
+    dropped = {o.id for o in first}
+    kept = data.take(np.array([k for k, i in enumerate(data.ids) if i not in dropped], int))
+    prior, rounds, flagged = plausible, 0, 0
+    while rounds < empirical_prior.ROUNDS:
+        step = empirical_prior.updated_ranges(result.params, result.values, result.std_errors,
+                                              prior, plausible)
+        if step.moved <= empirical_prior.SETTLED and rounds:
+            break
+        trial = _with_lag(nominal, kept, replace(settings, prior=step.ranges, outliers="keep"),
+                          lag)
+        if trial.outliers:
+            flagged = len(trial.outliers)
+            break
+        prior, rounds, result = step.ranges, rounds + 1, replace(trial, outliers=first)
+    return replace(result, prior_note=empirical_prior.describe(prior, plausible, rounds,
+                                                               flagged))
 
 
 def _with_lag(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,

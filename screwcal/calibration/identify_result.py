@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from screwcal.calibration.error_parameters import Param
+from screwcal.calibration.identifiability import Residual
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
@@ -75,7 +76,7 @@ class CalibrationResult:
     correlation: Array
     removed: tuple[tuple[str, str], ...]  # (name, why)
     unidentifiable_combinations: tuple[str, ...]
-    residual_kind: str
+    residual_kind: Residual
     weighting: str
     solver: str
     rank: int
@@ -104,6 +105,7 @@ class CalibrationResult:
     lag_note: str = ""
     data_warnings: tuple[str, ...] = ()  # degenerate data, named before the fit
     held_by_prior: tuple[str, ...] = ()  # directions the data left to the prior (nominal)
+    prior_note: str = ""  # the prior's scales, when learned from a small set (empirical_prior)
     implausible: tuple[str, ...] = ()  # parameters beyond their plausible range
     orientation_unknown: str = ""  # why the model predicts positions, not the orientation
 

@@ -70,11 +70,18 @@ class IdentifySettings:
     de_polish: bool = True
     compliance: str = "none"  # the compliance of this fit ("auto" is chosen above it)
     ranges: PlausibleRanges | None = DEFAULT_RANGES  # the prior; None: plain least squares
+    prior: PlausibleRanges | None = None  # narrower prior scales (empirical_prior); None: ranges
 
     def __post_init__(self) -> None:
         if self.weighting not in WEIGHTINGS:
             raise IdentificationError(f"weighting is 'statistical' or 'eq2.4', not "
                                       f"'{self.weighting}'")
+
+    @property
+    def prior_ranges(self) -> PlausibleRanges | None:
+        """The ranges that scale the prior: the learned ones (`empirical_prior`) when set, else
+        the plausible ranges (which always bound the warnings)."""
+        return self.ranges if self.prior is None or self.ranges is None else self.prior
 
     @property
     def statistical(self) -> bool:

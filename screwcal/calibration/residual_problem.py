@@ -112,7 +112,7 @@ class ResidualProblem:
                     settings: IdentifySettings, at: Array | None = None) -> ResidualProblem:
         """The problem with the settings' weights taken at x = `at` (default: the start)."""
         at = np.zeros(len(errors.params)) if at is None else at
-        problem = cls(errors, data, residual, np.zeros(0), settings.ranges)
+        problem = cls(errors, data, residual, np.zeros(0), settings.prior_ranges)
         problem.whiten = _weights(problem, settings, at)  # the linearisation at `at` is kept
         return problem
 

@@ -65,6 +65,7 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
         "nearest_nominal": {
             "rule": "a weak prior on every parameter, its plausible range as the standard "
                     "deviation: among models that fit equally, the one nearest nominal",
+            "prior_scales": result.prior_note or "the plausible ranges",
             "held_by_prior": list(result.held_by_prior),
             "implausible": list(result.implausible)},
         "noise": result.noise.to_dict() if result.noise is not None else None,

@@ -215,7 +215,7 @@ def _choose(start: SerialModel, cands: tuple[Param, ...], whiten: Array, r0: Arr
     notes = data_warnings(start, data, residual, m, rank, [n for n, _ in removed])
     errors = errors_all.subset([int(k) for k in keep])
     return Selection(start, cands, errors,
-                     ResidualProblem(errors, data, residual, whiten, settings.ranges), r0, J0,
+                     ResidualProblem(errors, data, residual, whiten, settings.prior_ranges), r0, J0,
                      T0, Rs, keep, rank, tuple(removed), tuple(combos), degenerate, tuple(notes))
 
 

@@ -109,6 +109,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
         print(f"joint compliance {gravity['note']}")
     if result.reading_lag is not None:
         print(f"joint readings {result.lag_note}")
+    if result.prior_note:
+        print(f"prior scales {result.prior_note}")
     if result.held_by_prior:
         print("held at nominal, the data leave them (nearly) free: "
               + "; ".join(result.held_by_prior))

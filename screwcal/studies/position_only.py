@@ -7,10 +7,11 @@ Each sample draws a true IRB 1600 with random errors (joint zeros 1 deg, axis ti
 axis shifts 0.5 mm, flange 0.5 mm / 0.1 deg, all 1 sigma), a measuring frame anywhere, and
 measures a point either on joint 6's axis (the flange centre) or 25-90 mm off it at random
 poses, positions only (0.013 mm noise, joint error uniform +-0.05 deg). The full model is
-fitted with the prior (`identify`'s default) and without it (plain least squares), both
-scored on 200 held-out poses (position; orientation of the flange, where the model claims to
-know it). A result is silent when a parameter lies outside its plausible range and no
-warning says so.
+fitted with the prior (`identify`'s default: on a set this small its scale is learned from
+the data, `calibration.empirical_prior`), with the prior at the plausible ranges' scale, and
+without it (plain least squares), all scored on 200 held-out poses (position; orientation of
+the flange, where the model claims to know it). A result is silent when a parameter lies
+outside its plausible range and no warning says so.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from screwcal.calibration.identify import CalibrationResult, identify
+from screwcal.calibration.identify import CalibrationResult, PriorScale, identify
 from screwcal.calibration.plausible import PlausibleRanges, outside_ranges
 from screwcal.calibration.posesets import random_configurations
 from screwcal.kinematics.forward import forward_kinematics
@@ -76,18 +77,23 @@ def _score(truth: SerialModel, result: CalibrationResult, q: np.ndarray,
 
 def run(samples: int = 100, seed: int = 0, poses: int = 30
         ) -> dict[str, list[Sample]]:
-    """Per fit ("prior", "plain"), a Sample per true robot; on and off axis alternate."""
+    """Per fit ("prior": identify's default, its scale learned on small sets; "plausible
+    scale": the prior at the plausible ranges' scale only; "plain"), a Sample per true robot;
+    on and off axis alternate."""
     rng = np.random.default_rng(seed)
     ranges = PlausibleRanges()
-    out: dict[str, list[Sample]] = {"prior": [], "plain": []}
+    out: dict[str, list[Sample]] = {"prior": [], "plausible scale": [], "plain": []}
     for k in range(samples):
         on_axis = k % 2 == 0
         truth = random_truth(rng, on_axis)
         data = simulate_measurements(truth, random_configurations(poses, rng), rng,
                                      full_pose=False)
         q_test = random_configurations(200, rng)
-        for name, plausible in (("prior", ranges), ("plain", None)):
-            result = identify(irb1600(), data, plausible=plausible)
+        fits: tuple[tuple[str, PlausibleRanges | None, PriorScale], ...] = (
+            ("prior", ranges, "learned"), ("plausible scale", ranges, "plausible"),
+            ("plain", None, "plausible"))
+        for name, plausible, scale in fits:
+            result = identify(irb1600(), data, plausible=plausible, prior_scale=scale)
             out[name].append(_score(truth, result, q_test, ranges, on_axis))
     return out
 
