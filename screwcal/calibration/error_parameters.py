@@ -165,6 +165,21 @@ def _thesis_offset_name(model: SerialModel, joint: int) -> str:
     return f"J{joint + 1}r{axis}"
 
 
+def _frame_sides(frames: Array, p: Array) -> Array:
+    """(3N, 6C): per pose the frames' rotations R and [p - t]x R side by side (the frames
+    (C, N, 3, 4) with their origins t, the tool point p (N, 3)): R v - [p - t]x R w is the
+    point's rate from a local twist (w, v) carried by the frame (`linearisation`)."""
+    C, N = frames.shape[:2]
+    out = np.empty((N, 3, 2, C, 3))
+    R = out[:, :, 0]  # (N, 3, C, 3): row l of every frame's rotation
+    R[...] = frames[..., :3].transpose(1, 2, 0, 3)
+    a0, a1, a2 = (p[:, None, None, k] - frames[..., k, 3].T[:, :, None] for k in range(3))
+    out[:, 0, 1] = a1 * R[:, 2] - a2 * R[:, 1]  # the rows of [a]x R, a = p - t
+    out[:, 1, 1] = a2 * R[:, 0] - a0 * R[:, 2]
+    out[:, 2, 1] = a0 * R[:, 1] - a1 * R[:, 0]
+    return out.reshape(3 * N, 6 * C)
+
+
 def _rot_jacobian_left(phi: Array) -> Array:
     """Left Jacobian of SO(3): exp(phi + d) = exp(J_l(phi) d) exp(phi) to first order."""
     theta = float(np.linalg.norm(phi))
@@ -333,15 +348,11 @@ class ErrorModel:
         frames[n + 1] = (A_end.reshape(-1, 4) @ model.home_flange).reshape(N, 3, 4)
         frames[n + 2, :, :, :3] = np.eye(3)
         T = _to_homogeneous((frames[n + 1].reshape(-1, 4) @ model.tool).reshape(N, 3, 4))
-        R = frames[..., :3]
-        arm = T[:, :3, 3] - frames[..., 3]  # (C, N, 3) p - t
-        armR = cross(arm[:, :, None, :], np.swapaxes(R, 2, 3))  # rows: (p - t) x R's columns
-        R_side = R.transpose(1, 2, 0, 3).reshape(3 * N, 3 * C)
-        arm_side = armR.transpose(1, 3, 0, 2).reshape(3 * N, 3 * C)
+        sides = _frame_sides(frames, T[:, :3, 3])
         W, V = self._twist_tables(model, self._collect(x), C)
         J = np.empty((N, 6, W.shape[1]))
-        J[:, :3] = (R_side @ V - arm_side @ W).reshape(N, 3, -1)
-        J[:, 3:] = (R_side @ W).reshape(N, 3, -1)
+        J[:, :3] = (sides @ np.vstack([V, -W])).reshape(N, 3, -1)
+        J[:, 3:] = (sides[:, :3 * C] @ W).reshape(N, 3, -1)
         P = len(self.params)
         if tau is not None:
             self._scale_compliance(J[:, :, :P], tau, len(model.masses))

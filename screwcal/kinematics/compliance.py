@@ -67,16 +67,20 @@ def gravity_torques_by_mass(axis_dirs: Array, axis_points: Array, partial: list[
     n = len(axis_dirs)
     N = partial[0].shape[0]
     tau = np.zeros((N, n, len(masses)))
+    if not masses:
+        return tau
     g = -GRAVITY_M_S2 * up / 1000.0  # N per kg, with mm lever arms -> N m
+    # every joint that carries a mass: its axis (w) and a point on it (a), (J, N, 3), once
+    carrying = max(m.link for m in masses) + 1
+    frames = np.stack(partial[:carrying])
+    w = np.einsum("jnab,jb->jna", frames[..., :3], axis_dirs[:carrying])
+    a = np.einsum("jnab,jb->jna", frames[..., :3], axis_points[:carrying]) + frames[..., 3]
     for k, m in enumerate(masses):
         A = partial[m.link + 1]
         r = A[:, :, :3] @ np.asarray(m.home_mm) + A[:, :, 3]  # (N, 3) the mass now
         moment = skew(m.kg * g)  # (r - a) @ skew(F) = (r - a) x F, for row vectors
-        for j in range(m.link + 1):
-            Aj = partial[j]
-            w = Aj[:, :, :3] @ axis_dirs[j]
-            a = Aj[:, :, :3] @ axis_points[j] + Aj[:, :, 3]
-            tau[:, j, k] = np.einsum("ni,ni->n", w, (r - a) @ moment)
+        J = m.link + 1  # the joints that carry it
+        tau[:, :J, k] = np.einsum("jni,jni->nj", w[:J], (r - a[:J]) @ moment)
     return tau
 
 
