@@ -183,8 +183,9 @@ def loo_position_error(e: Array, A: Array, W: Array) -> float:
     r = (W @ e[..., None])[..., 0]
     flat = WA.reshape(-1, p)
     Ninv = scipy.linalg.pinvh(flat.T @ flat)
-    r = r - (WA @ (Ninv @ (flat.T @ r.reshape(-1))))  # residuals after this weighting's step
-    H = WA @ Ninv @ np.swapaxes(WA, 1, 2)
+    # residuals after this weighting's step; the hat blocks (products of the stacked rows)
+    r = r - (flat @ (Ninv @ (flat.T @ r.reshape(-1)))).reshape(r.shape)
+    H = (flat @ Ninv).reshape(WA.shape) @ np.swapaxes(WA, 1, 2)
     k = e.shape[1]
     r_loo = np.linalg.solve(np.eye(k) - H, r[..., None])
     e_loo = np.linalg.solve(W, r_loo)[..., 0]

@@ -19,6 +19,9 @@ x4, ...); an accepted one lowers it (Nielsen's
 
 Stopping, as MINPACK's tests (Moré 1978), all relative and with one tolerance `tol`:
 
+- the Gauss-Newton step from the estimate predicted to lower the cost by under tol * f (the
+  Newton decrement g^T N^-1 g: it needs no evaluation at the step, whose linearisation the
+  caller would not use; from a Gauss-Newton start the estimate is then one step after it);
 - the cost's actual and predicted reductions both under tol * f ("ftol");
 - the scaled step under tol * the scaled estimate ("xtol");
 - the cosine between the residuals and every scaled column under tol ("gtol").
@@ -96,36 +99,56 @@ def levenberg_marquardt(evaluate: Evaluate, x0: Array, prior: Array, tol: float 
     weighted residuals and their Jacobian at x."""
     here = _point(evaluate, np.asarray(x0, dtype=float), prior)
     evaluations, iterations = 1, 0
-    D = np.sqrt(np.diag(here.N))
+    D = np.zeros(len(here.g))
     lam, nu = 0.0, 2.0
     while True:
         D = np.maximum(D, np.sqrt(np.diag(here.N)))
         D = np.where(D > 0, D, 1.0)
-        if here.cost <= 0 or np.max(np.abs(here.g) / D) <= tol * np.sqrt(here.cost):
-            return LMResult(here.x, True, "converged: the residuals are orthogonal to the "
-                            f"Jacobian's columns within {tol:g} (gtol)", evaluations, iterations)
-        if evaluations >= max_evaluations:
-            return LMResult(here.x, False, f"stopped after {evaluations} evaluations",
-                            evaluations, iterations)
         dx = damped_step(here.N, here.g, D, lam)
         predicted = -float(2.0 * here.g @ dx + dx @ here.N @ dx)
+        stop = _converged_here(here, D, lam, predicted, tol)
+        if stop or evaluations >= max_evaluations:
+            return LMResult(here.x, bool(stop), stop or f"stopped after {evaluations} "
+                            "evaluations", evaluations, iterations)
         trial = _point(evaluate, here.x + dx, prior)
         evaluations += 1
         actual = here.cost - trial.cost if np.isfinite(trial.cost) else -np.inf
-        step_small = np.linalg.norm(D * dx) <= tol * (np.linalg.norm(D * here.x) + tol)
         rho = actual / predicted if predicted > 0 else -np.inf
+        small = bool(np.linalg.norm(D * dx) <= tol * (np.linalg.norm(D * here.x) + tol))
         if rho > ACCEPT:
             iterations += 1
             here, lam, nu = trial, lam * max(LAMBDA_DOWN, 1 - (2 * rho - 1) ** 3), 2.0
             lam = 0.0 if lam < LAMBDA_FLOOR else lam
-        if abs(actual) <= tol * here.cost and predicted <= tol * here.cost:
-            return LMResult(here.x, True, "converged: the cost's actual and predicted "
-                            f"reductions under {tol:g} of it (ftol)", evaluations, iterations)
-        if step_small and rho > ACCEPT:
-            return LMResult(here.x, True, f"converged: the step under {tol:g} of the estimate "
-                            "(xtol)", evaluations, iterations)
-        if step_small:
-            return LMResult(here.x, False, "no step lowers the cost (the step is under "
-                            f"{tol:g} of the estimate)", evaluations, iterations)
+        stop = _converged_after(actual, predicted, here.cost, small and rho > ACCEPT, tol)
+        if stop or small:
+            return LMResult(here.x, bool(stop), stop or "no step lowers the cost (the step "
+                            f"is under {tol:g} of the estimate)", evaluations, iterations)
         if rho <= ACCEPT:
             lam, nu = max(lam * nu, LAMBDA_FIRST), 2.0 * nu
+
+
+def _converged_here(here: _Point, D: Array, lam: float, predicted: float, tol: float) -> str:
+    """Why the estimate is converged before its next step is tried, or "": the residuals
+    orthogonal to the scaled columns (gtol), or the Gauss-Newton step from it predicted to
+    lower the cost by under tol of it (its Newton decrement: the gradient in the metric of the
+    normal matrix; the step would move the estimate by about sqrt(tol * cost) standard
+    errors at most)."""
+    if here.cost <= 0 or np.max(np.abs(here.g) / D) <= tol * np.sqrt(here.cost):
+        return f"converged: the residuals are orthogonal to the Jacobian's columns within " \
+            f"{tol:g} (gtol)"
+    if lam == 0.0 and predicted <= tol * here.cost:
+        return f"converged: the Gauss-Newton step would lower the cost by under {tol:g} of it"
+    return ""
+
+
+def _converged_after(actual: float, predicted: float, cost: float, small_accepted: bool,
+                     tol: float) -> str:
+    """Why the estimate after a step is converged, or "": the step's actual and predicted
+    reductions under tol of the cost (ftol), or an accepted step under tol of the estimate
+    (xtol)."""
+    if abs(actual) <= tol * cost and predicted <= tol * cost:
+        return f"converged: the cost's actual and predicted reductions under {tol:g} of it " \
+            "(ftol)"
+    if small_accepted:
+        return f"converged: the step under {tol:g} of the estimate (xtol)"
+    return ""

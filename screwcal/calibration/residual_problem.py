@@ -34,8 +34,21 @@ from screwcal.kinematics.se3 import Array, rotvec_from_rotation
 
 
 def whitening(cov: Array) -> Array:
-    """W_i with W_i^T W_i = cov_i^-1, per pose (N, k, k)."""
-    return np.linalg.inv(np.linalg.cholesky(cov))
+    """W_i with W_i^T W_i = cov_i^-1, per pose (N, k, k): the inverse of the Cholesky factor."""
+    return lower_inverse(np.linalg.cholesky(cov))
+
+
+def lower_inverse(L: Array) -> Array:
+    """The inverses of lower-triangular matrices L (N, k, k), by forward substitution a row at
+    a time for all N together, X_i = (e_i - L_i,<i X_<i) / L_ii (a batched LU solve costs four
+    times as much for 1000 of 6 x 6)."""
+    k = L.shape[-1]
+    X = np.zeros_like(L)
+    for i in range(k):
+        row = -np.einsum("nm,nmj->nj", L[:, i, :i], X[:, :i])
+        row[:, i] += 1.0
+        X[:, i] = row / L[:, i, i, None]
+    return X
 
 
 def whitening_of_levels(theta: Array, V: Array) -> Array:
