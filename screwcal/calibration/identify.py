@@ -123,6 +123,7 @@ def _with_learned_prior(nominal: SerialModel, data: MeasurementSet, settings: Id
     prior's scales learned from the data (`empirical_prior`) until they settle. The refits
     take the poses the first kept (its outliers stand); a learned prior under which a pose
     looks like an outlier is too narrow for this robot: the rounds stop at the one before."""
+    started = time.perf_counter()
     result = _with_lag(nominal, data, settings, lag)
     plausible = settings.ranges
     numbers = residual_rows(result.residual_kind) * len(result.residuals_after)
@@ -131,6 +132,7 @@ def _with_learned_prior(nominal: SerialModel, data: MeasurementSet, settings: Id
         return result
     first = _rejected(result)
     dropped = {o.id for o in first}
+    seen = {o.id for o in result.outliers if not o.rejected}  # flagged and kept already
     kept = data.take(np.array([k for k, i in enumerate(data.ids) if i not in dropped], int))
     prior, rounds, flagged = plausible, 0, 0
     while rounds < empirical_prior.ROUNDS:
@@ -140,12 +142,13 @@ def _with_learned_prior(nominal: SerialModel, data: MeasurementSet, settings: Id
             break
         trial = _with_lag(nominal, kept, replace(settings, prior=step.ranges, outliers="keep"),
                           lag)
-        if trial.outliers:
-            flagged = len(trial.outliers)
+        flagged = sum(o.id not in seen for o in trial.outliers)
+        if flagged:
             break
-        prior, rounds, result = step.ranges, rounds + 1, replace(trial, outliers=first)
-    return replace(result, prior_note=empirical_prior.describe(prior, plausible, rounds,
-                                                               flagged))
+        prior, rounds = step.ranges, rounds + 1
+        result = replace(trial, outliers=first + trial.outliers)
+    return replace(result, seconds=time.perf_counter() - started,
+                   prior_note=empirical_prior.describe(prior, plausible, rounds, flagged))
 
 
 def _with_lag(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,

@@ -93,3 +93,17 @@ def test_the_command_line_result_says_the_scales(tmp_path, capsys):
     assert "prior scales learned from the data (empirical Bayes" in printed, printed
     doc = json.loads(out.read_text())
     assert doc["nearest_nominal"]["prior_scales"].startswith("learned from the data")
+
+
+def test_a_gross_error_stays_rejected_and_a_kept_one_does_not_stop_the_rounds():
+    rng = np.random.default_rng(3)
+    truth = true_robot(4)
+    data = simulate_measurements(truth, random_configurations(36, rng), rng, full_pose=False)
+    data.positions_mm[5] += (3.0, -2.0, 1.0)  # a gross error
+    fit = identify(irb1600(), data)
+    assert [(o.id, o.rejected) for o in fit.outliers] == [(data.ids[5], True)]
+    assert fit.prior_note.startswith("learned from the data"), fit.prior_note
+    kept = identify(irb1600(), data, outliers="keep")
+    assert data.ids[5] in {o.id for o in kept.outliers if not o.rejected}
+    assert kept.prior_note.startswith("learned from the data"), kept.prior_note
+    assert fit.seconds > 0
