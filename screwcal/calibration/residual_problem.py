@@ -35,7 +35,8 @@ from screwcal.kinematics.se3 import Array, rotvec_from_rotation
 
 def whitening(cov: Array) -> Array:
     """W_i with W_i^T W_i = cov_i^-1, per pose (N, k, k): the inverse of the Cholesky factor."""
-    return lower_inverse(np.linalg.cholesky(cov))
+    factor = np.asarray(np.linalg.cholesky(cov), dtype=np.float64)
+    return lower_inverse(factor)
 
 
 def lower_inverse(L: Array) -> Array:
