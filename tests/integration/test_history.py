@@ -5,6 +5,7 @@ the emulated robot)."""
 
 import asyncio
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -53,7 +54,9 @@ async def test_history_keeps_provenance_and_raises_the_drift_alarm(service, rig)
 
     r = await service.put(f"/robots/{robot['id']}/identity", json={"tool": "gripper B"})
     assert r.status_code == 200 and r.json()["tool"] == "gripper B"
-    rig.emu.world.truth.joint_zero[1] += np.radians(0.3)  # a collision shifts J2
+    world = rig.emu.world  # a collision shifts J2: a new true robot, as a ZERO makes one
+    world.truth = replace(world.truth, joint_zero=world.truth.joint_zero
+                          + np.radians([0.0, 0.3, 0.0, 0.0, 0.0, 0.0]))
     drifted = await run("verify")
     h = await history()
     assert h.entries[0].robot_identity["tool"] == "gripper A"  # as it was when made
