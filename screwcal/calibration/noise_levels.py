@@ -30,6 +30,7 @@ from screwcal.calibration.identify_settings import (
 )
 from screwcal.calibration.residual_problem import ResidualProblem, whitening_of_levels
 from screwcal.calibration.solvers import Solution, Solve
+from screwcal.calibration.variance_scoring import scoring_step
 from screwcal.kinematics.se3 import Array
 
 VCE_MAX_ITER = 25
@@ -78,34 +79,6 @@ def estimate_with_joint_check(problem: ResidualProblem, noise: NoiseModel, x: Ar
     return NoiseFit(refit.problem, solution, replace(refit.noise, note=(
         f"joint noise left out: it predicted left-out poses worse ({with_joint:.3f} vs "
         f"{without:.3f} mm, leave-one-out): what it soaked up is model error, not noise")))
-
-
-def _scoring_step(e: Array, A: Array, V: Array, W: Array, Ninv: Array
-                  ) -> tuple[Array, Array]:
-    """REML score (K,) and expected information (K, K) of the free variance components V
-    (K, N, k, k), at the residuals e (N, k) of the problem linearised as A (N, k, p),
-    whitened by W (N, k, k), whose normal matrix (the prior's included) has the inverse
-    Ninv (p, p)."""
-    Cinv = np.swapaxes(W, 1, 2) @ W
-    Ce = (Cinv @ e[..., None])[..., 0]
-    CA = Cinv @ A
-    p_ = A.shape[-1]
-    K = len(V)
-    M = Cinv @ V  # C^-1 V_k per pose
-    S = CA @ Ninv @ np.swapaxes(CA, 1, 2)  # C^-1 A N^-1 A^T C^-1 per pose
-    # A^T C^-1 V_k C^-1 A summed over the poses: one product of the stacked rows, never
-    # the (K, N, p, p) per-pose terms (55 MB for 1000 poses and 48 parameters)
-    G = CA.reshape(-1, p_).T @ (V @ CA).reshape(K, -1, p_)
-    # traces of products of per-pose blocks: tr(X Y) = sum of X * Y^T
-    score = 0.5 * ((Ce[:, None, :] @ V @ Ce[:, :, None]).sum(axis=(1, 2, 3))
-                   - np.trace(M, axis1=2, axis2=3).sum(axis=1)
-                   + (V * np.swapaxes(S, 1, 2)).sum(axis=(1, 2, 3)))
-    GN = G @ Ninv
-    MS = M @ S
-    information = 0.5 * (M.reshape(K, -1) @ np.swapaxes(M, 2, 3).reshape(K, -1).T
-                         - 2.0 * V.reshape(K, -1) @ np.swapaxes(MS, 2, 3).reshape(K, -1).T
-                         + np.einsum("kpq,lqp->kl", GN, GN))
-    return score, information
 
 
 def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve: Solve,
@@ -172,7 +145,7 @@ def levels_on_linearisation(e: Array, A: Array, V: Array, theta: Array, idx: Ind
         if not len(idx):
             converged = True
             break
-        score, information = _scoring_step(e, A, V[idx], W, Ninv)
+        score, information = scoring_step(e, A, V[idx], W, Ninv)
         step = np.linalg.lstsq(information, score, rcond=None)[0]
         old = theta[idx].copy()
         new = np.clip(old + step, old / STEP_LIMIT, old * STEP_LIMIT)

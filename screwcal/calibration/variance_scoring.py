@@ -1,0 +1,85 @@
+"""One Fisher-scoring step of the variance components (REML; `noise_levels`), in whitened
+units with each component factored.
+
+With the covariance C_i = sum_k theta_k V_k,i of pose i, its whitening W_i (W^T W = C^-1), the
+whitened residuals e~ = W e, Jacobian A~ = W A, H_i = A~_i N^-1 A~_i^T and V~_k = W V_k W^T,
+the score and the expected information of the restricted likelihood are (Koch 1999, 3.6)
+
+    s_k    = 1/2 [ e~^T V~_k e~ - tr(V~_k) + tr(V~_k H) ]                  (sums over poses)
+    I_kl   = 1/2 [ tr(V~_k V~_l) - 2 tr(V~_k V~_l H) + tr(G_k N^-1 G_l N^-1) ],
+    G_k    = sum_i A~_i^T V~_k,i A~_i.
+
+Each component is factored, V_k = B_k B_k^T (the measuring noise's a fixed selection of rows,
+the joint noise's a Cholesky factor per pose), so V~_k = U_k U_k^T with U_k = W B_k (k, r_k):
+every trace is a sum over the columns u of U, tr(V~_k) = sum |u|^2, tr(V~_k H) = sum u^T H u,
+tr(V~_k V~_l) = sum (u^T u')^2, tr(V~_k V~_l H) = sum (u^T u')(u^T H u'), all of (k, k) and
+(k, r) blocks once H (k, k) is formed from one product of the stacked rows; and G_k is the Gram
+matrix of the stacked P_k = U_k^T A~ (r_k, p): the (p, p)-sized work is one pass over the rows
+(the per-pose products C^-1 V_k C^-1 A of every component, 1000 of (k, k) x (k, p) each, are not
+formed).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from screwcal.kinematics.se3 import Array
+
+
+def component_factors(V: Array) -> tuple[Array, Array]:
+    """B (N, k, R) with V_k = B_k B_k^T for the components V (K, N, k, k), and the component
+    of each of B's R columns (R,). A component that is the same non-negative diagonal at every
+    pose: the rows it weights, scaled; else the Cholesky factor per pose, or (a pose where it
+    is singular) the eigen-decomposition's."""
+    N, k = V.shape[1:3]
+    blocks, owner = [], []
+    for c, Vc in enumerate(V):
+        d = Vc[0].diagonal()
+        if np.all(d >= 0) and np.array_equal(Vc, np.broadcast_to(np.diag(d), Vc.shape)):
+            rows = np.flatnonzero(d)
+            B = np.zeros((N, k, len(rows)))
+            B[:, rows, np.arange(len(rows))] = np.sqrt(d[rows])
+        else:
+            try:
+                B = np.linalg.cholesky(Vc)
+            except np.linalg.LinAlgError:
+                lam, Q = np.linalg.eigh(Vc)
+                B = Q * np.sqrt(np.clip(lam, 0.0, None))[:, None, :]
+        blocks.append(B)
+        owner += [c] * B.shape[2]
+    return np.concatenate(blocks, axis=2), np.array(owner)
+
+
+def scoring_step(e: Array, A: Array, V: Array, W: Array, Ninv: Array) -> tuple[Array, Array]:
+    """REML score (K,) and expected information (K, K) of the free variance components V
+    (K, N, k, k), at the residuals e (N, k) of the problem linearised as A (N, k, p),
+    whitened by W (N, k, k), whose normal matrix (the prior's included) has the inverse
+    Ninv (p, p) (the module docstring's formulas)."""
+    K, p = len(V), A.shape[-1]
+    Aw = W @ A
+    flat = Aw.reshape(-1, p)
+    H = (flat @ Ninv).reshape(Aw.shape) @ np.swapaxes(Aw, 1, 2)  # (N, k, k) hat blocks
+    B, owner = component_factors(V)
+    U = W @ B  # (N, k, R): V~ = U U^T per component's columns
+    UT = np.swapaxes(U, 1, 2)
+    HU = H @ U
+    E = np.zeros((len(owner), K))
+    E[np.arange(len(owner)), owner] = 1.0  # columns -> components
+    ue = (UT @ (W @ e[..., None]))[..., 0]  # (N, R)
+    score = 0.5 * (np.sum(ue ** 2, axis=0) - np.sum(U ** 2, axis=(0, 1))
+                   + np.sum(U * HU, axis=(0, 1))) @ E
+    UU = UT @ U  # (N, R, R)
+    Z = UT @ HU  # u_c^T H u_c' per pose
+    G = np.stack([_stacked_gram(UT[:, owner == c] @ Aw) for c in range(K)])  # P_k stacked
+    GN = G @ Ninv
+    information = 0.5 * (E.T @ np.sum(UU ** 2, axis=0) @ E
+                         - 2.0 * E.T @ np.sum(UU * Z, axis=0) @ E
+                         + np.einsum("kpq,lqp->kl", GN, GN))
+    return score, information
+
+
+def _stacked_gram(P: Array) -> Array:
+    """sum_i P_i^T P_i (p, p) of P (N, r, p): one product of the stacked rows."""
+    X = P.reshape(-1, P.shape[-1])
+    out: Array = X.T @ X
+    return out
