@@ -25,6 +25,8 @@ import numpy as np
 
 from screwcal.kinematics.se3 import Array
 
+BLOCK = 200  # poses summed at a time: a block's arrays (~0.1-0.2 MB each) stay in cache
+
 
 def component_factors(V: Array) -> tuple[Array, Array]:
     """B (N, k, R) with V_k = B_k B_k^T for the components V (K, N, k, k), and the component
@@ -54,28 +56,39 @@ def scoring_step(e: Array, A: Array, V: Array, W: Array, Ninv: Array) -> tuple[A
     """REML score (K,) and expected information (K, K) of the free variance components V
     (K, N, k, k), at the residuals e (N, k) of the problem linearised as A (N, k, p),
     whitened by W (N, k, k), whose normal matrix (the prior's included) has the inverse
-    Ninv (p, p) (the module docstring's formulas)."""
-    K, p = len(V), A.shape[-1]
-    Aw = W @ A
-    flat = Aw.reshape(-1, p)
-    H = (flat @ Ninv).reshape(Aw.shape) @ np.swapaxes(Aw, 1, 2)  # (N, k, k) hat blocks
+    Ninv (p, p) (the module docstring's formulas). Every term is a sum over the poses: they
+    are summed `BLOCK` poses at a time (each block's arrays stay in cache)."""
+    K = len(V)
     B, owner = component_factors(V)
-    U = W @ B  # (N, k, R): V~ = U U^T per component's columns
-    UT = np.swapaxes(U, 1, 2)
-    HU = H @ U
     E = np.zeros((len(owner), K))
     E[np.arange(len(owner)), owner] = 1.0  # columns -> components
-    ue = (UT @ (W @ e[..., None]))[..., 0]  # (N, R)
-    score = 0.5 * (np.sum(ue ** 2, axis=0) - np.sum(U ** 2, axis=(0, 1))
-                   + np.sum(U * HU, axis=(0, 1))) @ E
-    UU = UT @ U  # (N, R, R)
-    Z = UT @ HU  # u_c^T H u_c' per pose
-    G = np.stack([_stacked_gram(UT[:, owner == c] @ Aw) for c in range(K)])  # P_k stacked
+    sums = [_block_sums(e[s:s + BLOCK], A[s:s + BLOCK], B[s:s + BLOCK], W[s:s + BLOCK],
+                        Ninv, owner, K) for s in range(0, len(e), BLOCK)]
+    traces, UU2, UUZ, G = (sum(part[j] for part in sums) for j in range(4))
+    score = 0.5 * traces @ E
     GN = G @ Ninv
-    information = 0.5 * (E.T @ np.sum(UU ** 2, axis=0) @ E
-                         - 2.0 * E.T @ np.sum(UU * Z, axis=0) @ E
-                         + np.einsum("kpq,lqp->kl", GN, GN))
+    information = 0.5 * (E.T @ (UU2 - 2.0 * UUZ) @ E + np.einsum("kpq,lqp->kl", GN, GN))
     return score, information
+
+
+def _block_sums(e: Array, A: Array, B: Array, W: Array, Ninv: Array, owner: Array, K: int
+                ) -> tuple[Array, Array, Array, Array]:
+    """Of some poses: per factor column u, |u^T e~|^2 - |u|^2 + u^T H u (R,); the sums of
+    (u^T u')^2 and of (u^T u')(u^T H u') (R, R); and G_k (K, p, p)."""
+    p = A.shape[-1]
+    Aw = W @ A
+    H = (Aw.reshape(-1, p) @ Ninv).reshape(Aw.shape) @ np.swapaxes(Aw, 1, 2)  # hat blocks
+    U = W @ B  # (n, k, R): V~ = U U^T per component's columns
+    UT = np.swapaxes(U, 1, 2)
+    HU = H @ U
+    ue = (UT @ (W @ e[..., None]))[..., 0]  # (n, R)
+    traces = np.sum(ue ** 2, axis=0) - np.sum(U ** 2, axis=(0, 1)) + np.sum(U * HU,
+                                                                          axis=(0, 1))
+    UU = UT @ U  # (n, R, R)
+    # G_k: the Gram matrix of the stacked P_k = U_k^T A~, each U_k its own contiguous block
+    G = np.stack([_stacked_gram(np.swapaxes(W @ B[:, :, owner == c], 1, 2) @ Aw)
+                  for c in range(K)])
+    return traces, np.sum(UU ** 2, axis=0), np.sum(UU * (UT @ HU), axis=0), G
 
 
 def _stacked_gram(P: Array) -> Array:

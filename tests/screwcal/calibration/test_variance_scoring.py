@@ -4,6 +4,7 @@ formulas with explicit per-pose covariances (Koch 1999, 3.6)."""
 import numpy as np
 import pytest
 
+from screwcal.calibration import variance_scoring
 from screwcal.calibration.residual_problem import whitening
 from screwcal.calibration.variance_scoring import component_factors, scoring_step
 
@@ -31,8 +32,11 @@ def _textbook(e, A, V, theta, prior):
     return score, info, Ci, Ninv
 
 
-@pytest.mark.parametrize("rows", [6, 3])
-def test_the_factored_step_is_the_textbook_step(rng, rows):
+@pytest.mark.parametrize(("rows", "block"), [(6, 200), (3, 200), (6, 7)])
+def test_the_factored_step_is_the_textbook_step(rng, rows, block, monkeypatch):
+    """Pose rows and position rows; summed in one block, and in blocks of 7 (the last one
+    shorter)."""
+    monkeypatch.setattr(variance_scoring, "BLOCK", block)
     N, p = 30, 5
     Jq = rng.normal(size=(N, rows, 6))
     Jq[4, :, 5] = Jq[4, :, 3]  # a pose at a singularity: its joint component is singular
