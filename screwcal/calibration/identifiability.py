@@ -68,8 +68,7 @@ def select_identifiable(J: Array, priority: Array, names: list[str],
     columns of a richer selection's R: Q R[:, S] are the columns S)."""
     norms = np.linalg.norm(J, axis=0)
     live = norms > 1e-12 * max(norms.max(), 1e-300)
-    Js = np.where(live, J / np.where(live, norms, 1.0), 0.0)
-    Rs = scipy.linalg.qr(Js, mode="r")[0][:J.shape[1]] if triangle is None else triangle
+    Rs = _scaled_triangle(J, norms, live) if triangle is None else triangle
     _, s, Vt = svd(Rs)
     rank = int(np.sum(s > RANK_TOL * s[0]))
     combos = []
@@ -80,6 +79,17 @@ def select_identifiable(J: Array, priority: Array, names: list[str],
     _, _, piv = scipy.linalg.qr(Rs * order_weight, mode="economic", pivoting=True)
     keep = np.sort(piv[:rank])
     return keep, rank, norms, combos, Rs
+
+
+def _scaled_triangle(J: Array, norms: Array, live: Array) -> Array:
+    """R (p, p) of the QR factorisation of J (m, p) with its live columns scaled to unit
+    length (the others zero), written once in the column order LAPACK factorises in place
+    (no second copy of the tall matrix)."""
+    Js = np.empty(J.shape, order="F")
+    np.divide(J, np.where(live, norms, 1.0), out=Js)
+    Js[:, ~live] = 0.0
+    R: Array = scipy.linalg.qr(Js, mode="r", overwrite_a=True)[0][:J.shape[1]]
+    return R
 
 
 _STRUCTURAL_RANKS: dict[bytes, int] = {}
