@@ -81,7 +81,7 @@ def select_identifiable(J: Array, priority: Array, names: list[str],
     return keep, rank, norms, combos, Rs
 
 
-def _scaled_triangle(J: Array, norms: Array, live: Array) -> Array:
+def _scaled_triangle(J: Array, norms: Array, live: NDArray[np.bool_]) -> Array:
     """R (p, p) of the QR factorisation of J (m, p) with its live columns scaled to unit
     length (the others zero), written once in the column order LAPACK factorises in place
     (no second copy of the tall matrix)."""
