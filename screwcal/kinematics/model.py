@@ -157,7 +157,11 @@ class SerialModel:
         normalisation, rotations from exponentials). Everything else uses dataclasses.replace."""
         out = object.__new__(SerialModel)
         for name in self.__dataclass_fields__:
-            object.__setattr__(out, name, changes.get(name, getattr(self, name)))
+            value = changes.get(name, getattr(self, name))
+            if isinstance(value, np.ndarray) and value.flags.writeable:
+                value = value.view()  # read-only through the model, as validated ones are
+                value.setflags(write=False)
+            object.__setattr__(out, name, value)
         return out
 
     @cached_property
