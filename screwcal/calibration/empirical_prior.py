@@ -25,7 +25,8 @@ tests/screwcal/studies/test_tracker_dataset.py the real one):
 - the IRB 120 tracker set, 36-pose subsets, position only, 3-fold cross-validation (fits on 24
   poses), 12 subsets: held-out mean 0.495 mm against 0.524 mm with the plausible scale, 0.909x
   a plain full calibration's 0.545 mm (0.962x before); a calibration on 600 other poses of
-  the set reaches 0.746x on the same held-out poses, the floor such a fit approaches;
+  the set reaches 0.754x on the same held-out poses, the floor such a fit approaches
+  (`python -m screwcal.studies.small_sets`);
 - simulated IRB 1600s with errors on every axis, 36 position-only poses, 10 robots: held-out
   0.237 mm against 0.260 mm; the Monte Carlo of `screwcal.studies.position_only` (100 robots,
   30 poses): 0.321 / 0.335 mm against 0.337 / 0.340 mm (point on axis 6 / offset).
