@@ -165,15 +165,18 @@ def _thesis_offset_name(model: SerialModel, joint: int) -> str:
     return f"J{joint + 1}r{axis}"
 
 
-def _frame_sides(frames: Array, p: Array) -> Array:
-    """(3N, 6C): per pose the frames' rotations R and [p - t]x R side by side (the frames
-    (C, N, 3, 4) with their origins t, the tool point p (N, 3)): R v - [p - t]x R w is the
+def _frame_sides(frames: Sequence[Array], p: Array) -> Array:
+    """(3N, 6C): per pose the frames' rotations R and [p - t]x R side by side (the C frames
+    (N, 3, 4) with their origins t, the tool point p (N, 3)): R v - [p - t]x R w is the
     point's rate from a local twist (w, v) carried by the frame (`linearisation`)."""
-    C, N = frames.shape[:2]
+    C, N = len(frames), len(p)
     out = np.empty((N, 3, 2, C, 3))
     R = out[:, :, 0]  # (N, 3, C, 3): row l of every frame's rotation
-    R[...] = frames[..., :3].transpose(1, 2, 0, 3)
-    a0, a1, a2 = (p[:, None, None, k] - frames[..., k, 3].T[:, :, None] for k in range(3))
+    arm = np.empty((N, C, 3))
+    for c, frame in enumerate(frames):
+        R[:, :, c] = frame[:, :, :3]
+        np.subtract(p, frame[:, :, 3], out=arm[:, c])
+    a0, a1, a2 = (arm[:, :, k, None] for k in range(3))
     out[:, 0, 1] = a1 * R[:, 2] - a2 * R[:, 1]  # the rows of [a]x R, a = p - t
     out[:, 1, 1] = a2 * R[:, 0] - a0 * R[:, 2]
     out[:, 2, 1] = a0 * R[:, 1] - a1 * R[:, 0]
@@ -343,12 +346,11 @@ class ErrorModel:
                                           model.all_masses, model.base[:3, 2])
         N, n = q.shape
         C = n + 3
-        frames = np.zeros((C, N, 3, 4))
-        frames[:n + 1] = partial
-        frames[n + 1] = (A_end.reshape(-1, 4) @ model.home_flange).reshape(N, 3, 4)
-        frames[n + 2, :, :, :3] = np.eye(3)
-        T = _to_homogeneous((frames[n + 1].reshape(-1, 4) @ model.tool).reshape(N, 3, 4))
-        sides = _frame_sides(frames, T[:, :3, 3])
+        flange = (A_end.reshape(-1, 4) @ model.home_flange).reshape(N, 3, 4)
+        world = np.zeros((N, 3, 4))
+        world[:, :, :3] = np.eye(3)
+        T = _to_homogeneous((flange.reshape(-1, 4) @ model.tool).reshape(N, 3, 4))
+        sides = _frame_sides([*partial, flange, world], T[:, :3, 3])
         W, V = self._twist_tables(model, self._collect(x), C)
         J = np.empty((N, 6, W.shape[1]))
         J[:, :3] = (sides @ np.vstack([V, -W])).reshape(N, 3, -1)

@@ -138,14 +138,15 @@ def levels_on_linearisation(e: Array, A: Array, V: Array, theta: Array, idx: Ind
         W = whitening_of_levels(theta, V)
         # The weighted linear least-squares step by its normal equations (their inverse is
         # the scoring's too), and the residuals carried there.
-        WA = (W @ A).reshape(-1, A.shape[-1])
+        Aw = W @ A
+        WA = Aw.reshape(-1, A.shape[-1])
         Ninv = scipy.linalg.pinvh(WA.T @ WA + np.diag(P ** 2))
         dx = -Ninv @ (WA.T @ (W @ e[..., None]).reshape(-1) + P ** 2 * x)
         x, e = x + dx, e + A @ dx
         if not len(idx):
             converged = True
             break
-        score, information = scoring_step(e, A, V[idx], W, Ninv)
+        score, information = scoring_step(e, Aw, V[idx], W, Ninv)
         step = np.linalg.lstsq(information, score, rcond=None)[0]
         old = theta[idx].copy()
         new = np.clip(old + step, old / STEP_LIMIT, old * STEP_LIMIT)

@@ -52,17 +52,18 @@ def component_factors(V: Array) -> tuple[Array, Array]:
     return np.concatenate(blocks, axis=2), np.array(owner)
 
 
-def scoring_step(e: Array, A: Array, V: Array, W: Array, Ninv: Array) -> tuple[Array, Array]:
+def scoring_step(e: Array, Aw: Array, V: Array, W: Array, Ninv: Array
+                 ) -> tuple[Array, Array]:
     """REML score (K,) and expected information (K, K) of the free variance components V
     (K, N, k, k), at the residuals e (N, k) of the problem linearised as A (N, k, p),
-    whitened by W (N, k, k), whose normal matrix (the prior's included) has the inverse
-    Ninv (p, p) (the module docstring's formulas). Every term is a sum over the poses: they
+    whitened by W (N, k, k) (Aw = W A), whose normal matrix (the prior's included) has the
+    inverse Ninv (p, p) (the module docstring's formulas). Every term is a sum over the poses: they
     are summed `BLOCK` poses at a time (each block's arrays stay in cache)."""
     K = len(V)
     B, owner = component_factors(V)
     E = np.zeros((len(owner), K))
     E[np.arange(len(owner)), owner] = 1.0  # columns -> components
-    sums = [_block_sums(e[s:s + BLOCK], A[s:s + BLOCK], B[s:s + BLOCK], W[s:s + BLOCK],
+    sums = [_block_sums(e[s:s + BLOCK], Aw[s:s + BLOCK], B[s:s + BLOCK], W[s:s + BLOCK],
                         Ninv, owner, K) for s in range(0, len(e), BLOCK)]
     traces, UU2, UUZ, G = (sum(part[j] for part in sums) for j in range(4))
     score = 0.5 * traces @ E
@@ -71,12 +72,11 @@ def scoring_step(e: Array, A: Array, V: Array, W: Array, Ninv: Array) -> tuple[A
     return score, information
 
 
-def _block_sums(e: Array, A: Array, B: Array, W: Array, Ninv: Array, owner: Array, K: int
+def _block_sums(e: Array, Aw: Array, B: Array, W: Array, Ninv: Array, owner: Array, K: int
                 ) -> tuple[Array, Array, Array, Array]:
     """Of some poses: per factor column u, |u^T e~|^2 - |u|^2 + u^T H u (R,); the sums of
     (u^T u')^2 and of (u^T u')(u^T H u') (R, R); and G_k (K, p, p)."""
-    p = A.shape[-1]
-    Aw = W @ A
+    p = Aw.shape[-1]
     H = (Aw.reshape(-1, p) @ Ninv).reshape(Aw.shape) @ np.swapaxes(Aw, 1, 2)  # hat blocks
     U = W @ B  # (n, k, R): V~ = U U^T per component's columns
     UT = np.swapaxes(U, 1, 2)
