@@ -27,7 +27,11 @@ import numpy as np
 from screwcal.calibration.identify import CalibrationResult, identify
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.kinematics.robots import irb120
-from screwcal.studies.tracker_dataset import DATA_DIR_ENV, locate_dataset, read_tracker_dataset
+from screwcal.studies.tracker_dataset import (
+    add_data_argument,
+    locate_dataset,
+    read_tracker_dataset,
+)
 from screwcal.studies.tracker_study import position_errors
 
 FOLDS = 3
@@ -80,8 +84,7 @@ def parser() -> argparse.ArgumentParser:
     """`python -m screwcal.studies.small_sets`'s options."""
     p = argparse.ArgumentParser(description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--data", default=None, metavar="DIR",
-                   help=f"the irb120-laser-tracker folder (default: ${DATA_DIR_ENV})")
+    add_data_argument(p)
     p.add_argument("--subsets", type=int, default=12, help="random subsets (default 12)")
     p.add_argument("--poses", type=int, default=36, help="poses per subset (default 36)")
     return p

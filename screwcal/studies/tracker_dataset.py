@@ -32,6 +32,7 @@ and identified with the tracker frame.
 
 from __future__ import annotations
 
+import argparse
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -53,6 +54,12 @@ WHERE_TO_GET = (f"the {DATASET_NAME} data set is public in the repository "
                 f"--data DIR or set {DATA_DIR_ENV}=DIR (DIR: that folder or the one holding it)")
 DRIFT_TOL_MM = 0.25  # the good rows stay within 0.07 mm
 RIGIDITY_TOL_MM = 0.1  # the reflector triangle's sides vary by 0.02 mm in good rows
+
+
+def add_data_argument(parser: argparse.ArgumentParser) -> None:
+    """The studies' `--data DIR` option: the data set's folder (default: SCREWCAL_DATA_DIR)."""
+    parser.add_argument("--data", default=None, metavar="DIR",
+                        help=f"the {DATASET_NAME} folder (default: ${DATA_DIR_ENV})")
 
 
 def locate_dataset(data_dir: str | Path | None = None) -> Path:

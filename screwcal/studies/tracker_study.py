@@ -29,8 +29,8 @@ from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.robots import irb120
 from screwcal.kinematics.se3 import Array
 from screwcal.studies.tracker_dataset import (
-    DATA_DIR_ENV,
     TrackerData,
+    add_data_argument,
     locate_dataset,
     read_tracker_dataset,
 )
@@ -130,8 +130,7 @@ def parser() -> argparse.ArgumentParser:
     """`python -m screwcal.studies.tracker_study`'s options."""
     p = argparse.ArgumentParser(description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--data", default=None, metavar="DIR",
-                   help=f"the irb120-laser-tracker folder (default: ${DATA_DIR_ENV})")
+    add_data_argument(p)
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the calibration/validation split (default 0)")
     p.add_argument("--joints", choices=["measured", "commanded", "both"], default="both",
