@@ -179,14 +179,17 @@ def loo_position_error(e: Array, A: Array, W: Array) -> float:
     (N, k) with Jacobian A (N, k, p) and whitening W (N, k, k), from one solve: each pose's
     residual had it been left out, (I - H_ii)^-1 r_i in whitened units (PRESS, by blocks)."""
     p = A.shape[-1]
-    WA = W @ A
-    r = (W @ e[..., None])[..., 0]
+    d = W[0].diagonal()
+    same_diagonal = bool(np.array_equal(W, np.broadcast_to(np.diag(d), W.shape)))
+    # (the measuring noise alone weights every pose by the same diagonal: rows scaled)
+    WA = A * d[:, None] if same_diagonal else W @ A
+    r = e * d if same_diagonal else (W @ e[..., None])[..., 0]
     flat = WA.reshape(-1, p)
     Ninv = scipy.linalg.pinvh(flat.T @ flat)
     # residuals after this weighting's step; the hat blocks (products of the stacked rows)
     r = r - (flat @ (Ninv @ (flat.T @ r.reshape(-1)))).reshape(r.shape)
     H = (flat @ Ninv).reshape(WA.shape) @ np.swapaxes(WA, 1, 2)
     k = e.shape[1]
-    r_loo = np.linalg.solve(np.eye(k) - H, r[..., None])
-    e_loo = np.linalg.solve(W, r_loo)[..., 0]
+    r_loo = np.linalg.solve(np.eye(k) - H, r[..., None])[..., 0]
+    e_loo = r_loo / d if same_diagonal else np.linalg.solve(W, r_loo[..., None])[..., 0]
     return float(np.linalg.norm(e_loo[:, :3], axis=1).mean())

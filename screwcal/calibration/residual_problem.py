@@ -79,7 +79,7 @@ def covariance_components(Jq: Array) -> Array:
     V[0, :, range(3), range(3)] = 1.0
     if k == 6:
         V[1, :, range(3, 6), range(3, 6)] = 1.0
-    V[2] = np.einsum("nij,nkj->nik", Jq, Jq)
+    V[2] = Jq @ np.swapaxes(Jq, 1, 2)
     return V
 
 

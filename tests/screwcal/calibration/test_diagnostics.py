@@ -4,7 +4,7 @@ choice of the joint-noise component."""
 import numpy as np
 import pytest
 
-from screwcal.calibration.diagnostics import explaining_joint_errors
+from screwcal.calibration.diagnostics import explaining_joint_errors, loo_position_error
 from screwcal.calibration.identify import NoiseModel, identify
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.posesets import random_configurations
@@ -128,3 +128,22 @@ def test_explaining_joint_errors_is_the_pseudo_inverse_solution(rng, rows, joint
         Jq[7, 2] = Jq[7, 1]
     expected = (np.linalg.pinv(Jq) @ e[..., None])[..., 0]
     assert np.allclose(explaining_joint_errors(e, Jq), expected, rtol=1e-9, atol=1e-12)
+
+
+def test_leave_one_out_with_the_same_diagonal_weights_at_every_pose(rng):
+    """The measuring noise alone weights every pose by one diagonal (rows scaled, no per-pose
+    products): the same figure as the general per-pose whitening, and as refitting without
+    each pose in turn."""
+    e, A = rng.normal(size=(40, 6)), rng.normal(size=(40, 6, 5))
+    W = np.broadcast_to(np.diag([2.0, 2, 2, 5, 5, 5]), (40, 6, 6)).copy()
+    general = W.copy()
+    general[0, 1, 0] = 1e-300  # not the same at every pose: the general path
+    fast = loo_position_error(e, A, W)
+    assert fast == pytest.approx(loo_position_error(e, A, general), rel=1e-12)
+    errors = []
+    for i in range(40):
+        keep = np.arange(40) != i
+        Aw, ew = (W[keep] @ A[keep]).reshape(-1, 5), (W[keep] @ e[keep, :, None]).reshape(-1)
+        dx = -np.linalg.lstsq(Aw, ew, rcond=None)[0]
+        errors.append(np.linalg.norm((e[i] + A[i] @ dx)[:3]))
+    assert fast == pytest.approx(np.mean(errors), rel=1e-10)
