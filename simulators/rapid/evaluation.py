@@ -32,16 +32,14 @@ class Evaluator:
     errno: float
 
     def __init__(self) -> None:
-        self._eval: dict[type, Callable[[Any, Frame], Any]] = {
+        # each expression node's closure (frame -> value), made at its first evaluation
+        self._fns: dict[int, Callable[[Frame], Any]] = {}
+        self._compilers: dict[type, Callable[[Any], Callable[[Frame], Any]]] = {
             A.Num: self._num, A.Str: self._str, A.Name: self._name, A.Index: self._index,
             A.Component: self._component, A.Aggregate: self._aggregate,
             A.NumberRow: self._number_row, A.Unary: self._unary, A.Binary: self._binary,
             A.Call: self._call,
         }
-        self._nums: dict[int, float] = {}
-        self._keys: dict[int, str] = {}
-        self._strs: dict[int, str] = {}  # a Name node's lower-case key (nodes live as long)
-        self._rows: dict[int, tuple[A.NumberRow, list[float]]] = {}
         self._plans: dict[int, tuple[Any, Any, tuple[Any, ...]]] = {}  # per call node
         self._parameters: dict[int, tuple[list[Parameter], list[Parameter]]] = {}
 
@@ -68,27 +66,32 @@ class Evaluator:
                 if a.name is None:
                     n = sum(1 for step in plan if step[0] <= self._POS_REF)
                     p = required[n] if n < len(required) else None
-                    plan.append((self._POS_REF if p is not None and p.mode is not None
-                                 else self._POS, "", a.value, a.line))
+                    by_ref = p is not None and p.mode is not None
+                    plan.append((self._POS_REF, "", a.value, a.line) if by_ref else
+                                (self._POS, "", self.fn(a.value), a.line))
                     continue
                 name, p = a.name.lower(), optional.get(a.name.lower())
-                how = self._SWITCH if a.value is None else self._OPT_REF \
-                    if p is not None and p.mode is not None else self._OPT
-                plan.append((how, name, a.value, a.line))
+                if a.value is None:
+                    plan.append((self._SWITCH, name, None, a.line))
+                elif p is not None and p.mode is not None:
+                    plan.append((self._OPT_REF, name, a.value, a.line))
+                else:
+                    plan.append((self._OPT, name, self.fn(a.value), a.line))
             return r, None, tuple(plan)
         b = BUILTINS[key]
         for a in node.args:
             if a.name is None:
                 n = sum(1 for step in plan if step[0] <= self._POS_REF)
-                plan.append((self._POS_REF if n in b.refs else self._POS, "", a.value, a.line))
+                plan.append((self._POS_REF, "", a.value, a.line) if n in b.refs else
+                            (self._POS, "", self.fn(a.value), a.line))
             elif a.conditional:
                 plan.append((self._CONDITIONAL, "", None, a.line))
             elif a.value is None:
                 plan.append((self._SWITCH, a.name.lower(), None, a.line))
             else:
                 name = a.name.lower()
-                plan.append((self._OPT_REF if name in b.optrefs else self._OPT, name, a.value,
-                             a.line))
+                plan.append((self._OPT_REF, name, a.value, a.line) if name in b.optrefs else
+                            (self._OPT, name, self.fn(a.value), a.line))
         return None, b, tuple(plan)
 
     def parameters(self, r: A.Routine) -> tuple[list[Parameter], list[Parameter]]:
@@ -105,16 +108,15 @@ class Evaluator:
         """A call's arguments, in their order: values, references, switches (True)."""
         pos: list[Any] = []
         opt: dict[str, Any] = {}
-        evals = self._eval
-        for how, name, e, line in plan:
+        for how, name, e, line in plan:  # e: a closure by value, a node by reference
             if how == 0:  # _POS
-                pos.append(evals[type(e)](e, frame))
+                pos.append(e(frame))
             elif how == 1:  # _POS_REF
                 pos.append(self.ref(e, frame))
             elif how == 2:  # _SWITCH
                 opt[name] = True
             elif how == 3:  # _OPT
-                opt[name] = evals[type(e)](e, frame)
+                opt[name] = e(frame)
             elif how == 4:  # _OPT_REF
                 opt[name] = self.ref(e, frame)
             else:
@@ -123,8 +125,19 @@ class Evaluator:
         return pos, opt
 
     # ------------------------------------------------------------------ expressions
+    # An expression node is compiled, at its first evaluation, into a closure of the frame
+    # that calls its operands' closures directly: no dispatch on the node's type, no lookup
+    # of its attributes, its constants (numbers, strings, keys, rows) computed once.
     def eval(self, e: Any, frame: Frame) -> Any:
-        return self._eval[type(e)](e, frame)
+        return (self._fns.get(id(e)) or self._compile(e))(frame)
+
+    def fn(self, e: Any) -> Callable[[Frame], Any]:
+        """The closure that evaluates expression `e` in a frame."""
+        return self._fns.get(id(e)) or self._compile(e)
+
+    def _compile(self, e: Any) -> Callable[[Frame], Any]:
+        f = self._fns[id(e)] = self._compilers[type(e)](e)  # nodes live as long as the task
+        return f
 
     def ref(self, e: Any, frame: Frame) -> Any:
         """The storage an expression names: a Var, an array element, a record component."""
@@ -159,96 +172,100 @@ class Evaluator:
                     raise RapidError("ERR_REFUNKDAT", f"no data named {key}", line)
         return v
 
-    def _num(self, e: A.Num, frame: Frame) -> float:
-        v = self._nums.get(id(e))
-        if v is None:
-            v = self._nums[id(e)] = num(e.value)
-        return v
+    def _num(self, e: A.Num) -> Callable[[Frame], Any]:
+        return _constant(lambda: num(e.value))
 
-    def _str(self, e: A.Str, frame: Frame) -> str:
-        v = self._strs.get(id(e))
-        if v is None:
-            v = self._strs[id(e)] = e.value
-        return v
+    def _str(self, e: A.Str) -> Callable[[Frame], Any]:
+        value = e.value
+        return lambda frame: value
 
-    def _name(self, e: A.Name, frame: Frame) -> Any:
-        key = self._keys.get(id(e))
-        if key is None:
-            key = self._keys[id(e)] = e.key
-        v = frame.vars.get(key)
-        if v is not None:
-            return v.value
-        v = self.data.get(key)
-        if v is not None:
-            return v.value
-        if key == "true":
-            return True
-        if key == "false":
-            return False
-        if key == "errno":
-            return self.errno
-        return self._lookup(key, frame, e.line).value
+    def _name(self, e: A.Name) -> Callable[[Frame], Any]:
+        key, line = e.key, e.line
 
-    def _index(self, e: A.Index, frame: Frame) -> Any:
-        evals = self._eval
-        base = e.base
-        arr = evals[type(base)](base, frame)
-        for ie in e.indices:
-            if not isinstance(arr, RArray):
-                raise RapidError("ERR_ARGVALERR", "not an array", e.line)
+        def name(frame: Frame) -> Any:
+            v = frame.vars.get(key)
+            if v is not None:
+                return v.value
+            v = self.data.get(key)
+            if v is not None:
+                return v.value
+            if key == "true":
+                return True
+            if key == "false":
+                return False
+            if key == "errno":
+                return self.errno
+            return self._lookup(key, frame, line).value
+        return name
+
+    def _index(self, e: A.Index) -> Callable[[Frame], Any]:
+        base, indices, line = self.fn(e.base), [self.fn(i) for i in e.indices], e.line
+
+        def index(frame: Frame) -> Any:
+            arr = base(frame)
+            for i in indices:
+                if not isinstance(arr, RArray):
+                    raise RapidError("ERR_ARGVALERR", "not an array", line)
+                try:
+                    arr = arr.items[arr.index(i(frame))]
+                except RapidError as err:
+                    err.line = line
+                    raise
+            return arr
+        return index
+
+    def _component(self, e: A.Component) -> Callable[[Frame], Any]:
+        base, key, name, line = self.fn(e.base), e.name.lower(), e.name, e.line
+
+        def component(frame: Frame) -> Any:
+            rec = base(frame)
             try:
-                arr = arr.items[arr.index(evals[type(ie)](ie, frame))]
+                return rec.f[key]
+            except (AttributeError, KeyError):
+                raise RapidError("ERR_ARGVALERR", f"no component {name}", line) from None
+        return component
+
+    def _number_row(self, e: A.NumberRow) -> Callable[[Frame], Any]:
+        row = _constant(lambda: [num(n.value) for n in e.items])
+        return lambda frame: list(row(frame))  # its items made afresh on each access
+
+    def _aggregate(self, e: A.Aggregate) -> Callable[[Frame], Any]:
+        items = [self.fn(i) for i in e.items]
+        return lambda frame: [item(frame) for item in items]
+
+    def _unary(self, e: A.Unary) -> Callable[[Frame], Any]:
+        operand, op, line = self.fn(e.operand), e.op, e.line
+
+        def unary(frame: Frame) -> Any:
+            v = operand(frame)
+            if op == "NOT":
+                if not isinstance(v, bool):
+                    raise RapidError("ERR_ARGVALERR", "NOT needs a bool", line)
+                return not v
+            if not isinstance(v, float):
+                raise RapidError("ERR_ARGVALERR", f"{op} needs a num", line)
+            return -v if op == "-" else v
+        return unary
+
+    def _binary(self, e: A.Binary) -> Callable[[Frame], Any]:
+        left, right, op, line = self.fn(e.left), self.fn(e.right), e.op, e.line
+        operator = BINARY.get(op, _no_operator)
+
+        def binary(frame: Frame) -> Any:
+            a = left(frame)
+            b = right(frame)
+            try:
+                return operator(a, b)
             except RapidError as err:
-                err.line = e.line
+                err.line = line
                 raise
-        return arr
+            except (TypeError, KeyError):
+                raise RapidError("ERR_ARGVALERR", f"{op} of {type(a).__name__} and "
+                                 f"{type(b).__name__}", line) from None
+        return binary
 
-    def _component(self, e: A.Component, frame: Frame) -> Any:
-        base = e.base
-        rec = self._eval[type(base)](base, frame)
-        try:
-            return rec.f[e.name.lower()]
-        except (AttributeError, KeyError):
-            raise RapidError("ERR_ARGVALERR", f"no component {e.name}", e.line) from None
-
-    def _number_row(self, e: A.NumberRow, frame: Frame) -> list[float]:
-        # keyed by the row (a node of the tree); its items are made afresh on each access
-        row = self._rows.get(id(e))
-        if row is None:
-            row = self._rows[id(e)] = (e, [num(n.value) for n in e.items])
-        return list(row[1])
-
-    def _aggregate(self, e: Any, frame: Frame) -> list[Any]:
-        return [self.eval(i, frame) for i in e.items]
-
-    def _unary(self, e: A.Unary, frame: Frame) -> Any:
-        operand = e.operand
-        v = self._eval[type(operand)](operand, frame)
-        if e.op == "NOT":
-            if not isinstance(v, bool):
-                raise RapidError("ERR_ARGVALERR", "NOT needs a bool", e.line)
-            return not v
-        if not isinstance(v, float):
-            raise RapidError("ERR_ARGVALERR", f"{e.op} needs a num", e.line)
-        return -v if e.op == "-" else v
-
-    def _binary(self, e: A.Binary, frame: Frame) -> Any:
-        evals = self._eval  # the dispatch of `eval`, inline: a binary is the commonest node
-        left, right = e.left, e.right
-        a = evals[type(left)](left, frame)
-        b = evals[type(right)](right, frame)
-        op = e.op
-        try:
-            return BINARY[op](a, b)
-        except RapidError as err:
-            err.line = e.line
-            raise
-        except (TypeError, KeyError):
-            raise RapidError("ERR_ARGVALERR", f"{op} of {type(a).__name__} and "
-                             f"{type(b).__name__}", e.line) from None
-
-    def _call(self, e: A.Call, frame: Frame) -> Any:
-        return self.invoke(e, frame, "FUNC")
+    def _call(self, e: A.Call) -> Callable[[Frame], Any]:
+        return lambda frame: self.invoke(e, frame, "FUNC")
 
     def invoke(self, node: A.Call | A.ProcCall, frame: Frame, kind: str) -> Any:
         """A function call's value, or a procedure call's effect: the module's routine of that
@@ -266,3 +283,21 @@ class Evaluator:
             if err.line is None:
                 err.line = node.line
             raise
+
+
+def _constant(compute: Callable[[], Any]) -> Callable[[Frame], Any]:
+    """A literal's closure: its value computed once; a literal no num can hold (beyond 32 bits)
+    raises where it is evaluated, after the operands before it, as every evaluation."""
+    try:
+        value = compute()
+    except RapidError as err:
+        detail = err.detail
+
+        def invalid(frame: Frame) -> Any:
+            raise RapidError("ERR_NUMOVERFLOW", detail)
+        return invalid
+    return lambda frame: value
+
+
+def _no_operator(a: Any, b: Any) -> Any:
+    raise KeyError

@@ -323,8 +323,7 @@ class Task(Evaluator):
 
     # ------------------------------------------------------------------ statements
     def _assign(self, st: A.Assign, frame: Frame) -> None:
-        e = st.value
-        value = self._eval[type(e)](e, frame)
+        value = self.fn(st.value)(frame)
         target = self.ref(st.target, frame)
         if isinstance(target, Var) and target.const:
             raise RapidError("ERR_ARGVALERR", "a CONST cannot be assigned", st.line)
@@ -366,11 +365,11 @@ class Task(Evaluator):
                 frame.vars[key] = saved
 
     def _test(self, st: A.Test, frame: Frame) -> None:
-        evals = self._eval
-        subject = evals[type(st.subject)](st.subject, frame)
+        fn = self.fn
+        subject = fn(st.subject)(frame)
         for case in st.cases:
             for label in case.labels:
-                if evals[type(label)](label, frame) == subject:
+                if fn(label)(frame) == subject:
                     self.exec_block(case.body, frame)
                     return
         if st.default is not None:
@@ -407,7 +406,7 @@ class Task(Evaluator):
         raise Stopped(f"EXIT at {self.path}:{st.line}")
 
     def _bool(self, e: Any, frame: Frame) -> bool:
-        v = self._eval[type(e)](e, frame)
+        v = self.fn(e)(frame)
         if v is not True and v is not False:
             raise RapidError("ERR_ARGVALERR", "a condition must be a bool", e.line)
         return v

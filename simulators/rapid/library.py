@@ -3,8 +3,10 @@ the operator interface, waiting and stopping, the event log."""
 
 from __future__ import annotations
 
+import functools
 import math
 import re
+import struct
 import time
 from typing import Any
 
@@ -219,10 +221,24 @@ def _orientzyx(task: Any, pos: list, opt: dict) -> Record:
     return record("orient", *quaternion_of(rotation_from_euler_zyx_deg([x, y, z])))
 
 
+_FOUR = struct.Struct("<4d")
+
+
+@functools.lru_cache(maxsize=8)
+def _euler_zyx_deg(packed: bytes) -> tuple[float, float, float]:
+    """The Euler angles of one orient (its four numbers packed: -0.0 is not 0.0 here), kept
+    for the next calls: a program asks for X, Y and Z of the same orient in turn (a refused
+    orient raises every time: nothing is kept)."""
+    rx, ry, rz = euler_zyx_deg_from_rotation(
+        matrix_of(record("orient", *_FOUR.unpack(packed)))).tolist()
+    return rx, ry, rz
+
+
 @builtin("EulerZYX", "func")
 def _eulerzyx(task: Any, pos: list, opt: dict) -> float:
     """One Euler angle (deg) of an orient: \\X, \\Y or \\Z of R = Rz Ry Rx."""
-    rx, ry, rz = euler_zyx_deg_from_rotation(matrix_of(pos[0])).tolist()
+    q = pos[0]
+    rx, ry, rz = _euler_zyx_deg(_FOUR.pack(q.f["q1"], q.f["q2"], q.f["q3"], q.f["q4"]))
     for name, angle in (("x", rx), ("y", ry), ("z", rz)):
         if opt.get(name):
             return num(angle)

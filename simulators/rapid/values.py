@@ -164,8 +164,15 @@ def default(type_: str, dims: tuple[int, ...] = ()) -> Any:
     if t == "clock":
         return Clock()
     if t in RECORDS:
-        return Record(t, {name: default(ft) for name, ft in RECORDS[t]})
+        template = _RECORD_DEFAULTS.get(t)
+        if template is None:
+            template = _RECORD_DEFAULTS[t] = Record(t, {name: default(ft)
+                                                        for name, ft in RECORDS[t]})
+        return template.copy()  # a record holds no socketdev or clock: a copy is a new one
     raise RapidError("ERR_ARGVALERR", f"unknown data type {type_}")
+
+
+_RECORD_DEFAULTS: dict[str, Record] = {}  # each record type's initial value, copied
 
 
 def convert(type_: str, value: Any, dims: tuple[int, ...] = ()) -> Any:

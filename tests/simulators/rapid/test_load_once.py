@@ -65,3 +65,37 @@ def test_strfind_is_the_first_position_in_or_not_in_the_set():
         for outside in (False, True):
             got = _strfind(None, [s, float(start), chars], {"notinset": True} if outside else {})
             assert got == definition(s, start, chars, outside), (s, start, chars, outside)
+
+
+def test_a_local_record_starts_at_its_default_on_every_call():
+    task = Task("MODULE T\nVAR num seen{3};\nPROC main()\nFOR i FROM 1 TO 3 DO\nBump i;\n"
+                "ENDFOR\nENDPROC\nPROC Bump(num i)\nVAR jointtarget jt;\n"
+                "seen{i} := jt.robax.rax_2 + jt.extax.eax_a;\njt.robax.rax_2 := 7;\n"
+                "jt.extax.eax_a := 9;\nENDPROC\nENDMODULE\n", "T.mod")
+    task.run()
+    assert [v for v in task.data["seen"].value.items] == [0.0, 0.0, 0.0], task.stop_reason
+
+
+def test_an_overflowing_literal_fails_after_the_operands_before_it():
+    task = Task("MODULE T\nVAR num calls := 0;\nVAR num x;\nPROC main()\n"
+                "x := Count() + 1E40;\nENDPROC\nFUNC num Count()\nIncr calls;\nRETURN 1;\n"
+                "ENDFUNC\nENDMODULE\n", "T.mod")
+    task.run()
+    assert "ERR_NUMOVERFLOW" in task.stop_reason and "T.mod:5" in task.stop_reason
+    assert task.data["calls"].value == 1.0  # Count ran first, as RAPID evaluates
+
+
+def test_euler_angles_of_each_orient_asked_in_turn():
+    task = Task("MODULE T\nVAR num a{9};\nVAR orient o;\nPROC main()\n"
+                "o := OrientZYX(30, -20, 10);\na{1} := EulerZYX(\\X, o);\n"
+                "a{2} := EulerZYX(\\Y, o);\na{3} := EulerZYX(\\Z, o);\n"
+                "o := OrientZYX(-150, 80, 0);\na{4} := EulerZYX(\\X, o);\n"
+                "a{5} := EulerZYX(\\Y, o);\na{6} := EulerZYX(\\Z, o);\n"
+                "o := [1, 0, 0, 0];\na{7} := EulerZYX(\\Z, o);\no.q1 := 2;\n"
+                "a{8} := EulerZYX(\\X, o);\nENDPROC\nENDMODULE\n", "T.mod")
+    task.run()
+    a = task.data["a"].value.items
+    assert a[:3] == pytest.approx([10, -20, 30], abs=1e-3)
+    assert a[3:6] == pytest.approx([0, 80, -150], abs=1e-3)
+    assert a[6] == 0.0
+    assert "ERR_ARGVALERR" in task.stop_reason and "not normalised" in task.stop_reason
