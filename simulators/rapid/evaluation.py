@@ -265,7 +265,24 @@ class Evaluator:
         return binary
 
     def _call(self, e: A.Call) -> Callable[[Frame], Any]:
-        return lambda frame: self.invoke(e, frame, "FUNC")
+        plan = self._plans.get(id(e))
+        if plan is None:
+            plan = self._plans[id(e)] = self._plan(e, "FUNC")
+        _, b, args = plan
+        if b is None or any(how != self._POS for how, *_ in args):
+            return lambda frame: self.invoke(e, frame, "FUNC")
+        # a built-in function of values only (StrLen, StrPart, NumToStr ...): invoke's steps
+        values, fn, line = [value for _, _, value, _ in args], b.fn, e.line
+
+        def builtin(frame: Frame) -> Any:
+            pos = [value(frame) for value in values]
+            try:
+                return fn(self, pos, {})
+            except RapidError as err:
+                if err.line is None:
+                    err.line = line
+                raise
+        return builtin
 
     def invoke(self, node: A.Call | A.ProcCall, frame: Frame, kind: str) -> Any:
         """A function call's value, or a procedure call's effect: the module's routine of that
