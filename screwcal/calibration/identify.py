@@ -20,7 +20,7 @@ chosen by the data (`compliance="auto"`), the readings' lag estimated and correc
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Literal
 
@@ -211,13 +211,12 @@ def _with_compliance(nominal: SerialModel, data: MeasurementSet, settings: Ident
     why, richer = _compliance_not_tried(nominal, settings), None
     if not why:
         bent, kept, richer = _identify_rejecting(nominal, data,
-                                                 replace(settings, compliance="j23"), found)
+                                                 replace(settings, compliance="j23"), found,
+                                                 diagnose=_compliance_supported)
         bent = replace(bent, compliance="j23")
-        t = {p.name: abs(v) / s for p, v, s in zip(bent.params, bent.values, bent.std_errors,
-                                                    strict=True)
-             if p.kind.startswith("compliance") and s > 0}
+        t = _compliance_t(bent)
         shown = ", ".join(f"{n} {v:.1f}" for n, v in t.items()) or "none identifiable"
-        if t and max(t.values()) > COMPLIANCE_T:
+        if _compliance_supported(bent):
             return _bent_or_free(nominal, kept, settings, bent, note=(
                 f"chosen (auto): the data support it, |value| / std error: {shown} (> "
                 f"{COMPLIANCE_T:g})"), n_poses=len(data) + len(found))
@@ -226,6 +225,20 @@ def _with_compliance(nominal: SerialModel, data: MeasurementSet, settings: Ident
     plain, kept, _ = _identify_rejecting(nominal, data, replace(settings, compliance="none"),
                                          found, richer)
     return replace(plain, compliance="none", compliance_note=why), kept
+
+
+def _compliance_t(result: CalibrationResult) -> dict[str, float]:
+    """|value| / std error of each identifiable compliance coefficient of a result."""
+    return {p.name: abs(v) / s for p, v, s in zip(result.params, result.values,
+                                                   result.std_errors, strict=True)
+            if p.kind.startswith("compliance") and s > 0}
+
+
+def _compliance_supported(result: CalibrationResult) -> bool:
+    """Whether "auto" keeps the compliance of this fit: a coefficient beyond `COMPLIANCE_T`
+    standard errors."""
+    t = _compliance_t(result)
+    return bool(t) and max(t.values()) > COMPLIANCE_T
 
 
 def _bent_or_free(nominal: SerialModel, kept: MeasurementSet, settings: IdentifySettings,
@@ -262,7 +275,8 @@ def _nested_f_test(simple: CalibrationResult, rich: CalibrationResult) -> float:
 
 
 def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
-                        found: tuple[Outlier, ...] = (), richer: Selection | None = None
+                        found: tuple[Outlier, ...] = (), richer: Selection | None = None,
+                        diagnose: Callable[[CalibrationResult], bool] | None = None
                         ) -> tuple[CalibrationResult, MeasurementSet, Selection]:
     """One identification (see `identify`) of the poses `data` (`found`: rejected before),
     rejecting outliers: after a fit, rounds on its linearisation find the poses to reject
@@ -270,8 +284,9 @@ def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: Id
     fitted once more, from the first fit's start and parameters and the rounds' estimate and
     noise levels (`single_fit.WarmStart`), and that fit's own tests confirm it (a pose still
     beyond its limit starts new rounds). `richer`: the selection of the model with the
-    joint-2/3 compliance on these poses (`single_fit.fit_once`). Also returns the poses kept
-    and the last fit's selection."""
+    joint-2/3 compliance on these poses (`single_fit.fit_once`). `diagnose`: whether the
+    result is to carry the data-quality diagnostics (default: always; a fit "auto" is about
+    to set aside goes without). Also returns the poses kept and the last fit's selection."""
     started = time.perf_counter()
     rejected = list(found)
     current = data
@@ -302,9 +317,9 @@ def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: Id
             for k in np.flatnonzero(test.statistic > limit_T)]
     estimated = None if result.noise is None or result.noise.position_std_mm is None \
         else result.noise.position_mm
-    quality = data_quality(e, problem.joint_jacobian(x), np.degrees(current.q), test,
-                           current.ids, estimated, settings.stated_position_mm(),
-                           acquisition_order(current.ids, current.lines))
+    quality = {} if diagnose is not None and not diagnose(result) else data_quality(
+        e, problem.joint_jacobian(x), np.degrees(current.q), test, current.ids, estimated,
+        settings.stated_position_mm(), acquisition_order(current.ids, current.lines))
     return replace(result, outliers=tuple(rejected + kept), diagnostics=quality,
                    seconds=time.perf_counter() - started), current, fit.selection
 

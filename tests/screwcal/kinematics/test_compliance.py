@@ -104,6 +104,26 @@ def test_identification_recovers_the_compliance_and_auto_keeps_it_only_when_supp
     assert plain.compliance == "none" and "left out" in plain.compliance_note
 
 
+def test_auto_diagnoses_only_the_fit_it_returns(monkeypatch):
+    """The joint-2/3 fit that "auto" sets aside is not diagnosed (its data-quality figures were
+    computed and thrown away); the fit returned carries them, as the one kept fit always did."""
+    import screwcal.calibration.identify as identify_module
+
+    calls = []
+    real = identify_module.data_quality
+    monkeypatch.setattr(identify_module, "data_quality",
+                        lambda *a, **k: calls.append(1) or real(*a, **k))
+    rng = np.random.default_rng(3)
+    stiff = simulate_measurements(irb120(), random_configurations(80, rng), rng)
+    plain = identify(irb120(), stiff, kind="full", frames="known", compliance="auto")
+    assert plain.compliance == "none" and "left out" in plain.compliance_note
+    assert len(calls) == 1 and {"lag", "drift", "leverage", "fit"} <= set(plain.diagnostics)
+    calls.clear()
+    kept = identify(irb120(), simulate_measurements(bent(irb120()), random_configurations(
+        80, rng), rng), kind="full", frames="known", compliance="auto")
+    assert kept.compliance == "j23" and len(calls) == 1 and kept.diagnostics["lag"]
+
+
 def test_compensation_with_a_compliant_model_puts_the_bent_robot_on_target():
     truth = bent(irb120())
     q_ref = random_configurations(20, np.random.default_rng(4))
