@@ -120,6 +120,7 @@ class ResidualProblem:
         self.prior = prior_weights(errors, ranges)
         self._last: tuple[bytes, tuple[Array, Array]] | None = None
         self._linear: tuple[bytes, tuple[Array, Array, Array]] | None = None
+        self._raw: tuple[bytes, tuple[Array, Array]] | None = None
 
     @classmethod
     def weighted_at(cls, errors: ErrorModel, data: MeasurementSet, residual: Residual,
@@ -139,7 +140,7 @@ class ResidualProblem:
         """The same problem with other whitening matrices (N, k, k) (and the kinematics of
         the last x at hand)."""
         problem = ResidualProblem(self.errors, self.data, self.residual, whiten, self.ranges)
-        problem._linear = self._linear
+        problem._linear, problem._raw = self._linear, self._raw
         return problem
 
     def posterior(self, x: Array) -> tuple[Array, Array]:
@@ -172,7 +173,14 @@ class ResidualProblem:
         return covariance_components(self.joint_jacobian(at))
 
     def raw(self, x: Array) -> tuple[Array, Array]:
-        """Unweighted residuals (N, k) or (P,) and their Jacobian (N, k, p) or (P, p)."""
+        """Unweighted residuals (N, k) or (P,) and their Jacobian (N, k, p) or (P, p); the
+        last are kept (the solver's, the noise check's and the pose tests' are at one x)."""
+        key = x.tobytes()
+        if self._raw is None or self._raw[0] != key:
+            self._raw = (key, self._raw_at(x))
+        return self._raw[1]
+
+    def _raw_at(self, x: Array) -> tuple[Array, Array]:
         T, J, _ = self.linearisation(x)
         dp = T[:, :3, 3] - self.data.positions_mm
         if self.residual == "distance":
