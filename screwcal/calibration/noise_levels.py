@@ -30,7 +30,7 @@ from screwcal.calibration.identify_settings import (
 )
 from screwcal.calibration.residual_problem import ResidualProblem, whitening_of_levels
 from screwcal.calibration.solvers import Solution, Solve
-from screwcal.calibration.variance_scoring import scoring_step
+from screwcal.calibration.variance_scoring import component_factors, scoring_step
 from screwcal.kinematics.se3 import Array
 
 VCE_MAX_ITER = 25
@@ -133,6 +133,7 @@ def levels_on_linearisation(e: Array, A: Array, V: Array, theta: Array, idx: Ind
     information = np.eye(len(idx))
     converged, iteration = False, 0
     P = prior
+    factors = component_factors(V[idx])  # of the free components, for the scoring
     while iteration < VCE_MAX_ITER:
         iteration += 1
         W = whitening_of_levels(theta, V)
@@ -146,7 +147,7 @@ def levels_on_linearisation(e: Array, A: Array, V: Array, theta: Array, idx: Ind
         if not len(idx):
             converged = True
             break
-        score, information = scoring_step(e, Aw, V[idx], W, Ninv)
+        score, information = scoring_step(e, Aw, factors, W, Ninv)
         step = np.linalg.lstsq(information, score, rcond=None)[0]
         old = theta[idx].copy()
         new = np.clip(old + step, old / STEP_LIMIT, old * STEP_LIMIT)

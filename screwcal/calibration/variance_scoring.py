@@ -21,50 +21,68 @@ formed).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from screwcal.calibration.identifiability import Index
 from screwcal.kinematics.se3 import Array
 
 BLOCK = 200  # poses summed at a time: a block's arrays (~0.1-0.2 MB each) stay in cache
 
 
-def component_factors(V: Array) -> tuple[Array, Array]:
-    """B (N, k, R) with V_k = B_k B_k^T for the components V (K, N, k, k), and the component
-    of each of B's R columns (R,). A component that is the same non-negative diagonal at every
-    pose: the rows it weights, scaled; else the Cholesky factor per pose, or (a pose where it
-    is singular) the eigen-decomposition's."""
-    N, k = V.shape[1:3]
-    blocks, owner = [], []
-    for c, Vc in enumerate(V):
+@dataclass(frozen=True)
+class Factor:
+    """A variance component V = B B^T per pose: for one that is the same diagonal at every
+    pose (the measuring noise's), the rows it weights and their scale (B: those unit columns,
+    scaled); else B (N, k, r) itself."""
+
+    rows: Index
+    scale: Array
+    B: Array | None = None
+
+    def whitened(self, W: Array, poses: slice) -> Array:
+        """U = W B (n, k, r) of the poses `poses`, whose whitening is W (n, k, k)."""
+        if self.B is None:
+            U: Array = W[:, :, self.rows] * self.scale
+            return U
+        return W @ self.B[poses]
+
+
+def component_factors(V: Array) -> list[Factor]:
+    """The factors of the components V (K, N, k, k): a component that is the same
+    non-negative diagonal at every pose, the rows it weights, scaled; else the Cholesky factor
+    per pose, or (a pose where it is singular) the eigen-decomposition's."""
+    out = []
+    for Vc in V:
         d = Vc[0].diagonal()
         if np.all(d >= 0) and np.array_equal(Vc, np.broadcast_to(np.diag(d), Vc.shape)):
             rows = np.flatnonzero(d)
-            B = np.zeros((N, k, len(rows)))
-            B[:, rows, np.arange(len(rows))] = np.sqrt(d[rows])
-        else:
-            try:
-                B = np.linalg.cholesky(Vc)
-            except np.linalg.LinAlgError:
-                lam, Q = np.linalg.eigh(Vc)
-                B = Q * np.sqrt(np.clip(lam, 0.0, None))[:, None, :]
-        blocks.append(B)
-        owner += [c] * B.shape[2]
-    return np.concatenate(blocks, axis=2), np.array(owner)
+            out.append(Factor(rows, np.sqrt(d[rows])))
+            continue
+        try:
+            B = np.linalg.cholesky(Vc)
+        except np.linalg.LinAlgError:
+            lam, Q = np.linalg.eigh(Vc)
+            B = Q * np.sqrt(np.clip(lam, 0.0, None))[:, None, :]
+        out.append(Factor(np.arange(B.shape[2]), np.ones(B.shape[2]), B))
+    return out
 
 
-def scoring_step(e: Array, Aw: Array, V: Array, W: Array, Ninv: Array
+def scoring_step(e: Array, Aw: Array, factors: list[Factor], W: Array, Ninv: Array
                  ) -> tuple[Array, Array]:
-    """REML score (K,) and expected information (K, K) of the free variance components V
-    (K, N, k, k), at the residuals e (N, k) of the problem linearised as A (N, k, p),
-    whitened by W (N, k, k) (Aw = W A), whose normal matrix (the prior's included) has the
-    inverse Ninv (p, p) (the module docstring's formulas). Every term is a sum over the poses: they
-    are summed `BLOCK` poses at a time (each block's arrays stay in cache)."""
-    K = len(V)
-    B, owner = component_factors(V)
+    """REML score (K,) and expected information (K, K) of the free variance components,
+    factored (`component_factors`), at the residuals e (N, k) of the problem linearised as
+    A (N, k, p), whitened by W (N, k, k) (Aw = W A), whose normal matrix (the prior's
+    included) has the inverse Ninv (p, p) (the module docstring's formulas). Every term is a
+    sum over the poses: they are summed `BLOCK` poses at a time (each block's arrays stay in
+    cache)."""
+    K = len(factors)
+    owner = np.concatenate([np.full(len(f.rows), c) for c, f in enumerate(factors)])
     E = np.zeros((len(owner), K))
     E[np.arange(len(owner)), owner] = 1.0  # columns -> components
-    sums = [_block_sums(e[s:s + BLOCK], Aw[s:s + BLOCK], B[s:s + BLOCK], W[s:s + BLOCK],
-                        Ninv, owner, K) for s in range(0, len(e), BLOCK)]
+    sums = [_block_sums(e[s:s + BLOCK], Aw[s:s + BLOCK], factors, W[s:s + BLOCK],
+                        slice(s, s + BLOCK), Ninv) for s in range(0, len(e), BLOCK)]
     traces, UU2, UUZ, G = (sum(part[j] for part in sums) for j in range(4))
     score = 0.5 * traces @ E
     GN = G @ Ninv
@@ -72,22 +90,22 @@ def scoring_step(e: Array, Aw: Array, V: Array, W: Array, Ninv: Array
     return score, information
 
 
-def _block_sums(e: Array, Aw: Array, B: Array, W: Array, Ninv: Array, owner: Array, K: int
-                ) -> tuple[Array, Array, Array, Array]:
-    """Of some poses: per factor column u, |u^T e~|^2 - |u|^2 + u^T H u (R,); the sums of
-    (u^T u')^2 and of (u^T u')(u^T H u') (R, R); and G_k (K, p, p)."""
+def _block_sums(e: Array, Aw: Array, factors: list[Factor], W: Array, poses: slice,
+                Ninv: Array) -> tuple[Array, Array, Array, Array]:
+    """Of the poses `poses`: per factor column u, |u^T e~|^2 - |u|^2 + u^T H u (R,); the sums
+    of (u^T u')^2 and of (u^T u')(u^T H u') (R, R); and G_k (K, p, p)."""
     p = Aw.shape[-1]
     H = (Aw.reshape(-1, p) @ Ninv).reshape(Aw.shape) @ np.swapaxes(Aw, 1, 2)  # hat blocks
-    U = W @ B  # (n, k, R): V~ = U U^T per component's columns
+    Us = [f.whitened(W, poses) for f in factors]  # V~_k = U_k U_k^T
+    # G_k: the Gram matrix of the stacked P_k = U_k^T A~
+    G = np.stack([_stacked_gram(np.swapaxes(U, 1, 2) @ Aw) for U in Us])
+    U = np.concatenate(Us, axis=2)  # (n, k, R)
     UT = np.swapaxes(U, 1, 2)
     HU = H @ U
     ue = (UT @ (W @ e[..., None]))[..., 0]  # (n, R)
     traces = np.sum(ue ** 2, axis=0) - np.sum(U ** 2, axis=(0, 1)) + np.sum(U * HU,
                                                                           axis=(0, 1))
     UU = UT @ U  # (n, R, R)
-    # G_k: the Gram matrix of the stacked P_k = U_k^T A~, each U_k its own contiguous block
-    G = np.stack([_stacked_gram(np.swapaxes(W @ B[:, :, owner == c], 1, 2) @ Aw)
-                  for c in range(K)])
     return traces, np.sum(UU ** 2, axis=0), np.sum(UU * (UT @ HU), axis=0), G
 
 

@@ -53,7 +53,7 @@ def test_the_factored_step_is_the_textbook_step(rng, rows, block, monkeypatch):
     prior = np.full(p, 0.1)
     score, info, Ci, Ninv = _textbook(e, A, V, theta, prior)
     W = whitening(np.linalg.inv(Ci))
-    fast_score, fast_info = scoring_step(e, W @ A, V, W, Ninv)
+    fast_score, fast_info = scoring_step(e, W @ A, component_factors(V), W, Ninv)
     assert np.allclose(fast_score, score, rtol=1e-9, atol=1e-9 * np.abs(score).max())
     assert np.allclose(fast_info, info, rtol=1e-9, atol=1e-9 * np.abs(info).max())
 
@@ -62,9 +62,14 @@ def test_factors_rebuild_the_components(rng):
     Jq = rng.normal(size=(10, 6, 6))
     Jq[2, :, 1] = 0.0  # singular: no Cholesky factor for that pose
     V = np.stack([np.broadcast_to(np.diag([1.0, 1, 1, 0, 0, 0]), (10, 6, 6)),
+                  np.broadcast_to(np.diag([0.0, 0, 0, 4, 4, 4]), (10, 6, 6)),
                   Jq @ np.swapaxes(Jq, 1, 2)])
-    B, owner = component_factors(V)
-    assert list(owner) == [0] * 3 + [1] * 6
-    for c in range(2):
-        Bc = B[:, :, owner == c]
-        assert np.allclose(Bc @ np.swapaxes(Bc, 1, 2), V[c], atol=1e-10)
+    factors = component_factors(V)
+    assert [f.B is None for f in factors] == [True, True, False]
+    identity = np.broadcast_to(np.eye(6), (10, 6, 6))
+    for f, Vc in zip(factors, V, strict=True):
+        B = f.whitened(identity, slice(0, 10))
+        assert np.allclose(B @ np.swapaxes(B, 1, 2), Vc, atol=1e-10)
+    W = np.tril(rng.normal(size=(4, 6, 6)))  # the whitened factor of some poses
+    assert np.allclose(factors[2].whitened(W, slice(3, 7)), W @ factors[2].B[3:7])
+    assert np.allclose(factors[1].whitened(W, slice(3, 7)), W[:, :, 3:] * 2.0)
