@@ -14,7 +14,8 @@ Evolution on an error model, with an honest account of what the data can tell.
 
 This module orchestrates them: the outliers rejected and the fit repeated, the joint compliance
 chosen by the data (`compliance="auto"`), the readings' lag estimated and corrected
-(`lag="auto"`), all with one BLAS thread (`blas_threads`: set for the call, restored after).
+(`lag="auto"`), all with one BLAS thread (`blas_threads`: set for the call, restored after)
+and the C heap keeping freed temporaries (`heap`: set once per process).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from screwcal.calibration.diagnostics import (
     pose_tests,
 )
 from screwcal.calibration.error_parameters import ModelKind
+from screwcal.calibration.heap import keep_freed_memory
 from screwcal.calibration.identifiability import Index, Residual
 from screwcal.calibration.identify_result import CalibrationResult, NoiseEstimate, Outlier
 from screwcal.calibration.identify_settings import (
@@ -111,6 +113,7 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         weight_mm=weight_mm, noise=noise or NoiseModel(), de_link_bounds_mm=de_link_bounds_mm,
         seed=seed, base_guess=base_guess, link_offsets=link_offsets, outliers=outliers,
         de_polish=de_polish, compliance=compliance, ranges=plausible)
+    keep_freed_memory()  # its temporaries reuse the heap instead of page-faulting (heap)
     with one_blas_thread():  # small dense problems: threads only compete (blas_threads)
         if prior_scale == "plausible":
             return _with_lag(nominal, data, settings, lag)
