@@ -51,10 +51,13 @@ def pose_tests(e: Array, A: Array, W: Array) -> PoseTest:
     Worked in whitened units, where C is the identity: with N^-1 = L L^T and B_i = W_i A_i L,
     the hat block is H_i = B_i B_i^T, Q_i = I - H_i, T_i = e_i^T W_i^T Q_i^-1 W_i e_i and
     h_i = tr(H_i) (one (Nk, p) product and (k, k) solves; no per-pose inverse of C)."""
-    p = A.shape[-1]
-    N, k = e.shape
-    Aw = W @ A
-    ew = W @ e[..., None]
+    return whitened_pose_tests(W @ e[..., None], W @ A)
+
+
+def whitened_pose_tests(ew: Array, Aw: Array) -> PoseTest:
+    """`pose_tests` of the whitened residuals ew (N, k, 1) and Jacobian Aw (N, k, p): W e and
+    W A, when at hand."""
+    N, k, p = Aw.shape
     flat = Aw.reshape(-1, p)
     Ninv = scipy.linalg.pinvh(flat.T @ flat)
     eigval, eigvec = np.linalg.eigh(Ninv)

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from screwcal.calibration.diagnostics import pose_tests
+from screwcal.calibration.diagnostics import whitened_pose_tests
 from screwcal.calibration.identifiability import Index
 from screwcal.calibration.noise_levels import levels_on_linearisation
 from screwcal.calibration.residual_problem import whitening_of_levels
@@ -80,14 +80,17 @@ def reject_in_rounds(e: Array, A: Array, V: Array, theta: Array, free: Index, pr
     At the fit's estimate x: residuals e (N, k), their Jacobian A (N, k, p), the unit
     variance components V (3, N, k, k) and the components theta (3,) the fit used (those in
     `free` were estimated, the others are held), the prior's weights (p,) and the fit's own
-    whitening (N, k, k) for the first round."""
+    whitening (N, k, k) for the first round. The whitening of every pose and the whitened
+    Jacobian W A are formed once per set of components (a pose's whitening does not depend on
+    which poses are kept): the rounds between re-estimations read the kept poses' rows."""
     e, theta = e.copy(), np.array(theta, dtype=float)
     kept = np.arange(len(e))
     out: list[Rejection] = []
     estimated = True  # the components are those of the rows kept
-    W = whiten
+    W, own = whiten, True  # (the fit's own whitening, until the rounds' components replace it)
+    Aw = W @ A
     while len(out) < cap:
-        test = pose_tests(e[kept], A[kept], W)
+        test = whitened_pose_tests(W[kept] @ e[kept, :, None], Aw[kept])
         limit = test.threshold()
         if test.statistic.max() <= limit:
             if estimated or not len(free):
@@ -96,22 +99,18 @@ def reject_in_rounds(e: Array, A: Array, V: Array, theta: Array, free: Index, pr
                                              x)
             e = e + A @ (levels.x - x)
             theta, x, estimated = levels.theta, levels.x, True
-            W = whitening_of_levels(theta, V[:, kept])
+            W = whitening_of_levels(theta, V)
+            Aw = W @ A
             continue
         drop = worst_poses(test.statistic, limit, cap - len(out))
         out += [Rejection(int(kept[k]), float(np.linalg.norm(e[kept[k], :3])),
                           float(test.statistic[k]), limit) for k in drop]
         kept = np.delete(kept, drop)
-        W = whitening_of_levels(theta, V[:, kept])
-        dx = _linear_step(e[kept], A[kept], W, prior, x)
+        if own:
+            W, own = whitening_of_levels(theta, V), False
+            Aw = W @ A
+        dx = gauss_newton_step(Aw[kept].reshape(-1, A.shape[-1]),
+                               (W[kept] @ e[kept, :, None]).reshape(-1), prior, x)
         x, e = x + dx, e + A @ dx
         estimated = False
     return Rounds(out, x, theta)
-
-
-
-
-def _linear_step(e: Array, A: Array, W: Array, prior: Array, x: Array) -> Array:
-    """The weighted linear least-squares step from x on these rows, the prior's rows below."""
-    return gauss_newton_step((W @ A).reshape(-1, A.shape[-1]), (W @ e[..., None]).reshape(-1),
-                             prior, x)

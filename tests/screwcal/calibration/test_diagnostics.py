@@ -113,6 +113,39 @@ def test_gross_errors_over_two_decades_are_each_named_with_two_fits(rng, monkeyp
     assert r.noise.position_mm == pytest.approx(clean.noise.position_mm, rel=0.1)
 
 
+def test_outlier_rounds_whiten_once_per_set_of_noise_levels(rng, monkeypatch):
+    """Issue 29: the rounds between two estimations of the noise levels hold the levels, and a
+    pose's whitening does not depend on which poses are kept: every pose is whitened once per
+    set of levels (the first rejection's, then after each estimation), not again in every
+    round for the poses left."""
+    import screwcal.calibration.outlier_rounds as rounds_module
+    from screwcal.studies.position_only import random_truth
+
+    truth = random_truth(rng, on_axis=True)
+    data = simulate_measurements(truth, random_configurations(400, rng), rng, full_pose=False,
+                                 joint_noise_deg=0.0)
+    bad = rng.choice(len(data), 8, replace=False)
+    direction = rng.normal(size=(8, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    positions = data.positions_mm.copy()
+    positions[bad] += np.geomspace(0.2, 20.0, 8)[:, None] * direction
+    calls = {"whitening": 0, "levels": 0, "tests": 0}
+
+    def counted(name, real):
+        return lambda *a, **k: calls.__setitem__(name, calls[name] + 1) or real(*a, **k)
+
+    monkeypatch.setattr(rounds_module, "whitening_of_levels",
+                        counted("whitening", rounds_module.whitening_of_levels))
+    monkeypatch.setattr(rounds_module, "levels_on_linearisation",
+                        counted("levels", rounds_module.levels_on_linearisation))
+    monkeypatch.setattr(rounds_module, "whitened_pose_tests",
+                        counted("tests", rounds_module.whitened_pose_tests))
+    r = identify(irb1600(), MeasurementSet(data.q, positions))
+    assert {o.id for o in r.outliers if o.rejected} == {data.ids[k] for k in bad}
+    assert calls["tests"] > calls["levels"] + 2  # several rounds between estimations
+    assert calls["whitening"] == 1 + calls["levels"]
+
+
 @pytest.mark.parametrize(("rows", "joints"), [(6, 6), (3, 6), (6, 4)])
 def test_explaining_joint_errors_is_the_pseudo_inverse_solution(rng, rows, joints):
     """Pose rows (square joint Jacobian), position rows (3 x 6: the minimum-norm change), a
