@@ -88,7 +88,14 @@ def _scaled_triangle(J: Array, norms: Array, live: NDArray[np.bool_]) -> Array:
     Js = np.empty(J.shape, order="F")
     np.divide(J, np.where(live, norms, 1.0), out=Js)
     Js[:, ~live] = 0.0
-    R: Array = scipy.linalg.qr(Js, mode="r", overwrite_a=True)[0][:J.shape[1]]
+    geqrf, = scipy.linalg.get_lapack_funcs(("geqrf",), (Js,))
+    work = geqrf(Js, lwork=-1)[2]  # the workspace LAPACK asks for (as scipy's qr)
+    qr, _, _, info = geqrf(Js, lwork=int(work[0].real), overwrite_a=True)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"QR of the scaled Jacobian: LAPACK geqrf info {info}")
+    # the triangle from the top rows only (qr's mode "r" zeroes below the diagonal of the
+    # whole tall matrix, a copy of it, and keeps p rows)
+    R: Array = np.triu(qr[:J.shape[1]])
     return R
 
 

@@ -134,6 +134,7 @@ def levels_on_linearisation(e: Array, A: Array, V: Array, theta: Array, idx: Ind
     converged, iteration = False, 0
     P = prior
     factors = component_factors(V[idx])  # of the free components, for the scoring
+    traces = np.einsum("knii->k", V)  # each component's total, for its share of the variance
     while iteration < VCE_MAX_ITER:
         iteration += 1
         W = whitening_of_levels(theta, V)
@@ -152,7 +153,7 @@ def levels_on_linearisation(e: Array, A: Array, V: Array, theta: Array, idx: Ind
         old = theta[idx].copy()
         new = np.clip(old + step, old / STEP_LIMIT, old * STEP_LIMIT)
         theta[idx] = np.maximum(new, floor[idx])
-        share = np.einsum("knii->k", V) * theta
+        share = traces * theta
         share = share / share.sum()
         at_zero = (share[idx] < NEGLIGIBLE) & (step < 0)  # on the boundary: below detection
         if np.all((np.abs(theta[idx] / old - 1.0) < VCE_TOL) | at_zero):

@@ -75,9 +75,11 @@ def joint_torques_by_mass(model: SerialModel, q: ArrayLike) -> Array:
     """(N, n, M) the torques of `joint_torques` per mass: the arm's masses, then the payload's
     (when it has one)."""
     q = _check_q(model, q)
-    _, partial = _chain_theta(model, q + model.joint_zero, keep=True)
-    return gravity_torques_by_mass(model.axis_dirs, model.axis_points_mm, partial,
-                                   model.all_masses, model.base[:3, 2])
+    masses = model.all_masses
+    carrying = max((m.link for m in masses), default=-1) + 1  # joints that carry a mass
+    _, partial = _chain_theta(model, q + model.joint_zero, keep=True, joints=carrying)
+    return gravity_torques_by_mass(model.axis_dirs, model.axis_points_mm, partial, masses,
+                                   model.base[:3, 2])
 
 
 def joint_bend(model: SerialModel, q: Array, tau: Array | None = None) -> Array:

@@ -51,3 +51,23 @@ def test_held_directions_from_the_information_matrix(rng):
     J[:, 3] = J[:, 2] + 1e-5 * rng.normal(size=500)
     held = held_directions(J.T @ J, np.full(4, 1.0), ["a", "b", "c", "d"])
     assert len(held) == 1 and "c" in held[0] and "d" in held[0]
+
+
+def test_the_scaled_triangle_is_the_qr_factors_top_rows(rng):
+    """Issue 29: the triangle of the column-scaled candidate Jacobian from LAPACK's factor's
+    top rows (scipy's qr mode "r" zeroed below the diagonal of the whole tall matrix, a copy
+    of it): the same R, a dead column zero."""
+    import scipy.linalg
+
+    from screwcal.calibration.identifiability import _scaled_triangle
+
+    J = _columns(rng, 1e4)
+    J[:, 3] = 0.0
+    norms = np.linalg.norm(J, axis=0)
+    live = norms > 0
+    R = _scaled_triangle(J, norms, live)
+    Js = J / np.where(live, norms, 1.0)
+    expected = scipy.linalg.qr(Js, mode="r")[0][:8]
+    assert R.shape == (8, 8)
+    np.testing.assert_array_equal(R, expected)
+    assert not R[:, 3].any()
