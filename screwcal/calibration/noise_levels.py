@@ -67,10 +67,9 @@ def estimate_with_joint_check(problem: ResidualProblem, noise: NoiseModel, x: Ar
         return fit
     problem, x = fit.problem, fit.solution.x
     e, A = problem.raw(x)
-    V = problem.components(x)
     theta = variance_from_levels((fit.noise.position_mm, fit.noise.orientation_deg
                                   if problem.rows == 6 else 0.0, 0.0))
-    without = loo_position_error(e, A, whitening_of_levels(theta, V))
+    without = loo_position_error(e, A, _measuring_whitening(theta, problem, x))
     with_joint = loo_position_error(e, A, problem.whiten)
     if without >= (1.0 - PRESS_MARGIN) * with_joint:
         return fit
@@ -79,6 +78,17 @@ def estimate_with_joint_check(problem: ResidualProblem, noise: NoiseModel, x: Ar
     return NoiseFit(refit.problem, solution, replace(refit.noise, note=(
         f"joint noise left out: it predicted left-out poses worse ({with_joint:.3f} vs "
         f"{without:.3f} mm, leave-one-out): what it soaked up is model error, not noise")))
+
+
+def _measuring_whitening(theta: Array, problem: ResidualProblem, x: Array) -> Array:
+    """The whitening (N, k, k) of the measuring noise alone (theta's joint component 0): the
+    same diagonal at every pose, 1 / sqrt of the position's, then the orientation's variance
+    (what the Cholesky factor of that diagonal gives, without the joint Jacobian's components
+    or N factorisations); a variance at zero by the general path (which refuses it)."""
+    d = np.repeat(theta[:2], 3)[:problem.rows]
+    if theta[2] != 0.0 or not np.all(d > 0):
+        return whitening_of_levels(theta, problem.components(x))
+    return np.broadcast_to(np.diag(1.0 / np.sqrt(d)), (len(problem.data), len(d), len(d)))
 
 
 def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve: Solve,
