@@ -105,23 +105,23 @@ class Motion:
     def tool0(self, q_deg: np.ndarray) -> np.ndarray:
         return flange_kinematics(self.world.nominal, np.radians(q_deg)[None])[0]
 
-    def branch(self, q_deg: np.ndarray) -> int:
-        """cfx: which of the eight IK branches this joint vector is."""
-        sol = closed_form_ik(self.world.nominal, self.tool0(q_deg)[None], require_all=False,
-                             check=False)
+    def branch(self, q_deg: np.ndarray, T: np.ndarray) -> int:
+        """cfx: which of the eight IK branches this joint vector is (T: its tool0 pose)."""
+        sol = closed_form_ik(self.world.nominal, T[None], require_all=False, check=False)
         q = np.radians(q_deg)
         d = np.angle(np.exp(1j * (sol.q[0] - q[None, :])))
         d = np.where(np.isnan(d), np.inf, np.abs(d))
         return int(np.argmin(d.max(axis=1)))
 
-    def conf(self, q_deg: np.ndarray) -> list[float]:
+    def conf(self, q_deg: np.ndarray, T: np.ndarray) -> list[float]:
+        """confdata of a joint vector whose tool0 pose is T."""
         return [float(math.floor(q_deg[0] / 90)), float(math.floor(q_deg[3] / 90)),
-                float(math.floor(q_deg[5] / 90)), float(self.branch(q_deg))]
+                float(math.floor(q_deg[5] / 90)), float(self.branch(q_deg, T))]
 
     def robtarget(self, q_deg: np.ndarray) -> Record:
-        T = self.tool0(q_deg)
+        T = self.tool0(q_deg)  # once: the position, the orient and the branch
         return record("robtarget", [num(v) for v in T[:3, 3]],
-                      [num(v) for v in quaternion_of(T[:3, :3])], self.conf(q_deg),
+                      [num(v) for v in quaternion_of(T[:3, :3])], self.conf(q_deg, T),
                       [_NINE_E9] * 6)
 
     def solve(self, rt: Record) -> np.ndarray:

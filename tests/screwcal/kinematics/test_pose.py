@@ -113,3 +113,21 @@ def test_conversions_agree_with_scipy_everywhere():
     relative = (Rotation.from_matrix(R[:-1]).inv() * Rotation.from_matrix(R[1:])).magnitude()
     np.testing.assert_allclose(rotation_angle_deg(R[:-1], R[1:]), np.degrees(relative),
                                atol=1e-9)
+
+
+def test_one_rotation_takes_the_float_path_and_agrees_with_the_batch():
+    """One (3, 3) rotation goes through the same formulas on floats (the emulated controller's
+    CRobT, every pose): equal to the batch form for random rotations, each of Shepperd's four
+    cases and w = 0 (half turns, where the sign rule decides)."""
+    from scipy.spatial.transform import Rotation
+
+    from screwcal.kinematics.pose import quaternion_wxyz_from_rotation
+
+    half = [Rotation.from_rotvec(np.pi * np.array(a) / np.linalg.norm(a)).as_matrix()
+            for a in ([1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [0, -1, 1], [-1, 0, 0])]
+    Rs = np.concatenate([Rotation.random(200, random_state=3).as_matrix(), np.eye(3)[None],
+                         np.array(half)])
+    batch = quaternion_wxyz_from_rotation(Rs)
+    one = np.array([quaternion_wxyz_from_rotation(R) for R in Rs])
+    np.testing.assert_allclose(one, batch, atol=1e-15)
+    assert one.shape == (len(Rs), 4)
