@@ -35,6 +35,6 @@ def test_the_measuring_noise_whitening_is_the_general_one(rng, k):
     theta = np.array([0.013 ** 2, 1e-7 if k == 6 else 0.0, 0.0])
     W = _measuring_whitening(theta, problem, np.zeros(3))  # type: ignore[arg-type]
     np.testing.assert_array_equal(W, whitening_of_levels(theta, V))
-    joint = theta + [0.0, 0.0, 1e-8]  # with joint noise: the general path
+    joint = theta + np.array([0.0, 0.0, 1e-8])  # with joint noise: the general path
     np.testing.assert_array_equal(_measuring_whitening(joint, problem, np.zeros(3)),
                                   whitening_of_levels(joint, V))
