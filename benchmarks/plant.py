@@ -34,10 +34,7 @@ import time
 from pathlib import Path
 
 import httpx
-
-from simulators.arm import ArmEmulator
-from simulators.irc5 import EmulatorSettings, IRC5Emulator
-from simulators.truth import make_world
+from cells import Cells  # the benchmarks' own emulated cells
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' PostgreSQL server
 from tests.postgres_server import INSTALL, PostgresServer, find_bin_dir
@@ -71,18 +68,6 @@ class Service:
         self.proc.communicate(timeout=60)
 
 
-async def cells(n: int) -> list[tuple[str, int, str, list]]:
-    out = []
-    for _ in range(n):
-        world = make_world(None, None)
-        emu = IRC5Emulator(world, EmulatorSettings(time_scale=0.0))
-        host, port = await emu.start("127.0.0.1", 0)
-        arm = ArmEmulator(world, seed=1)
-        ahost, aport = await arm.start("127.0.0.1", 0)
-        out.append((host, port, f"socket://{ahost}:{aport}", [emu, arm]))
-    return out
-
-
 def rows(db: str, sql: str) -> list[tuple]:
     if db.startswith("postgresql://"):
         import psycopg
@@ -103,12 +88,13 @@ async def run_plant(db: str, n_services: int, n_robots: int, options: dict,
     """Post one procedure job per cell, spread over the services; wait for all. Returns the
     wall time and, when a service is killed, what the rows say."""
     services = [Service(db, f"S{k}") for k in range(n_services)]
-    plant = await cells(n_robots)
+    cells = Cells()
+    plant = await cells.start(n_robots)
     https = [httpx.AsyncClient(base_url=s.url, headers=AUTH, timeout=60) for s in services]
     out: dict = {}
     try:
         jobs = []
-        for k, (host, port, arm, _) in enumerate(plant):
+        for k, (host, port, arm) in enumerate(plant):
             http = https[k % n_services]
             r = await http.post("/robots", json={"name": f"cell {k}", "controller_host": host,
                                                  "controller_port": port, "arm_url": arm})
@@ -167,9 +153,7 @@ async def run_plant(db: str, n_services: int, n_robots: int, options: dict,
         for s in services:
             with contextlib.suppress(Exception):
                 s.stop()
-        for *_, parts in plant:
-            for part in parts:
-                await part.stop()
+        await cells.stop()
     return out
 
 

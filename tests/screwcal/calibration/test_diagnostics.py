@@ -80,12 +80,9 @@ def test_joint_noise_is_kept_when_it_is_noise(rng):
     assert fixed.noise.joint_deg == 0.0
 
 
-def test_gross_errors_over_two_decades_are_each_named_with_two_fits(rng, monkeypatch):
-    """Issue 29: 2 % gross errors of 0.2-20 mm among position-only poses. Every one is named
-    (and no clean pose), by rounds on the fit's linearisation: one fit of all the poses, one
-    of those kept (a refit per round was 16 fits at 5000 poses); the estimate is the clean
-    fit's."""
-    import screwcal.calibration.identify as identify_module
+def _gross_errors(rng):
+    """400 position-only poses of a random robot (joints read exactly), and their positions
+    with gross errors of 0.2-20 mm added at 8 of them: (data, positions, the 8 indices)."""
     from screwcal.studies.position_only import random_truth
 
     truth = random_truth(rng, on_axis=True)
@@ -96,6 +93,16 @@ def test_gross_errors_over_two_decades_are_each_named_with_two_fits(rng, monkeyp
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
     positions = data.positions_mm.copy()
     positions[bad] += np.geomspace(0.2, 20.0, 8)[:, None] * direction
+    return data, positions, bad
+
+
+def test_gross_errors_over_two_decades_are_each_named_with_two_fits(rng, monkeypatch):
+    """Issue 29: 2 % gross errors of 0.2-20 mm among position-only poses. Every one is named
+    (and no clean pose), by rounds on the fit's linearisation: one fit of all the poses, one
+    of those kept (a refit per round was 16 fits at 5000 poses); the estimate is the clean
+    fit's."""
+    import screwcal.calibration.identify as identify_module
+    data, positions, bad = _gross_errors(rng)
     dirty = MeasurementSet(data.q, positions)
     fits = []
     real_fit = identify_module.fit_once
@@ -119,16 +126,7 @@ def test_outlier_rounds_whiten_once_per_set_of_noise_levels(rng, monkeypatch):
     set of levels (the first rejection's, then after each estimation), not again in every
     round for the poses left."""
     import screwcal.calibration.outlier_rounds as rounds_module
-    from screwcal.studies.position_only import random_truth
-
-    truth = random_truth(rng, on_axis=True)
-    data = simulate_measurements(truth, random_configurations(400, rng), rng, full_pose=False,
-                                 joint_noise_deg=0.0)
-    bad = rng.choice(len(data), 8, replace=False)
-    direction = rng.normal(size=(8, 3))
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    positions = data.positions_mm.copy()
-    positions[bad] += np.geomspace(0.2, 20.0, 8)[:, None] * direction
+    data, positions, bad = _gross_errors(rng)
     calls = {"whitening": 0, "levels": 0, "tests": 0}
 
     def counted(name, real):
