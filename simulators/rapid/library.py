@@ -206,7 +206,12 @@ def quaternion_of(R: np.ndarray) -> tuple[float, float, float, float]:
 
 def matrix_of(q: Record) -> np.ndarray:
     """The rotation of an orient; one not normalised (beyond 1e-4) is RAPID's ERR_ARGVALERR."""
-    wxyz = np.array([q.f["q1"], q.f["q2"], q.f["q3"], q.f["q4"]], dtype=float)
+    return _rotation_of_wxyz((q.f["q1"], q.f["q2"], q.f["q3"], q.f["q4"]))
+
+
+def _rotation_of_wxyz(q: tuple[float, ...]) -> np.ndarray:
+    """`matrix_of` of an orient's four numbers (q1..q4)."""
+    wxyz = np.array(q, dtype=float)
     n = float(np.linalg.norm(wxyz))
     if abs(n - 1) > 1e-4:
         raise RapidError("ERR_ARGVALERR", f"orient not normalised (|q| = {n:.6f})")
@@ -229,8 +234,7 @@ def _euler_zyx_deg(packed: bytes) -> tuple[float, float, float]:
     """The Euler angles of one orient (its four numbers packed: -0.0 is not 0.0 here), kept
     for the next calls: a program asks for X, Y and Z of the same orient in turn (a refused
     orient raises every time: nothing is kept)."""
-    rx, ry, rz = euler_zyx_deg_from_rotation(
-        matrix_of(record("orient", *_FOUR.unpack(packed)))).tolist()
+    rx, ry, rz = euler_zyx_deg_from_rotation(_rotation_of_wxyz(_FOUR.unpack(packed))).tolist()
     return rx, ry, rz
 
 
