@@ -54,7 +54,7 @@ from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.outlier_rounds import reject_in_rounds
 from screwcal.calibration.plausible import PlausibleRanges
 from screwcal.calibration.residual_problem import residual_rows
-from screwcal.calibration.single_fit import Selection, WarmStart, fit_once
+from screwcal.calibration.single_fit import RicherFit, WarmStart, fit_once
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
 
@@ -278,18 +278,18 @@ def _nested_f_test(simple: CalibrationResult, rich: CalibrationResult) -> float:
 
 
 def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
-                        found: tuple[Outlier, ...] = (), richer: Selection | None = None,
+                        found: tuple[Outlier, ...] = (), richer: RicherFit | None = None,
                         diagnose: Callable[[CalibrationResult], bool] | None = None
-                        ) -> tuple[CalibrationResult, MeasurementSet, Selection]:
+                        ) -> tuple[CalibrationResult, MeasurementSet, RicherFit]:
     """One identification (see `identify`) of the poses `data` (`found`: rejected before),
     rejecting outliers: after a fit, rounds on its linearisation find the poses to reject
     (`outlier_rounds`: the clearly worst first, no refit per round), then the poses kept are
     fitted once more, from the first fit's start and parameters and the rounds' estimate and
     noise levels (`single_fit.WarmStart`), and that fit's own tests confirm it (a pose still
-    beyond its limit starts new rounds). `richer`: the selection of the model with the
-    joint-2/3 compliance on these poses (`single_fit.fit_once`). `diagnose`: whether the
-    result is to carry the data-quality diagnostics (default: always; a fit "auto" is about
-    to set aside goes without). Also returns the poses kept and the last fit's selection."""
+    beyond its limit starts new rounds). `richer`: the fit of the model with the joint-2/3
+    compliance on these poses (`single_fit.fit_once`). `diagnose`: whether the result is to
+    carry the data-quality diagnostics (default: always; a fit "auto" is about to set aside
+    goes without). Also returns the poses kept and the last fit, for a nested one."""
     started = time.perf_counter()
     rejected = list(found)
     current = data
@@ -300,7 +300,8 @@ def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: Id
         result, problem, x, richer = fit.result, fit.problem, fit.x, None  # (its poses only)
         if result.residual_kind == "distance" or not settings.statistical:
             return replace(result, outliers=tuple(rejected),
-                           seconds=time.perf_counter() - started), current, fit.selection
+                           seconds=time.perf_counter() - started), current, \
+                RicherFit(fit.selection, None)
         e, A = problem.raw(x)
         test = pose_tests(e, A, problem.whiten)
         limit_T = test.threshold()
@@ -324,7 +325,8 @@ def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: Id
         e, problem.joint_jacobian(x), np.degrees(current.q), test, current.ids, estimated,
         settings.stated_position_mm(), acquisition_order(current.ids, current.lines))
     return replace(result, outliers=tuple(rejected + kept), diagnostics=quality,
-                   seconds=time.perf_counter() - started), current, fit.selection
+                   seconds=time.perf_counter() - started), current, \
+        RicherFit(fit.selection, _levels(result.noise)[0])
 
 
 def _levels(noise: NoiseEstimate | None) -> tuple[Array, Index]:

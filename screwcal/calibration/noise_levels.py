@@ -31,7 +31,7 @@ from screwcal.calibration.identify_settings import (
 from screwcal.calibration.residual_problem import ResidualProblem, whitening_of_levels
 from screwcal.calibration.solvers import Solution, Solve
 from screwcal.calibration.variance_scoring import component_factors, scoring_step
-from screwcal.kinematics.se3 import Array
+from screwcal.kinematics.se3 import Array, Mask
 
 VCE_MAX_ITER = 25
 VCE_TOL = 0.05  # relative change of every free component at convergence
@@ -95,28 +95,56 @@ def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve:
                    start: Array | None = None) -> NoiseFit:
     """The free noise levels and the parameters together, by restricted maximum likelihood
     (Fisher scoring on the variance components, a Gauss-Newton step of the parameters with the
-    weights of each step, LM at the end). The free components start from `start` (3,) where
-    it holds one above detection (a fit of nearly the same poses), else from the priors."""
+    weights of each step, LM at the end). The free components start from `start` (3,) (a fit
+    of nearly the same poses) when given, else from the priors; one below detection in
+    `start` (under `NEGLIGIBLE` of the variance) starts at the edge of detection instead
+    (`_at_detection`): from the prior it would take a step per factor `STEP_LIMIT` to come
+    down again, from the floor as many to rise, where the poses have more to say."""
     theta = variance_from_levels(noise.filled())
     free = np.array(noise.free)
-    if start is not None:
-        usable = free & (start > 1e-4 * variance_from_levels(PRIOR_NOISE))
-        theta[usable] = start[usable]
     if problem.rows == 3:
         free[1] = False  # no orientation measured
         theta[1] = 0.0
+    V = problem.components(x)
+    if start is not None:
+        theta = _from_start(theta, free, start, V)
     idx = np.flatnonzero(free)
     # The levels are found on the problem linearised at the start (which the candidates'
     # Gauss-Newton step puts near the optimum), then LM solves the nonlinear problem once with
     # the final weights, taken at its own estimate.
     e, A = problem.raw(x)
-    levels = levels_on_linearisation(e, A, problem.components(x), theta, idx, problem.prior, x)
+    levels = levels_on_linearisation(e, A, V, theta, idx, problem.prior, x)
     V = problem.components(levels.x)
     problem = problem.with_whitening(whitening_of_levels(levels.theta, V))
     solution = solve(problem, levels.x)
     return NoiseFit(problem, solution, _estimate(levels.theta, idx, levels.information,
                                                  problem.rows, levels.iterations,
                                                  levels.converged))
+
+
+def _from_start(prior: Array, free: Mask, start: Array, V: Array) -> Array:
+    """The components (3,) to start from: the free ones of `start`, those of them below
+    detection at the edge of detection (`_at_detection`), the others `prior`'s; all of
+    `prior` when `start` detects no free one."""
+    theta = prior.copy()
+    theta[free] = np.maximum(start[free], 0.0)
+    traces = np.einsum("knii->k", V)  # each component's total
+    share = traces * theta / max(float(traces @ theta), np.finfo(float).tiny)
+    below = free & (share < NEGLIGIBLE)
+    if not np.any(free & ~below):
+        return prior
+    theta[below] = _at_detection(theta, traces, below)
+    return theta
+
+
+def _at_detection(theta: Array, traces: Array, below: Mask) -> Array:
+    """The values of the components `below` at which each holds half of `NEGLIGIBLE`'s share
+    of the variance beside the others' theta (3,) (unit components with these traces (3,)):
+    where `levels_on_linearisation` calls a component below detection when the data pull it
+    down, and from where they raise it in a step or two when they do not."""
+    others = float(traces[~below] @ theta[~below])
+    at: Array = 0.5 * NEGLIGIBLE * others / traces[below]
+    return at
 
 
 @dataclass(frozen=True)

@@ -109,6 +109,16 @@ class WarmStart:
 
 
 @dataclass(frozen=True)
+class RicherFit:
+    """A fit of the same poses with the joint-2/3 compliance, for the nested fit without it
+    ("auto"): its selection (the nested fit's start and Jacobian columns) and the variance
+    components (3,) it found (the nested fit's levels start there; None: none estimated)."""
+
+    selection: Selection
+    theta: Array | None
+
+
+@dataclass(frozen=True)
 class SingleFit:
     """One fit: the result, the final problem, its estimate and the selection it started
     from."""
@@ -120,22 +130,24 @@ class SingleFit:
 
 
 def fit_once(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
-             warm: WarmStart | None = None, richer: Selection | None = None) -> SingleFit:
+             warm: WarmStart | None = None, richer: RicherFit | None = None) -> SingleFit:
     """One fit of all the poses given. `warm`: the poses are those an earlier fit kept; its
     start, frames and identifiable parameters are kept, and the solve (LM with the noise
     levels) starts from the rounds' estimate and levels instead of the start's Gauss-Newton
-    step and the priors. `richer`: the selection of the same model with a compliance, on
-    these poses: this fit's candidates are its without the compliance (the same start, the
-    same Jacobian columns; the solve as from scratch)."""
+    step and the priors. `richer`: a fit of the same model with a compliance, on these poses:
+    this fit's candidates are its without the compliance (the same start, the same Jacobian
+    columns), its noise levels start from the richer fit's (the solve as from scratch)."""
     started = time.perf_counter()
     residual = resolved_residual(settings, data.full_pose)
+    levels = None  # the variance components to start from
     if warm is not None and settings.solver == "lm" and _estimates_noise(settings, residual):
-        chosen = warm.selection.rows(warm.kept, data, residual)
+        chosen, levels = warm.selection.rows(warm.kept, data, residual), warm.theta
     elif richer is not None and settings.compliance == "none":
-        chosen, warm = richer.without_compliance(data, residual, settings), None
+        chosen, warm = richer.selection.without_compliance(data, residual, settings), None
+        levels = richer.theta
     else:
         chosen, warm = _select(nominal, data, residual, settings), None
-    problem, solution, noise = _solve(chosen, data, residual, settings, warm)
+    problem, solution, noise = _solve(chosen, data, residual, settings, warm, levels)
     converged, message = solution.converged, solution.message
     if not converged and stationary(problem, solution.x):
         converged, message = True, f"{message}; at a stationary point of the cost (the " \
@@ -220,11 +232,11 @@ def _choose(start: SerialModel, cands: tuple[Param, ...], whiten: Array, r0: Arr
 
 
 def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
-           settings: IdentifySettings, warm: WarmStart | None = None
-           ) -> tuple[ResidualProblem, Solution, NoiseEstimate | None]:
-    """The estimate from the start (`warm`: from the rounds' estimate and levels), re-weighted
-    and with the noise levels as asked; the final problem, the solution (nfev: every
-    evaluation) and the noise levels used."""
+           settings: IdentifySettings, warm: WarmStart | None = None,
+           levels: Array | None = None) -> tuple[ResidualProblem, Solution, NoiseEstimate | None]:
+    """The estimate from the start (`warm`: from the rounds' estimate), re-weighted and with
+    the noise levels as asked (estimated from the variance components `levels` when given);
+    the final problem, the solution (nfev: every evaluation) and the noise levels used."""
     problem, statistical, noise = chosen.problem, settings.statistical, settings.noise
     estimate_noise = _estimates_noise(settings, residual)
     reweighted = False
@@ -242,8 +254,7 @@ def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
         def solve(pr: ResidualProblem, x_start: Array) -> Solution:
             return solve_lm(pr, x_start, 1e-10)
 
-        fit = estimate_with_joint_check(problem, noise, solution.x, solve,
-                                        None if warm is None else warm.theta)
+        fit = estimate_with_joint_check(problem, noise, solution.x, solve, levels)
         problem, noise_used = fit.problem, fit.noise
         solution = Solution(fit.solution.x, fit.solution.converged, fit.solution.message,
                             solution.nfev + fit.solution.nfev)

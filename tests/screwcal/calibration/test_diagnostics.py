@@ -178,3 +178,37 @@ def test_leave_one_out_with_the_same_diagonal_weights_at_every_pose(rng):
         dx = -np.linalg.lstsq(Aw, ew, rcond=None)[0]
         errors.append(np.linalg.norm((e[i] + A[i] @ dx)[:3]))
     assert fast == pytest.approx(np.mean(errors), rel=1e-10)
+
+
+def test_later_fits_of_the_same_poses_start_from_the_levels_found(rng, monkeypatch):
+    """Issue 29: a fit of poses already fitted (the confirming fit after the outlier rounds,
+    the model without compliance "auto" compares) starts its noise levels from the earlier
+    fit's, and a level that fit found below detection from the edge of detection (the rounds
+    hold the joints' at zero here), not from the prior (four steps of Fisher scoring down to
+    zero, as many up from zero): one step each. What it finds is what a fit from the prior
+    finds."""
+    import screwcal.calibration.noise_levels as levels_module
+    data, positions, bad = _gross_errors(rng)
+    steps = []
+    real = levels_module.levels_on_linearisation
+
+    def counted(*a, **k):
+        found = real(*a, **k)
+        steps.append(found.iterations)
+        return found
+
+    monkeypatch.setattr(levels_module, "levels_on_linearisation", counted)
+    r = identify(irb1600(), MeasurementSet(data.q, positions), compliance="auto")
+    assert r.compliance == "none"
+    assert {o.id for o in r.outliers if o.rejected} == {data.ids[k] for k in bad}
+    assert steps[0] >= 2 and steps[1:] == [1, 1]  # from the prior; confirming; without
+    steps.clear()
+    kept = data.take(np.array([k for k in range(len(data)) if k not in set(bad)]))
+    alone = identify(irb1600(), kept, compliance="none")
+    assert steps[0] >= 3  # from the prior
+    q = random_configurations(200, rng)
+    moved = np.linalg.norm(forward_kinematics(r.model, q)[:, :3, 3]
+                           - forward_kinematics(alone.model, q)[:, :3, 3], axis=1)
+    assert moved.max() < 1e-3  # mm, against 0.013 mm noise per pose
+    for level in ("position_mm", "joint_deg"):
+        assert getattr(r.noise, level) == pytest.approx(getattr(alone.noise, level), rel=0.02)
