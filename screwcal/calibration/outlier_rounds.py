@@ -33,14 +33,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from screwcal.calibration.diagnostics import whitened_pose_tests
+from screwcal.calibration.diagnostics import PoseTest, whitened_pose_tests
 from screwcal.calibration.identifiability import Index
 from screwcal.calibration.noise_levels import levels_on_linearisation
 from screwcal.calibration.residual_problem import whitening_of_levels
 from screwcal.calibration.solvers import gauss_newton_step
-from screwcal.kinematics.se3 import Array
+from screwcal.kinematics.se3 import Array, Mask
 
 WORST_SHARE = 0.5  # a round rejects the poses within this share of the worst statistic
+LEAK_MARGIN = 2.0  # ...and those beyond the limit by this many times what others can leak
 
 
 @dataclass(frozen=True)
@@ -64,12 +65,35 @@ class Rounds:
     theta: Array
 
 
-def worst_poses(statistic: Array, limit: float, cap: int) -> Index:
-    """The poses a round rejects: above the limit and within `WORST_SHARE` of the worst
-    statistic, the worst first, at most `cap`."""
-    worst = float(statistic.max())
-    drop = np.flatnonzero((statistic > limit) & (statistic >= WORST_SHARE * worst))
+def worst_poses(test: PoseTest, limit: float, cap: int) -> Index:
+    """The poses a round rejects, the worst first, at most `cap`: above the limit, and within
+    `WORST_SHARE` of the worst statistic or still above it without what the other poses above
+    it can leak into theirs (`without_leaks`)."""
+    statistic = test.statistic
+    above = statistic > limit
+    drop = np.flatnonzero(above & ((statistic >= WORST_SHARE * float(statistic.max()))
+                                   | (without_leaks(statistic, test.leverage, above) > limit)))
     return drop[np.argsort(-statistic[drop])][:cap]
+
+
+def without_leaks(statistic: Array, leverage: Array, above: Mask) -> Array:
+    """A lower bound of each pose's statistic (N,) without the errors of the poses `above`
+    the limit (N,) leaking into its residual through the fit, `LEAK_MARGIN` times the leak.
+
+    In whitened units the residuals are r = (I - H) eps. What pose i's error puts into pose
+    j's residual is H_ji eps_i, with |H_ji| <= sqrt(h_j h_i) (H_ji = B_j B_i^T, Cauchy-
+    Schwarz; h the leverages) and |eps_i| ~ |Q_i^-1 r_i| <= sqrt(T_i / (1 - h_i)); pose j's
+    statistic reads it through Q_j^-1/2, |Q_j^-1/2| <= 1 / sqrt(1 - h_j). So sqrt(T_j) less
+    sqrt(h_j / (1 - h_j)) sum_i sqrt(h_i T_i / (1 - h_i)), over the poses above but j: a gross
+    error of its own, whatever the others' do. A round rejects it with the worst; a few
+    large errors among many poses (leverages ~ p / N) no longer take a round per halving
+    of the statistic."""
+    h = np.clip(leverage, 0.0, 1.0 - 1e-9)
+    gain = np.sqrt(h / (1.0 - h))
+    size = np.where(above, gain * np.sqrt(statistic), 0.0)  # sqrt(h_i) |eps_i|
+    leak = LEAK_MARGIN * gain * (size.sum() - size)
+    bound: Array = np.clip(np.sqrt(statistic) - leak, 0.0, None) ** 2
+    return bound
 
 
 def reject_in_rounds(e: Array, A: Array, V: Array, theta: Array, free: Index, prior: Array,
@@ -102,7 +126,7 @@ def reject_in_rounds(e: Array, A: Array, V: Array, theta: Array, free: Index, pr
             W = whitening_of_levels(theta, V)
             Aw = W @ A
             continue
-        drop = worst_poses(test.statistic, limit, cap - len(out))
+        drop = worst_poses(test, limit, cap - len(out))
         out += [Rejection(int(kept[k]), float(np.linalg.norm(e[kept[k], :3])),
                           float(test.statistic[k]), limit) for k in drop]
         kept = np.delete(kept, drop)
