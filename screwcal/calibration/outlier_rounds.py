@@ -2,8 +2,10 @@
 refit per round (issue 29).
 
 A gross error hides smaller ones: it pulls the fit and inflates the estimated noise, so data
-snooping (`diagnostics.pose_tests`) rejects in rounds, the clearly worst first (within half of
-the worst statistic, above the limit). Each round refitted from scratch (16 fits for 1 % gross
+snooping (`diagnostics.pose_tests`) rejects in rounds, the clearly worst first: above the
+limit, within half of the worst statistic or beyond the limit whatever the other poses above
+it leak into the pose's residual (`without_leaks`: many poses, small leverages, a round takes
+every large error at once). Each round refitted from scratch (16 fits for 1 % gross
 errors of 0.2-20 mm at 5000 poses); here every round works on the fit's linearisation at its
 estimate x instead (Gauss-Newton on the normal equations):
 
