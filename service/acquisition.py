@@ -29,6 +29,7 @@ from screwcal.calibration.flange import MeasuringFlange
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
+from service.arm_opening import ArmOpening
 from service.document import DiscardedReadings
 from service.drift import DRIFT_PHASE, DriftSchedule, DriftState
 from service.errors import SafetyError
@@ -117,7 +118,7 @@ class Acquisition:
         self.discarded: Counter[str] = Counter()  # arm readings refused, by kind
         self.client: ControllerClient | None = None
         self.arm: ArmReader | None = None
-        self._opening: asyncio.Future[ArmReader] | None = None  # the arm's port, opening
+        self._opening: ArmOpening | None = None  # the arm's port, opening
 
     # -- links ---------------------------------------------------------------------------------
     async def connect(self) -> None:
@@ -129,24 +130,21 @@ class Acquisition:
             await self.client.reconnect(attempts=3, first_delay_s=0.05)
         if self.arm is None:
             url = check_arm_url(self.robot["arm_url"])  # a record older than the check too
-            # the port opens in a thread that a cancellation cannot stop: `disconnect` (which
-            # every runner's end calls) waits for it and closes what it opened
-            self._opening = asyncio.ensure_future(asyncio.to_thread(ArmReader, url))
-            self.arm = await asyncio.shield(self._opening)
+            # the port opens in a thread that a cancellation cannot stop (`ArmOpening`):
+            # `disconnect`, which every runner's end calls, lets go of it
+            self._opening = ArmOpening(url)
+            self.arm = await self._opening.claim()
             self._opening = None
 
     async def disconnect(self) -> None:
         if self.client is not None:
             await self.client.close()
             self.client = None
-        if self._opening is not None:  # aborted while the arm's port opened: close it once open
-            opening, self._opening = self._opening, None
-            try:
-                with contextlib.suppress(Exception):  # a failed opening has nothing to close
-                    self.arm = await asyncio.shield(opening)
-            except asyncio.CancelledError:  # cancelled again: the loop closes it when open
-                opening.add_done_callback(_close_opened)
-                raise
+        if self._opening is not None:  # aborted while the arm's port opened: its thread closes
+            opening, self._opening = self._opening, None  # it, and a new one waits for that
+            opening.abandon()
+            with contextlib.suppress(Exception):  # (its own error, or "let go of")
+                await asyncio.shield(opening.future)
         if self.arm is not None:
             # pyserial's socket:// close() sleeps 0.3 s: never on the event loop.
             await asyncio.to_thread(self.arm.close)
@@ -340,8 +338,3 @@ class Acquisition:
         assert self.arm is not None
         await asyncio.to_thread(self.arm.drain)
         await self.gate.wait(phase, planned, self.events, note)
-
-
-def _close_opened(opening: asyncio.Future[ArmReader]) -> None:
-    if not opening.cancelled() and opening.exception() is None:
-        opening.result().close()
