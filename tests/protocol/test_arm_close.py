@@ -9,13 +9,16 @@ import time
 from protocol.arm import ArmReader
 
 
-def _server_that_resets() -> tuple[socket.socket, threading.Thread]:
+def _server_that_resets(opened: threading.Event) -> tuple[socket.socket, threading.Thread]:
+    """A server that resets its first client once the client says its port is `opened` (a
+    reset during the client's own connect is the open's error, not the close's case)."""
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen(1)
 
     def reset_the_first_client() -> None:
         conn, _ = server.accept()
+        opened.wait(5)
         conn.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
         conn.close()  # a reset, not a FIN: the client's socket is no longer connected
 
@@ -25,9 +28,11 @@ def _server_that_resets() -> tuple[socket.socket, threading.Thread]:
 
 
 def test_close_after_the_arm_reset_the_connection_closes_the_socket():
-    server, thread = _server_that_resets()
+    opened = threading.Event()
+    server, thread = _server_that_resets(opened)
     try:
         reader = ArmReader(f"socket://127.0.0.1:{server.getsockname()[1]}")
+        opened.set()
         thread.join(5)
         sock = reader.port._socket
         time.sleep(0.05)  # the reset arrives
