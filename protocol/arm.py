@@ -167,7 +167,12 @@ class ArmReader:
     def __init__(self, url: str, read_timeout_s: float = 0.1):
         self.url = url
         with self._port_errors():
-            self.port = serial.serial_for_url(url, timeout=read_timeout_s)
+            self.port = serial.serial_for_url(url, timeout=read_timeout_s, do_not_open=True)
+            try:
+                self.port.open()
+            except BaseException:  # pyserial's socket:// open fails after it connected (a
+                _close_port(self.port)  # reset while it clears the input) and drops the socket
+                raise
         self.decoder = ArmLineDecoder()
         self.problems: list[ArmProblem] = []
 
@@ -180,12 +185,7 @@ class ArmReader:
             raise ArmLineError(f"the measuring arm's port {self.url} failed: {err}") from err
 
     def close(self) -> None:
-        # pyserial's socket:// close() shuts the socket down first and skips its close() when
-        # that fails (the arm already hung up: ENOTCONN), leaving the descriptor open
-        sock: socket.socket | None = getattr(self.port, "_socket", None)
-        self.port.close()
-        if sock is not None:
-            sock.close()
+        _close_port(self.port)
 
     def __enter__(self) -> ArmReader:
         return self
@@ -253,3 +253,13 @@ class ArmReader:
                     got = [item] if item.label == HOLE_LABELS[0] else []
         raise LinkTimeoutError(f"no complete P1-P3 set from the arm at {self.url} within "
                                f"{timeout_s:g} s")
+
+
+def _close_port(port: serial.SerialBase) -> None:
+    """Close the port for good: pyserial's socket:// close() shuts the socket down first and
+    skips its close() when that fails (the arm already hung up: ENOTCONN), and does nothing on
+    a port whose open failed half-way; either way the descriptor was left open."""
+    sock: socket.socket | None = getattr(port, "_socket", None)
+    port.close()
+    if sock is not None:
+        sock.close()

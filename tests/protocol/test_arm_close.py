@@ -46,3 +46,40 @@ def test_close_after_the_arm_reset_the_connection_closes_the_socket():
         assert sock.fileno() == -1, "the socket was left open"
     finally:
         server.close()
+
+
+def test_an_open_that_fails_after_connecting_closes_the_socket(monkeypatch):
+    """pyserial's socket:// open connects, then clears the input: a reset arriving then fails
+    the open, and the port object's own close on collection skips closing a socket whose
+    shutdown fails (ENOTCONN), so the socket was left to the garbage collector (a
+    ResourceWarning in a later test of the service: a job aborted while its arm port opened).
+    Here the server resets the connection before the clearing reads it (a delay before the
+    real clearing): the open is refused and nothing is left unclosed."""
+    import gc
+    import warnings
+
+    import pytest
+    from serial.urlhandler import protocol_socket
+
+    from protocol.errors import ArmLineError
+
+    clear = protocol_socket.Serial.reset_input_buffer
+
+    def clear_after_the_reset(self):
+        time.sleep(0.2)
+        return clear(self)
+
+    monkeypatch.setattr(protocol_socket.Serial, "reset_input_buffer", clear_after_the_reset)
+    opened = threading.Event()
+    opened.set()  # reset at once
+    server, thread = _server_that_resets(opened)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            with pytest.raises(ArmLineError, match="reset by peer"):
+                ArmReader(f"socket://127.0.0.1:{server.getsockname()[1]}")
+            gc.collect()
+        thread.join(5)
+        assert not [w for w in caught if issubclass(w.category, ResourceWarning)]
+    finally:
+        server.close()
