@@ -107,7 +107,7 @@ def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve:
         theta[1] = 0.0
     V = problem.components(x)
     if start is not None:
-        theta = _from_start(theta, free, start, V)
+        theta = from_start(theta, free, start, V)
     idx = np.flatnonzero(free)
     # The levels are found on the problem linearised at the start (which the candidates'
     # Gauss-Newton step puts near the optimum), then LM solves the nonlinear problem once with
@@ -122,7 +122,7 @@ def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve:
                                                  levels.converged))
 
 
-def _from_start(prior: Array, free: Mask, start: Array, V: Array) -> Array:
+def from_start(prior: Array, free: Mask, start: Array, V: Array) -> Array:
     """The components (3,) to start from: the free ones of `start`, those of them below
     detection at the edge of detection (`_at_detection`), the others `prior`'s; all of
     `prior` when `start` detects no free one."""

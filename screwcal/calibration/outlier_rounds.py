@@ -37,7 +37,7 @@ import numpy as np
 
 from screwcal.calibration.diagnostics import PoseTest, whitened_pose_tests
 from screwcal.calibration.identifiability import Index
-from screwcal.calibration.noise_levels import levels_on_linearisation
+from screwcal.calibration.noise_levels import from_start, levels_on_linearisation
 from screwcal.calibration.residual_problem import whitening_of_levels
 from screwcal.calibration.solvers import gauss_newton_step
 from screwcal.kinematics.se3 import Array, Mask
@@ -116,12 +116,18 @@ def reject_in_rounds(e: Array, A: Array, V: Array, theta: Array, free: Index, pr
     W, own = whiten, True  # (the fit's own whitening, until the rounds' components replace it)
     Aw = W @ A
     while len(out) < cap:
-        test = whitened_pose_tests(W[kept] @ e[kept, :, None], Aw[kept])
+        ew = W[kept] @ e[kept, :, None]
+        test = whitened_pose_tests(ew, Aw[kept])
         limit = test.threshold()
         if test.statistic.max() <= limit:
             if estimated or not len(free):
                 break
-            levels = levels_on_linearisation(e[kept], A[kept], V[:, kept], theta, free, prior,
+            # from the held components scaled by the kept rows' variance factor (what the
+            # gross errors put in them gone), one below detection at its edge (`from_start`)
+            mask = np.isin(np.arange(len(theta)), free)
+            start = from_start(theta, mask, theta * float(np.sum(ew ** 2)) / max(
+                ew.size - A.shape[-1], 1), V[:, kept])
+            levels = levels_on_linearisation(e[kept], A[kept], V[:, kept], start, free, prior,
                                              x)
             e = e + A @ (levels.x - x)
             theta, x, estimated = levels.theta, levels.x, True
