@@ -13,20 +13,21 @@ estimate x instead (Gauss-Newton on the normal equations):
   the rows kept (what a refit moves to first order: gross errors move the estimate by
   hundredths of a millimetre or degree, where the model is linear to far below the noise);
 - the residuals of every pose are carried by that step (e + A dx);
-- the noise levels are held between re-estimations (rescaling them by the kept rows' variance
-  factor, the components' shares held, rejected clean poses with 0.01 mm residuals: held
+- the noise levels are held between re-estimations (the gross errors inflate them: held
   levels can only err on the safe side);
 - when no pose exceeds its limit, the variance components are estimated again on the
-  linearisation (`noise_levels.levels_on_linearisation`); the rounds go on while that
-  uncovers more.
+  linearisation (`noise_levels.levels_on_linearisation`), from the held ones scaled by the
+  kept rows' variance factor (one below detection from its edge, `noise_levels.from_start`);
+  the rounds go on while that uncovers more.
 
 Why not a robust loss (Huber, Cauchy) with a final clean fit: it names no pose by a test (a
 threshold on a weight is not a statistic with a level), its reweighting needs the nonlinear
 solve in every iteration, and the down-weighted gross errors still inflate the variance
 components the weights come from. Why not warm-started refits: each still builds the Jacobian,
 re-estimates the noise and solves; the linearisation gives the same rejections for the cost of
-one linear solve per round. The caller then fits the poses kept once, from scratch: that fit is
-the result, and its own pose tests confirm the rounds (a pose they missed starts new rounds).
+one linear solve per round. The caller then fits the poses kept once more, from the rounds'
+estimate and levels: that fit is the result, and its own pose tests confirm the rounds (a pose
+they missed starts new rounds).
 """
 
 from __future__ import annotations
