@@ -326,7 +326,7 @@ def _identify_rejecting(nominal: SerialModel, data: MeasurementSet, settings: Id
         settings.stated_position_mm(), acquisition_order(current.ids, current.lines))
     return replace(result, outliers=tuple(rejected + kept), diagnostics=quality,
                    seconds=time.perf_counter() - started), current, \
-        RicherFit(fit.selection, _levels(result.noise)[0])
+        RicherFit(fit.selection, _levels(result.noise)[0], problem, x)
 
 
 def _levels(noise: NoiseEstimate | None) -> tuple[Array, Index]:

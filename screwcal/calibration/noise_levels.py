@@ -38,6 +38,18 @@ VCE_TOL = 0.05  # relative change of every free component at convergence
 NEGLIGIBLE = 0.01  # a component under this share of the variance no longer shapes the weights
 STEP_LIMIT = 20.0  # one scoring step changes a component by at most this factor
 PRESS_MARGIN = 0.02  # the joint component is dropped only when that predicts clearly better
+DETECTED = 1e-4  # a start's component above this share of the prior's variance is used
+
+
+@dataclass(frozen=True)
+class Linearised:
+    """A problem's linearisation at hand at x (p,): residuals e (N, k), Jacobian A (N, k, p)
+    and unit variance components V (3, N, k, k) (a nested fit's, from the richer fit's)."""
+
+    x: Array
+    e: Array
+    A: Array
+    V: Array
 
 
 @dataclass(frozen=True)
@@ -56,13 +68,14 @@ def fixed_levels(noise: NoiseModel, rows: int) -> NoiseEstimate:
 
 
 def estimate_with_joint_check(problem: ResidualProblem, noise: NoiseModel, x: Array,
-                              solve: Solve, start: Array | None = None) -> NoiseFit:
+                              solve: Solve, start: Array | None = None,
+                              at: Linearised | None = None) -> NoiseFit:
     """The free levels estimated (`estimate_noise`, from the variance components `start`
     when given); when the joint level was estimated above zero, is it noise, or what the
     model misses (compliance, lag) soaked up, down-weighting the far poses that show the
     geometry? The weighting that predicts left-out poses better (PRESS, from this one
-    linearisation) is kept."""
-    fit = estimate_noise(problem, noise, x, solve, start)
+    linearisation) is kept. `at`: the linearisation to find the levels on (else at x)."""
+    fit = estimate_noise(problem, noise, x, solve, start, at)
     if noise.joint_deg is not None or fit.noise.joint_deg <= 0.0:
         return fit
     problem, x = fit.problem, fit.solution.x
@@ -92,28 +105,29 @@ def _measuring_whitening(theta: Array, problem: ResidualProblem, x: Array) -> Ar
 
 
 def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve: Solve,
-                   start: Array | None = None) -> NoiseFit:
+                   start: Array | None = None, at: Linearised | None = None) -> NoiseFit:
     """The free noise levels and the parameters together, by restricted maximum likelihood
     (Fisher scoring on the variance components, a Gauss-Newton step of the parameters with the
     weights of each step, LM at the end). The free components start from `start` (3,) (a fit
     of nearly the same poses) when given, else from the priors; one below detection in
-    `start` (under `NEGLIGIBLE` of the variance) starts at the edge of detection instead
-    (`_at_detection`): from the prior it would take a step per factor `STEP_LIMIT` to come
-    down again, from the floor as many to rise, where the poses have more to say."""
+    `start` starts at the edge of detection instead (`from_start`): from the prior it would
+    take a step per factor `STEP_LIMIT` to come down again, from the floor as many to rise,
+    where the poses have more to say."""
     theta = variance_from_levels(noise.filled())
     free = np.array(noise.free)
     if problem.rows == 3:
         free[1] = False  # no orientation measured
         theta[1] = 0.0
-    V = problem.components(x)
+    if at is None:
+        e, A = problem.raw(x)
+        at = Linearised(x, e, A, problem.components(x))
     if start is not None:
-        theta = from_start(theta, free, start, V)
+        theta = from_start(theta, free, start, at.V)
     idx = np.flatnonzero(free)
     # The levels are found on the problem linearised at the start (which the candidates'
-    # Gauss-Newton step puts near the optimum), then LM solves the nonlinear problem once with
-    # the final weights, taken at its own estimate.
-    e, A = problem.raw(x)
-    levels = levels_on_linearisation(e, A, V, theta, idx, problem.prior, x)
+    # Gauss-Newton step puts near the optimum, or the richer fit's estimate `at`), then LM
+    # solves the nonlinear problem once with the final weights, taken at its own estimate.
+    levels = levels_on_linearisation(at.e, at.A, at.V, theta, idx, problem.prior, at.x)
     V = problem.components(levels.x)
     problem = problem.with_whitening(whitening_of_levels(levels.theta, V))
     solution = solve(problem, levels.x)
@@ -123,17 +137,18 @@ def estimate_noise(problem: ResidualProblem, noise: NoiseModel, x: Array, solve:
 
 
 def from_start(prior: Array, free: Mask, start: Array, V: Array) -> Array:
-    """The components (3,) to start from: the free ones of `start`, those of them below
-    detection at the edge of detection (`_at_detection`), the others `prior`'s; all of
-    `prior` when `start` detects no free one."""
+    """The components (3,) to start from: the free ones of `start` where it detects them
+    (above `DETECTED` of the prior's: the test the levels' own estimation uses for a start);
+    one below it at the edge of detection (`_at_detection`), never above `prior`'s; the
+    others `prior`'s. (Not a share of the variance: the components' units differ, mm^2 and
+    rad^2, and a well-determined position level can be a small share of the positions'.)"""
     theta = prior.copy()
-    theta[free] = np.maximum(start[free], 0.0)
-    traces = np.einsum("knii->k", V)  # each component's total
-    share = traces * theta / max(float(traces @ theta), np.finfo(float).tiny)
-    below = free & (share < NEGLIGIBLE)
-    if not np.any(free & ~below):
-        return prior
-    theta[below] = _at_detection(theta, traces, below)
+    detected = free & (start > DETECTED * variance_from_levels(PRIOR_NOISE))
+    theta[detected] = start[detected]
+    below = free & ~detected
+    if below.any() and detected.any():
+        traces = np.einsum("knii->k", V)  # each component's total
+        theta[below] = np.minimum(prior[below], _at_detection(theta, traces, below))
     return theta
 
 

@@ -31,7 +31,7 @@ from screwcal.calibration.identify_result import CalibrationResult, NoiseEstimat
 from screwcal.calibration.identify_settings import IdentifySettings, resolved_residual
 from screwcal.calibration.initial_frames import align_frames
 from screwcal.calibration.measurements import MeasurementSet
-from screwcal.calibration.noise_levels import estimate_with_joint_check, fixed_levels
+from screwcal.calibration.noise_levels import Linearised, estimate_with_joint_check, fixed_levels
 from screwcal.calibration.plausible import held_directions, outside_ranges
 from screwcal.calibration.residual_problem import ResidualProblem, pose_errors
 from screwcal.calibration.solvers import (
@@ -116,6 +116,24 @@ class RicherFit:
 
     selection: Selection
     theta: Array | None
+    problem: ResidualProblem | None = None  # its final problem and estimate: the nested
+    x: Array | None = None  # fit's levels are found on its linearisation there
+
+    def linearised_for(self, chosen: Selection) -> Linearised | None:
+        """The richer fit's linearisation at its estimate for the nested fit's parameters
+        (`chosen`, the same poses): their columns, the residuals less what the left-out
+        (compliance) columns' values put in them, their values; None when the nested fit
+        keeps a parameter the richer fit did not."""
+        if self.problem is None or self.x is None:
+            return None
+        richer = {name: k for k, name in enumerate(self.selection.errors.names)}
+        if any(name not in richer for name in chosen.errors.names):
+            return None
+        cols = [richer[name] for name in chosen.errors.names]
+        out = np.setdiff1d(np.arange(len(self.x)), cols)
+        e, A = self.problem.raw(self.x)
+        return Linearised(self.x[cols], e - A[..., out] @ self.x[out], A[..., cols],
+                          self.problem.components(self.x))
 
 
 @dataclass(frozen=True)
@@ -139,15 +157,15 @@ def fit_once(nominal: SerialModel, data: MeasurementSet, settings: IdentifySetti
     columns), its noise levels start from the richer fit's (the solve as from scratch)."""
     started = time.perf_counter()
     residual = resolved_residual(settings, data.full_pose)
-    levels = None  # the variance components to start from
+    levels, at = None, None  # the variance components to start from, a linearisation
     if warm is not None and settings.solver == "lm" and _estimates_noise(settings, residual):
         chosen, levels = warm.selection.rows(warm.kept, data, residual), warm.theta
     elif richer is not None and settings.compliance == "none":
         chosen, warm = richer.selection.without_compliance(data, residual, settings), None
-        levels = richer.theta
+        levels, at = richer.theta, richer.linearised_for(chosen)
     else:
         chosen, warm = _select(nominal, data, residual, settings), None
-    problem, solution, noise = _solve(chosen, data, residual, settings, warm, levels)
+    problem, solution, noise = _solve(chosen, data, residual, settings, warm, levels, at)
     converged, message = solution.converged, solution.message
     if not converged and stationary(problem, solution.x):
         converged, message = True, f"{message}; at a stationary point of the cost (the " \
@@ -233,15 +251,19 @@ def _choose(start: SerialModel, cands: tuple[Param, ...], whiten: Array, r0: Arr
 
 def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
            settings: IdentifySettings, warm: WarmStart | None = None,
-           levels: Array | None = None) -> tuple[ResidualProblem, Solution, NoiseEstimate | None]:
-    """The estimate from the start (`warm`: from the rounds' estimate), re-weighted and with
-    the noise levels as asked (estimated from the variance components `levels` when given);
-    the final problem, the solution (nfev: every evaluation) and the noise levels used."""
+           levels: Array | None = None, at: Linearised | None = None
+           ) -> tuple[ResidualProblem, Solution, NoiseEstimate | None]:
+    """The estimate from the start (`warm`: from the rounds' estimate; `at`: from a richer
+    fit's, its levels found on that fit's linearisation), re-weighted and with the noise
+    levels as asked (estimated from the variance components `levels` when given); the final
+    problem, the solution (nfev: every evaluation) and the noise levels used."""
     problem, statistical, noise = chosen.problem, settings.statistical, settings.noise
     estimate_noise = _estimates_noise(settings, residual)
     reweighted = False
     if warm is not None:  # (LM, noise estimated: fit_once)
         solution = Solution(warm.x, True, "", 0)
+    elif at is not None and estimate_noise:  # (LM: fit_once)
+        solution = Solution(at.x, True, "", 0)
     elif settings.solver == "lm":
         problem, solution, reweighted = _solve_lm_from_start(chosen, data, residual, settings,
                                                              estimate_noise)
@@ -254,7 +276,7 @@ def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
         def solve(pr: ResidualProblem, x_start: Array) -> Solution:
             return solve_lm(pr, x_start, 1e-10)
 
-        fit = estimate_with_joint_check(problem, noise, solution.x, solve, levels)
+        fit = estimate_with_joint_check(problem, noise, solution.x, solve, levels, at)
         problem, noise_used = fit.problem, fit.noise
         solution = Solution(fit.solution.x, fit.solution.converged, fit.solution.message,
                             solution.nfev + fit.solution.nfev)
