@@ -126,7 +126,7 @@ class RicherFit:
         keeps a parameter the richer fit did not."""
         if self.problem is None or self.x is None:
             return None
-        richer = {name: k for k, name in enumerate(self.selection.errors.names)}
+        richer = {name: k for k, name in enumerate(self.problem.errors.names)}  # A's columns
         if any(name not in richer for name in chosen.errors.names):
             return None
         cols = [richer[name] for name in chosen.errors.names]
