@@ -21,6 +21,7 @@ from screwcal.calibration.identify import NoiseModel, identify
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.robots import irb1600
+from screwcal.studies.markdown import markdown_table
 from screwcal.studies.simulated_measurements import (
     JOINT_NOISE_DEG,
     NOISE_MM,
@@ -72,13 +73,11 @@ def efficiency_study(samples: int = 200, seed: int = 0, poses: int = 40) -> list
 
 
 def format_table(rows: list[EfficiencyRow], samples: int) -> str:
-    lines = [f"Monte Carlo of {samples} calibrations (thesis model, 40 poses) vs Cramer-Rao bound",
-             "| parameter | unit | RMS error | bound | ratio | thesis Table 11 residual (LM) |",
-             "|---|---|---|---|---|---|"]
-    for r in rows:
-        lines.append(f"| {r.name} | {r.unit} | {r.rms_error:.4f} | {r.bound:.4f} | "
-                     f"{r.ratio:.2f} | {r.thesis_residual:.3f} |")
-    return "\n".join(lines)
+    header = ("parameter", "unit", "RMS error", "bound", "ratio", "thesis Table 11 residual (LM)")
+    cells = [(r.name, r.unit, f"{r.rms_error:.4f}", f"{r.bound:.4f}", f"{r.ratio:.2f}",
+              f"{r.thesis_residual:.3f}") for r in rows]
+    return "\n".join([f"Monte Carlo of {samples} calibrations (thesis model, 40 poses) vs "
+                      "Cramer-Rao bound", *markdown_table(header, cells)])
 
 
 def parser() -> argparse.ArgumentParser:

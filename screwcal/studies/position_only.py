@@ -28,6 +28,7 @@ from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist, rotvec_from_rotation
+from screwcal.studies.markdown import markdown_table
 from screwcal.studies.simulated_measurements import simulate_measurements
 
 
@@ -99,9 +100,9 @@ def run(samples: int = 100, seed: int = 0, poses: int = 30
 
 
 def format_table(results: dict[str, list[Sample]]) -> str:
-    lines = ["| fit | point | held-out RMS mm (mean / max) | orientation deg (mean) | "
-             "outside range (samples) | silent | marked position-only | converged |",
-             "|---|---|---|---|---|---|---|---|"]
+    header = ("fit", "point", "held-out RMS mm (mean / max)", "orientation deg (mean)",
+              "outside range (samples)", "silent", "marked position-only", "converged")
+    cells = []
     for name, rows in results.items():
         for on_axis in (True, False):
             s = [r for r in rows if r.on_axis == on_axis]
@@ -109,12 +110,12 @@ def format_table(results: dict[str, list[Sample]]) -> str:
                 continue
             held = np.array([r.held_out_mm for r in s])
             silent = sum(r.outside > 0 and not r.warned for r in s)
-            lines.append(
-                f"| {name} | {'on axis 6' if on_axis else 'offset'} | {held.mean():.4f} / "
-                f"{held.max():.4f} | {np.mean([r.orientation_deg for r in s]):.3f} | "
-                f"{sum(r.outside > 0 for r in s)} / {len(s)} | {silent} | "
-                f"{sum(r.position_only for r in s)} | {sum(r.converged for r in s)} |")
-    return "\n".join(lines)
+            cells.append((name, "on axis 6" if on_axis else "offset",
+                          f"{held.mean():.4f} / {held.max():.4f}",
+                          f"{np.mean([r.orientation_deg for r in s]):.3f}",
+                          f"{sum(r.outside > 0 for r in s)} / {len(s)}", f"{silent}",
+                          f"{sum(r.position_only for r in s)}", f"{sum(r.converged for r in s)}"))
+    return "\n".join(markdown_table(header, cells))
 
 
 def parser() -> argparse.ArgumentParser:

@@ -27,6 +27,7 @@ import numpy as np
 from screwcal.calibration.identify import CalibrationResult, identify
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.kinematics.robots import irb120
+from screwcal.studies.markdown import markdown_table
 from screwcal.studies.tracker_dataset import (
     add_data_argument,
     locate_dataset,
@@ -70,14 +71,16 @@ def run(data: MeasurementSet, subsets: int = 12, poses: int = 36, seed: int = 10
 
 def format_table(results: dict[str, list[float]], poses: int) -> str:
     plain = float(np.mean(results["plain"]))
-    lines = [f"{len(results['plain'])} subsets of {poses} position-only poses, {FOLDS}-fold "
-             f"(fits on {poses - poses // FOLDS} poses); held-out mean error, mm",
-             "| fit | mean over subsets | min-max | share of plain |", "|---|---|---|---|"]
+    rows = []
     for name, values in results.items():
         v = np.array(values)
-        lines.append(f"| {name} | {v.mean():.4f} | {v.min():.4f}-{v.max():.4f} | "
-                     f"{v.mean() / plain:.3f} |")
-    return "\n".join(lines)
+        rows.append((name, f"{v.mean():.4f}", f"{v.min():.4f}-{v.max():.4f}",
+                     f"{v.mean() / plain:.3f}"))
+    return "\n".join([f"{len(results['plain'])} subsets of {poses} position-only poses, "
+                      f"{FOLDS}-fold (fits on {poses - poses // FOLDS} poses); held-out mean "
+                      "error, mm",
+                      *markdown_table(("fit", "mean over subsets", "min-max", "share of plain"),
+                                      rows)])
 
 
 def parser() -> argparse.ArgumentParser:

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from screwcal.calibration.blas_threads import pin_one_blas_thread
+from screwcal.studies.markdown import markdown_table
 from screwcal.studies.registry import STUDIES, Study
 from screwcal.studies.thesis_metrics import Row
 
@@ -97,9 +98,8 @@ def study_table(name: str, rows: list[Row]) -> str:
              f"`screwcal study {name}` ({n} samples; ours: mean ± std over the samples). Ours "
              "uses the thesis's metric (T_PO from the per-axis mean |error|, TOr from Euler-angle "
              "differences) with the ±0.05 deg random joint error in the evaluation, as the "
-             "thesis's figures do; the next column is the same without the joint error.", "",
-             f"| {study.group} | quantity | thesis | ours | ours, no joint error | why they "
-             "differ |", "|---|---|---|---|---|---|"]
+             "thesis's figures do; the next column is the same without the joint error.", ""]
+    cells = []
     for case in cases:
         sel = [r for r in rows if r[study.group] == case]
         extra = study.more(str(case)) if study.more else ()
@@ -110,9 +110,11 @@ def study_table(name: str, rows: list[Row]) -> str:
             exact = f"{key}_exact"
             plain = (f"{np.mean([float(r[exact]) for r in sel]):.3f}" if exact in sel[0] else "")
             ref = study.thesis.get(str(case), {}).get(key)
-            lines.append(f"| {case} | {label} | {'' if ref is None else f'{ref:g}'} | "
-                         f"{v.mean():.3f} ± {v.std():.3f} | {plain} | "
-                         f"{comparison(study, key, sel, ref)} |")
+            cells.append((f"{case}", label, "" if ref is None else f"{ref:g}",
+                          f"{v.mean():.3f} ± {v.std():.3f}", plain,
+                          comparison(study, key, sel, ref)))
+    lines += markdown_table((study.group, "quantity", "thesis", "ours", "ours, no joint error",
+                             "why they differ"), cells)
     text = "\n".join(lines) + "\n"
     if study.conclusion:
         text += study.conclusion(rows)
