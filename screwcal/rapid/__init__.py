@@ -6,6 +6,12 @@ May import: nothing of ours (a core layer below every other: the standard librar
 """
 
 from screwcal.rapid.ast import Module
-from screwcal.rapid.parser import RapidSyntaxError, parse_expression, parse_module
+from screwcal.rapid.parser import (
+    RapidEncryptedError,
+    RapidSyntaxError,
+    parse_expression,
+    parse_module,
+)
 
-__all__ = ["Module", "RapidSyntaxError", "parse_expression", "parse_module"]
+__all__ = ["Module", "RapidEncryptedError", "RapidSyntaxError", "parse_expression",
+           "parse_module"]

@@ -152,7 +152,18 @@ class Call(Node):
         return self.name.lower()
 
 
-Expr = Num | Str | Name | Index | Component | Aggregate | NumberRow | Unary | Binary | Call
+@dataclass(frozen=True, slots=True)
+class Placeholder(Node):
+    """A part of the program not yet written, as the program editor leaves it: `<SMT>` (a
+    statement), `<EXP>` (an expression), `<ARG>` (an argument), `<DDN>` (a declaration)...
+    (RAPID kernel reference, placeholders). A module holding them loads; the controller stops
+    with an execution error when it reaches one. `kind` without the brackets (SMT, EXP...)."""
+
+    kind: str
+
+
+Expr = Num | Str | Name | Index | Component | Aggregate | NumberRow | Unary | Binary | Call \
+    | Placeholder
 
 
 # ---------------------------------------------------------------- statements
@@ -250,7 +261,7 @@ class Connect(Node):
 
 
 Stmt = Assign | ProcCall | If | While | For | Test | Label | Goto | Return | Raise | Simple \
-    | Connect
+    | Connect | Placeholder
 
 
 # ---------------------------------------------------------------- declarations
@@ -338,3 +349,5 @@ class Module(Node):
     records: tuple[RecordDecl, ...] = ()
     aliases: tuple[AliasDecl, ...] = ()
     comments: tuple[Comment, ...] = field(default=(), repr=False)
+    header: str = ""  # a saved module's header as written: `%%%`, VERSION:1 ..., `%%%`
+    placeholders: tuple[Placeholder, ...] = ()  # every one, where it is, in text order

@@ -25,6 +25,7 @@ from screwcal.rapid.ast import (
     Name,
     Num,
     NumberRow,
+    Placeholder,
     Str,
     Unary,
 )
@@ -49,12 +50,13 @@ class ExpressionParser(Scanner):
 
     def arguments(self, close: str) -> tuple[Argument, ...]:
         """Arguments up to `close` (`;` of a procedure call, `)` of a function call), which is
-        consumed. Positional ones are separated by commas; an optional one (`\\Name`) may follow
-        the previous one without a comma."""
+        consumed. Positional ones are separated by commas; an optional one (`\\Name`) or a
+        placeholder (`<ARG>`) may follow the previous one without a comma."""
         args: list[Argument] = []
         first = True
         while not self.accept(close):
-            if not first and not self.accept(",") and not self.at("\\"):
+            if not first and not self.accept(",") and not self.at("\\") and \
+                    self.kind != "ph":  # `<ARG>`: an argument not yet written
                 self.fail(f"expected ',' or '{close}' between arguments, found {self.shown()}")
             first = False
             start = self.start
@@ -159,6 +161,8 @@ class ExpressionParser(Scanner):
             return Str(*self.loc(start), value)
         if kind == "id":
             return self.postfix(self.name_expr())
+        if kind == "ph":
+            return self.placeholder()
         if kind == "op":
             if value == "[":
                 return self.aggregate()
@@ -174,6 +178,13 @@ class ExpressionParser(Scanner):
                 self.expect("(", " after a late-bound function")
                 return Call(*self.loc(start), "", self.arguments(")"), late)
         self.fail(f"expected a value, found {self.shown()}")
+
+    def placeholder(self) -> Placeholder:
+        """The current `<XXX>` token as a node, noted in `placeholders`."""
+        node = Placeholder(*self.where(self.start), self.start, self.end, self.value[1:-1])
+        self.placeholders.append(node)
+        self.advance()
+        return node
 
     def name_expr(self) -> Expr:
         start, name = self.start, self.ident("a name")

@@ -48,9 +48,10 @@ from screwcal.rapid.ast import (
     While,
 )
 from screwcal.rapid.expressions import ExpressionParser
-from screwcal.rapid.scanner import KEYWORDS, RapidSyntaxError
+from screwcal.rapid.scanner import KEYWORDS, RapidEncryptedError, RapidSyntaxError
 
-__all__ = ["KEYWORDS", "RapidSyntaxError", "parse_expression", "parse_module"]
+__all__ = ["KEYWORDS", "RapidEncryptedError", "RapidSyntaxError", "parse_expression",
+           "parse_module"]
 
 # A procedure call whose arguments are all names, on one line (the rest of most statements).
 _DECL_HEAD = re.compile(r"[ \t]+([A-Za-z]\w*)[ \t]+([A-Za-z]\w*)[ \t]*(:=)")
@@ -66,7 +67,9 @@ _COMPACT_OK = (ProcCall, Assign, Goto, Return, Raise, Simple)
 
 def parse_module(text: str, path: str = "<module>") -> Module:
     """The module in `text` (one `MODULE ... ENDMODULE`; comments before and after it
-    allowed). Raises RapidSyntaxError naming `path`, the line and the column."""
+    allowed; after a byte-order mark and the header a controller writes, `%%%` ... `%%%`, kept
+    in `Module.header`). Raises RapidSyntaxError naming `path`, the line and the column
+    (RapidEncryptedError for a text that is not RAPID source: an encrypted module)."""
     with cycle_collection_paused():  # the tree holds no cycle (acyclic.py)
         return _Parser(text, path).module()
 
@@ -87,6 +90,7 @@ class _Parser(ExpressionParser):
     def module(self) -> Module:
         start = self.start
         if not self.at("MODULE"):
+            self.not_text(self.start)
             self.fail(f"not a RAPID module: it must begin with 'MODULE <name>', not "
                       f"{self.shown()}")
         self.advance()
@@ -106,6 +110,9 @@ class _Parser(ExpressionParser):
             if self.kind == "eof":
                 self.fail(f"missing ENDMODULE for MODULE {name} at line "
                           f"{self.where(start)[0]}")
+            if self.kind == "ph":  # <DDN>, <RDN>, <TDN>: a declaration not yet written
+                self.placeholder()
+                continue
             item_start = self.start
             local = self.accept("LOCAL")
             task = not local and self.kind == "id" and self.value.upper() == "TASK"
@@ -135,7 +142,8 @@ class _Parser(ExpressionParser):
             self.fail(f"text after ENDMODULE: {self.shown()}")
         line, col = self.where(start)
         return Module(line, col, start, end, name, tuple(attributes), tuple(data),
-                      tuple(routines), tuple(records), tuple(aliases), tuple(self.comments))
+                      tuple(routines), tuple(records), tuple(aliases), tuple(self.comments),
+                      self.header, tuple(self.placeholders))
 
     def data_decl(self, start: int, scope: str | None) -> DataDecl:
         storage = self.value
@@ -207,6 +215,12 @@ class _Parser(ExpressionParser):
             return out
         while True:
             start = self.start
+            if self.kind == "ph":  # <PAR>, <ALT>: a parameter not yet written
+                self.placeholder()
+                if self.accept(")"):
+                    return out
+                self.accept(",")
+                continue
             optional = self.accept("\\")
             first = self.param(start, optional)
             others = []
@@ -301,6 +315,15 @@ class _Parser(ExpressionParser):
                 self.expect(";", " after CONNECT")
                 return Connect(*self.loc(start), target, trap)
             self.fail(f"expected a statement, found {self.shown()}")
+        if kind == "ph":  # <SMT> (and <EIT>, <CSE> in their blocks): no ';' after it
+            node = self.placeholder()
+            if self.at(":="):  # `<VAR> := <EXP>;`
+                self.advance()
+                val = self.expr()
+                self.expect(";", " after the assignment")
+                return Assign(*self.loc(start), node, val)
+            self.accept(";")
+            return node
         if kind == "op" and value == "%":
             self.advance()
             late = self.expr()

@@ -11,7 +11,7 @@ import re
 from bisect import bisect_right
 from typing import NoReturn
 
-from screwcal.rapid.ast import Comment
+from screwcal.rapid.ast import Comment, Placeholder
 
 
 class RapidSyntaxError(ValueError):
@@ -22,20 +22,37 @@ class RapidSyntaxError(ValueError):
         super().__init__(f"{path}:{line}:{col}: {reason}")
 
 
+class RapidEncryptedError(RapidSyntaxError):
+    """A module whose text is not RAPID source: encrypted (RobotWare loads such modules as
+    they are, and no tool but the controller reads them) or binary."""
+
+
 KEYWORDS = frozenset("""ALIAS AND BACKWARD CASE CONNECT CONST DEFAULT DIV DO ELSE ELSEIF ENDFOR
 ENDFUNC ENDIF ENDMODULE ENDPROC ENDRECORD ENDTEST ENDTRAP ENDWHILE ERROR EXIT FOR FROM FUNC GOTO
 IF INOUT LOCAL MOD MODULE NOT OR PERS PROC RAISE RECORD RETRY RETURN STEP TEST THEN TO TRAP
 TRYNEXT UNDO VAR WHILE WITH XOR""".split())
 
+# Placeholders: the parts of a program not yet written (RAPID kernel reference, placeholders),
+# as the FlexPendant and RobotStudio leave them: `<SMT>` a statement, `<EXP>` an expression...
+PLACEHOLDERS = frozenset("TDN DDN RDN PAR ALT DIM SMT VAR EIT CSE EXP ARG ID".split())
 NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"  # a literal's digits, unsigned
 _SKIP = re.compile(r"(?:\s+|![^\n]*)*")
 _COMMENT = re.compile(r"![^\n]*")
 _TOKEN_PATTERN = (
     r"(?P<num>0[xX][0-9A-Fa-f]+|0[bB][01]+|0[oO][0-7]+|" + NUMBER + r")(?![A-Za-z_])"
+    r"|(?P<ph><(?:" + "|".join(sorted(PLACEHOLDERS)) + r")>)"
     r"|(?P<id>[A-Za-z]\w*)"
     r'|(?P<str>"(?:[^"\n]|"")*")'
     r"|(?P<op>:=|<=|>=|<>|[-+*/<>=(){}\[\],;:\\.%?|])")
-_SKIP_TOKEN = re.compile(r"(?:\s+|![^\n]*)*(?:" + _TOKEN_PATTERN + ")")
+# The header a controller writes at the top of a saved module: `%%%`, NAME:VALUE lines
+# (VERSION:1, LANGUAGE:ENGLISH), `%%%`; kept as written, not part of the module.
+_HEADER = re.compile(r"[ \t\r\n]*%%%[ \t]*\r?\n((?:[ \t]*(?:[A-Za-z_]\w*[ \t]*:[^\n%]*)?\r?\n)*)"
+                     r"[ \t]*%%%")
+# Characters no RAPID text holds (control characters other than blanks): binary or encrypted.
+_BINARY = re.compile(r"[\x00-\x08\x0e-\x1a\x1c-\x1f\x7f]")
+# Blanks and comments taken whole (atomic: a comment never gives back its characters as
+# tokens, as it would at the end of a file without a last line end), then one token.
+_SKIP_TOKEN = re.compile(r"(?>(?:\s+|![^\n]*)*)(?:" + _TOKEN_PATTERN + ")")
 _AFTER_NAME = re.compile(r"\s*(:=|:|\{|\.(?!\d)|!)")
 
 
@@ -50,7 +67,17 @@ class Scanner:
         self.text, self.path = text, path
         self.starts = [0] + [m.end() for m in re.finditer("\n", text)]
         self.comments: list[Comment] = []
+        self.placeholders: list[Placeholder] = []
         self.pos = 0
+        self.header = ""  # the saved-module header, from its first %%% to its last
+        header = _HEADER.match(text)
+        if header is not None:
+            self.header = header.group().lstrip()
+            self.pos = header.end()
+        elif text.lstrip().startswith("%%%"):
+            self.start = text.index("%")
+            self.fail("a saved-module header (%%%) that does not close: expected NAME:VALUE "
+                      "lines (VERSION:1, LANGUAGE:ENGLISH) and a closing %%% before MODULE")
         self.kind, self.value, self.start, self.end = "bof", "", 0, 0
         self.advance()
 
@@ -72,8 +99,10 @@ class Scanner:
                 self.kind, self.value, self.end = "eof", "", p
                 self.pos = p
                 return
-            self.fail("a string that never closes (missing '\"' on its line)"
-                      if text[p] == '"' else f"unexpected character {text[p]!r}")
+            if text[p] == '"':
+                self.fail("a string that never closes (missing '\"' on its line)")
+            self.not_text(p)
+            self.fail(f"unexpected character {text[p]!r}")
         kind = m.lastgroup
         assert kind is not None  # a token matched: one of the named alternatives
         p = m.start(kind)
@@ -84,6 +113,16 @@ class Scanner:
             kind, value = "kw", value.upper()
         self.kind, self.value, self.start, self.end = kind, value, p, m.end()
         self.pos = m.end()
+
+    def not_text(self, offset: int) -> None:
+        """Fail with RapidEncryptedError when the text from `offset` on is not source text:
+        control characters, or mostly bytes outside ASCII."""
+        sample = self.text[offset:offset + 512]
+        if _BINARY.search(sample) or sum(c > "\x7e" for c in sample) > len(sample) // 4:
+            line, col = self.where(offset)
+            raise RapidEncryptedError(self.path, line, col, "an encrypted or binary module, not "
+                                      "RAPID source text: it cannot be read here (the "
+                                      "controller loads an encrypted module as it is)")
 
     def collect_comments(self, start: int, end: int) -> None:
         for c in _COMMENT.finditer(self.text, start, end):

@@ -277,3 +277,77 @@ def test_a_declaration_reads_the_same_on_one_line_or_several(head):
 def test_a_keyword_as_a_declared_name_or_type_is_refused(text, where):
     with pytest.raises(RapidSyntaxError, match=f"expected {where}"):
         parse_module(f"MODULE m\n{text}\nENDMODULE\n")
+
+
+# A module as a controller saves it (RobotWare 6): a UTF-8 byte-order mark, the %%% header
+# with CRLF line ends, then the module. Written here in that form.
+_SAVED = ("\ufeff%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\nMODULE Saved\r\n"
+          "  CONST robtarget p10:=[[500,0,600],[0,0,1,0],[0,0,0,0],"
+          "[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];\r\n"
+          "  PROC main()\r\n    MoveL p10, v100, fine, tool0;\r\n  ENDPROC\r\nENDMODULE\r\n")
+
+
+@pytest.mark.parametrize("text", [_SAVED, _SAVED[1:], _SAVED.encode("utf-8").decode("latin-1"),
+                                  _SAVED[1:].replace("\r\n", "\n")])
+def test_a_saved_module_header_and_byte_order_mark_are_read_and_kept(text):
+    """The header is not part of the module: kept as written in `header`; positions stay
+    those of the text given (a rewrite of a number leaves the header byte for byte)."""
+    module = parse_module(text, "saved.mod")
+    assert module.name == "Saved"
+    assert module.header.replace("\r\n", "\n") == "%%%\n  VERSION:1\n  LANGUAGE:ENGLISH\n%%%"
+    assert text[module.start:module.start + 12] == "MODULE Saved"
+    row = module.data[0].value.items[0]
+    assert text[row.starts[0]:row.starts[0] + 3] == "500"
+    assert (module.line, module.data[0].line) == (6, 7)
+
+
+@pytest.mark.parametrize("text, line, col, says", [
+    ("%%%\n  VERSION:1\nMODULE m\nENDMODULE\n", 1, 1, "header (%%%) that does not close"),
+    ("%%%\n  VERSION:1\n%%%\nPROC p()\nENDPROC\n", 4, 1, "not a RAPID module"),
+])
+def test_a_broken_header_is_named(text, line, col, says):
+    with pytest.raises(RapidSyntaxError) as caught:
+        parse_module(text, "h.mod")
+    assert (caught.value.line, caught.value.col) == (line, col) and says in caught.value.reason
+
+
+def test_placeholders_parse_as_the_program_editor_leaves_them():
+    """`<SMT>` in an empty routine (no ';'), `<EXP>` for a condition or an argument, `<ARG>`
+    after the arguments, `<VAR> := <EXP>;`, `<PAR>` for a parameter, `<DDN>` for a
+    declaration: the module loads (RAPID kernel reference, placeholders); each is a node, and
+    the module lists them all in text order."""
+    from screwcal.rapid.ast import Placeholder
+
+    text = ("MODULE Unfinished\n  <DDN>\n  PROC Empty()\n    <SMT>\n  ENDPROC\n"
+            "  PROC Half(<PAR>)\n    IF <EXP> THEN\n      MoveL <EXP>, v100, z10, tool0 <ARG>;\n"
+            "    ENDIF\n    <VAR> := <EXP>;\n  ENDPROC\nENDMODULE\n")
+    module = parse_module(text, "u.mod")
+    assert [(p.kind, p.line, p.col) for p in module.placeholders] == [
+        ("DDN", 2, 3), ("SMT", 4, 5), ("PAR", 6, 13), ("EXP", 7, 8), ("EXP", 8, 13),
+        ("ARG", 8, 37), ("VAR", 10, 5), ("EXP", 10, 14)]
+    empty, half = module.routines
+    assert empty.body == (module.placeholders[1],) and half.params == ()
+    assert isinstance(half.body[1], Assign) and isinstance(half.body[1].target, Placeholder)
+    move = half.body[0].branches[0][1][0]
+    assert isinstance(move.args[0].value, Placeholder) and move.args[-1].value.kind == "ARG"
+    # not a placeholder: a comparison of names written without blanks
+    assert isinstance(parse_expression("a<b"), Binary)
+
+
+@pytest.mark.parametrize("text", [
+    "\x13\x8b\x02\x00\xffMODULE" * 40,  # binary from the first byte
+    "%%%\n  VERSION:1\n%%%\n" + "\x93\xa1\xe8\x07\x1b\x9f\xc3" * 80,  # after the header
+    "MODULE m\n" + "\x93\xa1\xe8\x07\x1b\x9f\xc3" * 80,
+])
+def test_an_encrypted_module_is_named_as_such(text):
+    from screwcal.rapid import RapidEncryptedError
+
+    with pytest.raises(RapidEncryptedError, match="encrypted"):
+        parse_module(text, "secret.sys")
+
+
+def test_a_last_comment_without_a_line_end_stays_a_comment():
+    """A notice after ENDMODULE on the file's last line, with no line end after it: its `|`
+    was read as a token ("text after ENDMODULE") when the comment gave back characters."""
+    module = parse_module("MODULE m\nENDMODULE\n\n!  https://example.org | @x.com |", "m.mod")
+    assert module.comments[-1].text.endswith("@x.com |")
