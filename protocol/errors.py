@@ -10,8 +10,15 @@
         ├── LinkLostError       the connection dropped; every pending wait fails with it
         │   └── ControllerBusyError (above)
         ├── LinkTimeoutError    a reply did not come in time
-        └── ArmLineError        a measuring-arm line is malformed, a hole not measured, or the
-                                arm's port failed (pyserial's and the OS's errors, translated)
+        ├── ArmLineError        a measuring-arm line is malformed, a hole not measured, or the
+        │                       arm's port failed (pyserial's and the OS's errors, translated)
+        └── TrackerError        the laser tracker (emScon) could not measure now: status, command
+            ├── BeamBrokenError         no reflector locked: the beam is broken (after one
+            │                           FindReflector and a second try)
+            ├── TrackerNotInitialisedError  the tracker must be initialised first
+            └── TrackerWarmingUpError   the laser / distance meter is still warming up
+    TrackerRefusedError     the tracker refused a command for good (a wrong parameter, a
+                            command it does not implement): not cured by reconnecting
 
 Errors of the libraries underneath (pyserial's SerialException, OSError) are translated at the
 boundary (`ControllerClient`, `ArmReader`): callers catch `LinkError`, never those.
@@ -76,3 +83,35 @@ class LinkTimeoutError(LinkError):
 
 class ArmLineError(LinkError):
     """A measuring-arm line that must not be used as a measurement."""
+
+
+class TrackerError(LinkError):
+    """The laser tracker could not measure now (emScon ES_ResultStatus `status` for the command
+    `command`): the job pauses and goes on once the cause is cleared."""
+
+    def __init__(self, message: str, status: int = 0, command: int = 0):
+        super().__init__(message)
+        self.status = status
+        self.command = command
+
+
+class BeamBrokenError(TrackerError):
+    """No reflector is locked: something broke the beam or the reflector faces away. The driver
+    already searched (FindReflector) and tried again once."""
+
+
+class TrackerNotInitialisedError(TrackerError):
+    """The tracker was not initialised (or lost its initialisation): Initialize first."""
+
+
+class TrackerWarmingUpError(TrackerError):
+    """The tracker's laser or distance meter is still warming up: wait and try again."""
+
+
+class TrackerRefusedError(ProtocolError):
+    """The tracker refused a command for good (ES_ResultStatus `status`)."""
+
+    def __init__(self, message: str, status: int, command: int):
+        super().__init__(message)
+        self.status = status
+        self.command = command

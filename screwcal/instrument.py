@@ -23,3 +23,23 @@ ORIENTATION_NOISE_DEG = math.degrees(ORIENTATION_NOISE_RAD)
 JOINT_ERROR_DEG = 0.05
 REACH_MM = 1200.0
 STAND_MM = (500.0, 0.0, 600.0)
+
+# The laser tracker (a Leica AT40x-class tracker over emScon; issue 40). Its maximum permissible
+# error of a point is U = `TRACKER_MPE_CONSTANT_MM` + `TRACKER_MPE_PER_M_MM` per metre of range
+# (15 um + 6 um/m, k = 2), almost all of it lateral (the two angles); the distance meter's part
+# is `TRACKER_RADIAL_NOISE_MM` (one standard deviation, constant over the range). A reflector
+# (1.5" SMR) is seen within `SMR_ACCEPTANCE_DEG` of its axis. `TRACKER_STAND_MM` is where the
+# tracker stands by default, mm in the robot's base frame: 3 m in front of the robot, facing it.
+TRACKER_MPE_CONSTANT_MM = 0.015
+TRACKER_MPE_PER_M_MM = 0.006
+TRACKER_RADIAL_NOISE_MM = 0.005
+TRACKER_RANGE_MM = (800.0, 30000.0)
+SMR_ACCEPTANCE_DEG = 30.0
+TRACKER_STAND_MM = (3000.0, 0.0, 900.0)
+
+
+def tracker_noise_mm(distance_mm: float) -> tuple[float, float]:
+    """The tracker's standard deviations at this range, mm: (radial, lateral per direction).
+    The lateral one is half the MPE (k = 2) at that range."""
+    lateral = (TRACKER_MPE_CONSTANT_MM + TRACKER_MPE_PER_M_MM * distance_mm / 1000.0) / 2.0
+    return TRACKER_RADIAL_NOISE_MM, lateral

@@ -23,7 +23,12 @@ import numpy as np
 from screwcal.calibration.correction import after_zero
 from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM
 from screwcal.kinematics.compliance import Payload
-from screwcal.kinematics.forward import flange_kinematics, forward_kinematics, joint_bend
+from screwcal.kinematics.forward import (
+    flange_kinematics,
+    forward_kinematics,
+    joint_bend,
+    joint_positions,
+)
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, transform_points
 from simulators.realism import IDEAL, Realism
@@ -164,6 +169,10 @@ class World:
         which scales the chain's translation by s about the base (each joint's screw, and so
         their product, is conjugated by diag(s, s, s, 1)): the rigid robot's tables serve every
         reading; a compliant robot's bend is that of the drifted robot, as before."""
+        return transform_points(self.true_tool0(), self.holes_mm)
+
+    def true_tool0(self) -> Array:
+        """Where tool0 really is (4, 4), in the arm's frame (`true_holes_mm`'s chain)."""
         q = np.radians(self.true_joints_deg)[None]
         scale = self.realism.drift_scale(self.running_s)
         if self.truth.has_compliance:
@@ -172,4 +181,10 @@ class World:
         if scale != 1.0:
             t_base = self.truth.base[:3, 3]
             T[:3, 3] = t_base + scale * (T[:3, 3] - t_base)
-        return transform_points(T, self.holes_mm)
+        return T
+
+    def true_skeleton_mm(self) -> Array:
+        """The true robot's skeleton in the arm's frame (n + 1, 3): each joint's place along
+        the chain, then tool0 (rigid, without drift: for what the links hide, not to measure)."""
+        q = np.radians(self.true_joints_deg)[None]
+        return joint_positions(self._rigid_truth(), q)[0]
