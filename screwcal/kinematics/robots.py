@@ -37,8 +37,7 @@ Dims = tuple[float, float, float, float, float, float]
 Limits = list[list[float]]  # per joint [min, max] deg
 ABB_AXES: Axes = (_Z, _Y, _Y, _X, _Y, _X)
 KUKA_AXES: Axes = (_NZ, _Y, _Y, _NX, _Y, _NX)  # A1, A4, A6 turn clockwise seen from outside
-FANUC_AXES: Axes = (_Z, _Y, _NY, _NX, _NY, _NX)  # the M-20iA; the LR Mate 200iD's J6 turns about +x
-LRMATE_AXES = (_Z, _Y, _NY, _NX, _NY, _X)
+FANUC_AXES: Axes = (_Z, _Y, _NY, _NX, _NY, _NX)  # every 6-axis arm, the LR Mate 200iD's J6 too
 ABB_TOOL0 = (0.0, 90.0, 0.0)  # (rx, ry, rz) deg of tool0 at home: z out along +x, x down
 FANUC_TOOL0 = (180.0, -90.0, 0.0)  # z out along +x, x up
 FANUC_NOTE = ("FANUC's J3 reading is the forearm's angle to the horizontal (J2/J3 coupling): "
@@ -208,7 +207,7 @@ ENTRIES: tuple[RobotEntry, ...] = (
                _reach(717.0, "LR Mate 200iD datasheet: reach 717 mm"),
                _other("lrmate200id", 25.0, (330, 50, 330, 35, 335, 80),
                       [[-170, 170], [-100, 145], [-140, 280], [-190, 190], [-125, 125],
-                       [-360, 360]], LRMATE_AXES, True, FANUC_TOOL0),
+                       [-360, 360]], FANUC_AXES, True, FANUC_TOOL0),
                note=FANUC_NOTE),
     RobotEntry("m20ia", "FANUC M-20iA", "FANUC", 250.0,
                "FANUC M-20iA datasheet (dimensions, motion ranges, mass 250 kg)",

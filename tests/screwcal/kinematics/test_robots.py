@@ -51,12 +51,12 @@ def test_each_robot_reproduces_its_datasheet_figure(name):
 
 def test_joint_directions_and_tool0_follow_each_maker():
     """FANUC's tool0 has x up (ROS-Industrial's joint_6-tool0 rpy (pi, -pi/2, 0)), ABB's and
-    KUKA's x down; the LR Mate's J6 turns about +x, the M-20iA's about -x."""
+    KUKA's x down; the LR Mate's J6 and the M-20iA's turn about -x."""
     for name, x_axis in (("m20ia", [0, 0, 1]), ("irb2600", [0, 0, -1]), ("kr16", [0, 0, -1])):
         flange = LIBRARY[name].model().home_flange
         np.testing.assert_allclose(flange[:3, 0], x_axis, atol=1e-12)
         np.testing.assert_allclose(flange[:3, 2], [1, 0, 0], atol=1e-12)
-    assert LIBRARY["lrmate200id"].model().axis_dirs[5].tolist() == [1, 0, 0]
+    assert LIBRARY["lrmate200id"].model().axis_dirs[5].tolist() == [-1, 0, 0]
     assert LIBRARY["m20ia"].model().axis_dirs[5].tolist() == [-1, 0, 0]
 
 
