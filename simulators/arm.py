@@ -83,7 +83,11 @@ class WorldFileWriter:
 
     def __call__(self, world: World) -> None:
         doc = {"run": self.run, "arrivals": world.arrivals,
-               "holes_mm": world.true_holes_mm().tolist()}
+               "holes_mm": world.true_holes_mm().tolist(),
+               # for a tracker emulator in another process: the SMR and what hides it
+               "tool0": world.true_tool0().tolist(),
+               "skeleton_mm": world.true_skeleton_mm().tolist(),
+               "base": world.truth.base.tolist()}
         tmp = self.path.with_suffix(".tmp")
         tmp.write_text(json.dumps(doc))
         os.replace(tmp, self.path)
@@ -123,6 +127,16 @@ class WorldFileSource:
         self._read()
         holes = self._doc["holes_mm"]
         return None if holes is None else np.asarray(holes, dtype=float)
+
+    def true_frames(self) -> tuple[Array, Array, Array] | None:
+        """tool0 (4, 4), the robot's skeleton (n + 1, 3) and its base (4, 4), world frame;
+        None: no robot yet (or a file of an older writer)."""
+        self._read()
+        names = ("tool0", "skeleton_mm", "base")
+        if any(self._doc.get(name) is None for name in names):
+            return None
+        tool0, skeleton, base = (np.asarray(self._doc[name], dtype=float) for name in names)
+        return tool0, skeleton, base
 
 
 class ArmEmulator:

@@ -8,6 +8,8 @@
                            [--program FILE.mod] [--verbose]
     screwcal emulator arm --port PORT [--world FILE] [--pty]
     (both: [--arm-faults duplicate=P,late=P,stale=P])
+    screwcal emulator tracker --port PORT [--world FILE] [--stand X,Y,Z]
+    (irc5 --tracker-port P, and tracker: [--tracker-faults beam=K,beam_n=N,drop=K,uninit=K,warm=K])
 
 The IRC5 executes the RAPID module users load on a real controller (ScrewcalServer.mod, or a
 cell's adapted copy given by --program) in the RAPID interpreter; --verbose prints its event log
@@ -22,8 +24,11 @@ the presets follow); a realism file is a JSON such as {"preset": "typical", "bac
 0.01, 0, 0, 0, 0], "payload_kg": 10}. The arm runs in the IRC5 process (`--arm-port`) or in its
 own, following the world file the IRC5 process writes: `--world FILE`, or by default a new
 private folder per run, whose file the IRC5 process prints on its second line. Until a robot is
-known the arm answers `$NM ... NO_ROBOT`. Ctrl-C (SIGINT) or `kill` (SIGTERM) closes the servers
-and exits 0, also when started in the background by a script.
+known the arm answers `$NM ... NO_ROBOT`. The laser tracker (emScon TPI, simulators/tracker.py)
+runs the same two ways (`--tracker-port`, or `emulator tracker --world FILE`): it measures one
+SMR on the flange from where it stands (--stand, mm in the robot frame). Ctrl-C (SIGINT) or
+`kill` (SIGTERM) closes the servers and exits 0, also when started in the background by a
+script.
 """
 
 from __future__ import annotations
@@ -75,6 +80,14 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
         arm = ArmEmulator(world, seed=noise_seed, faults=args.arm_faults)
         arm_host, arm_port = await arm.start(args.host, args.arm_port)
         line += f"; measuring arm on socket://{arm_host}:{arm_port}"
+    tracker = None
+    if args.tracker_port is not None:
+        from simulators.tracker import TrackerEmulator, WorldSource
+
+        tracker = TrackerEmulator(WorldSource(world), args.stand, faults=args.tracker_faults,
+                                  seed=args.seed if args.noise_seed is None else args.noise_seed)
+        tracker_host, tracker_port = await tracker.start(args.host, args.tracker_port)
+        line += f"; laser tracker on emscon://{tracker_host}:{tracker_port}"
     stopped = stop_on_signals()
     print(line, flush=True)
     print(f"world file {world_file} (for `screwcal emulator arm --world`)", flush=True)
@@ -84,6 +97,8 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
         await emu.stop()
         if arm is not None:
             await arm.stop()
+        if tracker is not None:
+            await tracker.stop()
 
 
 async def _serve_arm(args: argparse.Namespace) -> None:
@@ -106,6 +121,25 @@ async def _serve_arm(args: argparse.Namespace) -> None:
         await stopped.wait()
     finally:
         await arm.stop()
+
+
+async def _serve_tracker(args: argparse.Namespace) -> None:
+
+    from simulators.tracker import TrackerEmulator, WorldFileSource
+
+    if not args.world:
+        print("warning: no --world: this tracker knows no robot and finds no reflector; pass "
+              "the world file the irc5 emulator printed", file=sys.stderr)
+    world = args.world or str(Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "none.json")
+    tracker = TrackerEmulator(WorldFileSource(world), args.stand, seed=args.seed,
+                              faults=args.tracker_faults)
+    host, port = await tracker.start(args.host, args.port)
+    stopped = stop_on_signals()
+    print(f"laser tracker on emscon://{host}:{port}", flush=True)
+    try:
+        await stopped.wait()
+    finally:
+        await tracker.stop()
 
 
 def realism_of(args: argparse.Namespace) -> Realism:
@@ -148,7 +182,8 @@ def run(args: argparse.Namespace) -> int:
     from simulators.rapid.errors import LoadError
 
     try:
-        asyncio.run(_serve_irc5(args) if args.which == "irc5" else _serve_arm(args))
+        serve = {"irc5": _serve_irc5, "arm": _serve_arm, "tracker": _serve_tracker}
+        asyncio.run(serve[args.which](args))
     except KeyboardInterrupt:
         pass
     except (LoadError, RapidSyntaxError, ProgramStoppedError) as err:
@@ -196,6 +231,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     irc5.add_argument("--arm-port", type=int, default=None,
                       help="also serve the measuring arm on this TCP port")
     _add_arm_faults(irc5)
+    irc5.add_argument("--tracker-port", type=int, default=None,
+                      help="also serve a laser tracker (emScon TPI) on this TCP port")
+    _add_tracker(irc5)
     _add_realism(irc5)
     irc5.set_defaults(func=run)
     arm = which.add_parser("arm", help="the measuring arm ($PT lines)", description=__doc__,
@@ -207,6 +245,45 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     arm.add_argument("--seed", type=int, default=None, help="noise seed")
     _add_arm_faults(arm)
     arm.set_defaults(func=run)
+    tracker = which.add_parser("tracker", help="a laser tracker (Leica emScon TPI)",
+                               description=__doc__,
+                               formatter_class=argparse.RawDescriptionHelpFormatter)
+    tracker.add_argument("--host", default="127.0.0.1", help="bind address (default 127.0.0.1)")
+    tracker.add_argument("--port", type=int, required=True,
+                         help="TCP port of the TPI (a real tracker's is 700; 0: a free one)")
+    tracker.add_argument("--world", help="the world file a running irc5 emulator printed")
+    tracker.add_argument("--seed", type=int, default=None, help="noise seed")
+    _add_tracker(tracker)
+    tracker.set_defaults(func=run)
+
+
+def _add_tracker(p: argparse.ArgumentParser) -> None:
+    from screwcal.instrument import TRACKER_STAND_MM
+
+    p.add_argument("--stand", type=_three_numbers, default=TRACKER_STAND_MM, metavar="X,Y,Z",
+                   help="where the tracker stands, mm in the robot's base frame (default "
+                   f"{','.join(f'{v:g}' for v in TRACKER_STAND_MM)})")
+    p.add_argument("--tracker-faults", type=_tracker_faults, default=None, metavar="NAME=K,...",
+                   help="faults at a measurement attempt K (from 0): beam (broken for beam_n "
+                   "attempts, default 3), drop (the connection), uninit (initialisation lost), "
+                   "warm (laser warming up), e.g. beam=5,drop=9")
+
+
+def _three_numbers(text: str) -> tuple[float, float, float]:
+    try:
+        x, y, z = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: three numbers X,Y,Z (mm)") from None
+    return x, y, z
+
+
+def _tracker_faults(text: str) -> object:
+    from simulators.tracker import TrackerFaults
+
+    try:
+        return TrackerFaults.parse(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def _arm_faults(text: str) -> object:

@@ -63,14 +63,22 @@ class TrackerView:
     smr_mm: Array  # (3,) the SMR's true centre
     smr_axis: Array  # (3,) unit, where its opening faces
     skeleton_mm: Array  # (n + 1, 3) the true robot's skeleton
+    base: Array  # (4, 4) the robot's base frame (world <- base): where the tracker stands
 
 
 def view_of(world: World, smr_mm: tuple[float, float, float] = DEFAULT_SMR_MM,
             smr_axis: tuple[float, float, float] = DEFAULT_SMR_AXIS) -> TrackerView:
-    T = world.true_tool0()
-    axis = T[:3, :3] @ np.asarray(smr_axis, dtype=float)
-    return TrackerView(transform_points(T, np.asarray(smr_mm, dtype=float)[None])[0],
-                       axis / np.linalg.norm(axis), world.true_skeleton_mm())
+    return view_from(world.true_tool0(), world.true_skeleton_mm(), world.truth.base, smr_mm,
+                     smr_axis)
+
+
+def view_from(tool0: Array, skeleton_mm: Array, base: Array,
+              smr_mm: tuple[float, float, float] = DEFAULT_SMR_MM,
+              smr_axis: tuple[float, float, float] = DEFAULT_SMR_AXIS) -> TrackerView:
+    """The view of an SMR at `smr_mm` of tool0 (4, 4), its opening along `smr_axis`."""
+    axis = tool0[:3, :3] @ np.asarray(smr_axis, dtype=float)
+    return TrackerView(transform_points(tool0, np.asarray(smr_mm, dtype=float)[None])[0],
+                       axis / np.linalg.norm(axis), skeleton_mm, base)
 
 
 def _segment_distance(p0: Array, p1: Array, q0: Array, q1: Array) -> float:
@@ -174,6 +182,24 @@ class WorldSource:
         return view_of(self.world, self.smr_mm, self.smr_axis)
 
 
+@dataclass
+class WorldFileSource:
+    """The world file an `emulator irc5` process keeps (`simulators.arm.WorldFileWriter`)."""
+
+    path: str
+    smr_mm: tuple[float, float, float] = DEFAULT_SMR_MM
+    smr_axis: tuple[float, float, float] = DEFAULT_SMR_AXIS
+
+    def __post_init__(self) -> None:
+        from simulators.arm import WorldFileSource as Reader
+
+        self._reader = Reader(self.path)
+
+    def tracker_view(self) -> TrackerView | None:
+        frames = self._reader.true_frames()
+        return None if frames is None else view_from(*frames, self.smr_mm, self.smr_axis)
+
+
 def station_in_world(world: World, stand_mm: tuple[float, float, float] = TRACKER_STAND_MM
                      ) -> Array:
     """Where a tracker standing at `stand_mm` of the robot's base frame is in the world."""
@@ -195,11 +221,13 @@ class TrackerState:
 
 
 class TrackerEmulator:
-    def __init__(self, source: TrackerSource, station_mm: Array, *, seed: int | None = None,
+    def __init__(self, source: TrackerSource,
+                 stand_mm: tuple[float, float, float] = TRACKER_STAND_MM, *,
+                 seed: int | None = None,
                  faults: TrackerFaults | None = None,
                  air: tuple[float, float, float] = STANDARD_AIR, initialise_s: float = 0.05,
                  measure_s: float = 0.02):
-        self.source, self.station_mm = source, np.asarray(station_mm, dtype=float)
+        self.source, self.stand_mm = source, np.asarray(stand_mm, dtype=float)
         self.faults = faults or TrackerFaults()
         self.rng = np.random.default_rng(seed)
         self.air = air  # the true air: deg C, mbar, %RH
@@ -218,10 +246,11 @@ class TrackerEmulator:
         view = self.source.tracker_view()
         if view is None:
             return "no robot known yet"
-        blocked = beam_blocked(view, self.station_mm)
+        station = transform_points(view.base, self.stand_mm[None])[0]
+        blocked = beam_blocked(view, station)
         if blocked is not None:
             return blocked
-        line = view.smr_mm - self.station_mm
+        line = view.smr_mm - station
         distance = float(np.linalg.norm(line))
         u = line / distance
         radial, lateral = tracker_noise_mm(distance)

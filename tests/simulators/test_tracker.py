@@ -42,7 +42,7 @@ AWAY = np.array([0.0, 0.0, 0.0, 0.0, 90.0, 0.0], dtype=np.float32)  # it faces t
 def running(world: World, **kwargs) -> Iterator[TrackerEmulator]:
     """A tracker emulator served from its own thread's event loop (the driver is blocking)."""
     loop = asyncio.new_event_loop()
-    emu = TrackerEmulator(WorldSource(world), station_in_world(world), **kwargs)
+    emu = TrackerEmulator(WorldSource(world), **kwargs)
     thread = threading.Thread(target=loop.run_forever, daemon=True)
     thread.start()
     try:
@@ -165,7 +165,7 @@ def test_links_of_the_robot_break_the_beam():
     behind = view.smr_mm + 3000.0 * (view.skeleton_mm[1] - view.smr_mm) / \
         np.linalg.norm(view.skeleton_mm[1] - view.smr_mm)
     facing = type(view)(view.smr_mm, (behind - view.smr_mm) / np.linalg.norm(
-        behind - view.smr_mm), view.skeleton_mm)
+        behind - view.smr_mm), view.skeleton_mm, view.base)
     assert "breaks the beam" in beam_blocked(facing, behind)
     far = station + 40000.0 * (station - view.smr_mm) / np.linalg.norm(station - view.smr_mm)
     assert "out of range" in beam_blocked(view, far)
