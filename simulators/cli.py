@@ -5,7 +5,7 @@
                            [--realism ideal|typical|harsh | --realism-file FILE]
                            [--realism-seed N] [--payload-kg KG --payload-cog-mm X,Y,Z]
                            [--list-payload CAL=KG[:X,Y,Z] --list-payload PERF=KG[:X,Y,Z]]
-                           [--program FILE.mod] [--verbose]
+                           [--program FILE.mod|DIR ...] [--set NAME=VALUE ...] [--verbose]
     screwcal emulator arm --port PORT [--world FILE] [--pty]
     (both: [--arm-faults duplicate=P,late=P,stale=P])
     screwcal emulator tracker --port PORT [--world FILE] [--stand X,Y,Z]
@@ -13,7 +13,10 @@
 
 The IRC5 executes the RAPID module users load on a real controller (ScrewcalServer.mod, or a
 cell's adapted copy given by --program) in the RAPID interpreter; --verbose prints its event log
-(what the FlexPendant shows) as it is written. Each prints its bound address on one line
+(what the FlexPendant shows) as it is written. --program also runs other people's programs:
+several modules (repeat it) or a task folder; such a program keeps its own data (its address
+and port) unless --set NAME=VALUE gives them; what the interpreter does not implement is
+refused at load with its line. Each prints its bound address on one line
 (`--port 0` picks a free port). The true robot is the nominal IRB 1600 with the thesis's Table
 11 errors, or the virtual-joint errors of a JSON file ({"J1rz": 2.0, ...}), or a whole model
 file (any full-model errors), or random errors from a seed. Beyond its geometry the true robot
@@ -49,6 +52,7 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
 
     from simulators.arm import ArmEmulator, WorldFileWriter
     from simulators.irc5 import EmulatorSettings, IRC5Emulator
+    from simulators.rapid.program import assignments
     from simulators.truth import make_world
 
     world = make_world(args.errors, args.seed, realism=realism_of(args),
@@ -70,7 +74,8 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
                                                time_scale=args.time_scale,
                                                idle_timeout_s=args.idle_timeout_s,
                                                send_timeout_s=args.send_timeout_s,
-                                               program=args.program),
+                                               program=args.program,
+                                               assignments=assignments(args.set)),
                        printer=printer)
     host, port = await emu.start(args.host, args.port)
     line = f"irc5 emulator on {host}:{port}"
@@ -216,8 +221,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                       help="motion time factor (0: instant)")
     irc5.add_argument("--speed-deg-s", type=float, default=60.0,
                       help="joint speed (default 60)")
-    irc5.add_argument("--program", type=Path, default=None, metavar="FILE.mod",
-                      help="the RAPID module to run (default: the shipped ScrewcalServer.mod)")
+    irc5.add_argument("--program", type=Path, action="append", default=None,
+                      metavar="FILE.mod|DIR",
+                      help="a RAPID module of the task, or a folder of them (a backup's TASK "
+                      "folder, a .pgf program); repeat for several (default: the shipped "
+                      "ScrewcalServer.mod)")
+    irc5.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                      type=_assignment,
+                      help="give a datum of the program this RAPID value at load, e.g. "
+                      "--set serverPort=5000 (a program other than ScrewcalServer keeps its "
+                      "own address and port otherwise: --host/--port set ScrewcalServer's)")
     irc5.add_argument("--verbose", action="store_true",
                       help="print the controller's event log as it is written")
     irc5.add_argument("--idle-timeout-s", type=float, default=60.0,
@@ -284,6 +297,16 @@ def _tracker_faults(text: str) -> object:
         return TrackerFaults.parse(text)
     except ValueError as err:
         raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def _assignment(text: str) -> str:
+    from simulators.rapid.program import assignments
+
+    try:
+        assignments([text])
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    return text
 
 
 def _arm_faults(text: str) -> object:

@@ -5,8 +5,10 @@ fault tests talk to is the module itself.
 
 The program's task runs in its own thread with blocking OS sockets, as the controller's RAPID
 task does; motion goes to the `World` (its arrivals are notified in the asyncio loop that
-started the emulator). The cell's settings reach the module as the values of its data
-(`overrides`): the bind address and port, the idle time, the poll interval. The controller
+started the emulator). The cell's settings reach ScrewcalServer as the values of its data
+(`overrides`): the bind address and port, the idle time, the poll interval. Any other program
+(other people's server modules, a backup's task) keeps its own data: its bind address and port
+are its own, unless `assignments` (`--set NAME=VALUE`) give them. The controller
 keeps an event log (`log`, printed with `--verbose`) and a FlexPendant (`pendant`) whose
 operator, by default, does what a ZERO prompt asks (enters the offsets, presses Done).
 """
@@ -16,7 +18,7 @@ from __future__ import annotations
 import asyncio
 import errno
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,6 +30,7 @@ from simulators.faults import FaultPlan
 from simulators.rapid.interpreter import Task, loaded_module
 from simulators.rapid.motion import Motion
 from simulators.rapid.operator import Event, EventLog, Pendant, Prompt
+from simulators.rapid.program import RapidText, module_files
 from simulators.rapid.sockets import Network
 from simulators.world import World
 
@@ -42,10 +45,20 @@ class EmulatorSettings:
     # The module's POLL_S: how long it waits for a request's first byte before it looks for a
     # newcomer and at its idle time (a request is read the moment it arrives).
     poll_s: float = 0.1
-    time_wait_s: float = 60.0  # a port whose connection the controller closed first
-    program: Path | None = None  # a cell's adapted copy of the module
+    # A port whose connection the controller closed first can be bound again at once (the
+    # close-and-rebind pattern of public server modules accepts the next client so); > 0: a
+    # stack that holds such a port for this long (SocketBind is ERR_SOCK_ADDR_INUSE meanwhile).
+    time_wait_s: float = 0.0
+    # The task's modules: a cell's adapted copy of ScrewcalServer.mod, or any program (module
+    # files, or folders such as a backup's TASK folder: `program.module_files`).
+    program: Path | Sequence[Path] | None = None
+    # `--set NAME=VALUE`: data of the program given these values (RAPID text) at load.
+    assignments: dict[str, str] = field(default_factory=dict)
     operator: bool = True  # the pendant's operator answers ZERO prompts (enters the offsets)
     lan_ip: str | None = None  # GetSysInfo(\LanIp); None: the address it listens on
+
+
+SERVER_MODULE = "screwcalserver"  # the module's name (lower case) in the shipped file
 
 
 class ProgramStoppedError(RuntimeError):
@@ -63,38 +76,54 @@ class IRC5Emulator:
         self.network = Network(self.settings)
         self.task: Task | None = None
         self.address: tuple[str, int] | None = None
+        self._own_program = True
         self._thread: threading.Thread | None = None
 
     # -- the program --------------------------------------------------------------------------
-    def _program(self) -> tuple[str, str]:
+    def _program(self) -> list[tuple[str, str]]:
+        """The task's modules (text, path)."""
         p = self.settings.program
         if p is None:
-            return module_text(), MODULE_NAME
-        return Path(p).read_text(encoding="latin-1"), str(p)
+            return [(module_text(), MODULE_NAME)]
+        paths = [Path(p)] if isinstance(p, str | Path) else [Path(x) for x in p]
+        return [(f.read_text(encoding="latin-1"), str(f)) for f in module_files(paths)]
 
-    def _overrides(self, text: str, host: str, port: int) -> dict[str, Any]:
+    def _own(self, modules: list[tuple[str, str]]) -> bool:
+        """Whether the task runs ScrewcalServer (the shipped module or a cell's copy): only
+        then do the emulator's address and times set its data."""
+        return any(loaded_module(t, p).name.lower() == SERVER_MODULE for t, p in modules)
+
+    def _overrides(self, modules: list[tuple[str, str]], host: str,
+                   port: int) -> dict[str, Any]:
         settings = self.settings
-        wanted = {"BIND_ADDRESS": host, "PORT": float(port),
-                  "IDLE_S": lambda: float(settings.idle_timeout_s),
-                  "POLL_S": lambda: float(settings.poll_s)}
-        declared = {d.key for d in loaded_module(text).data}
-        return {k: v for k, v in wanted.items() if k.lower() in declared}
+        out: dict[str, Any] = {}
+        if self._own(modules):
+            wanted = {"BIND_ADDRESS": host, "PORT": float(port),
+                      "IDLE_S": lambda: float(settings.idle_timeout_s),
+                      "POLL_S": lambda: float(settings.poll_s)}
+            declared = {d.key for t, p in modules for d in loaded_module(t, p).data}
+            out = {k: v for k, v in wanted.items() if k.lower() in declared}
+        out.update({k.lower(): RapidText(v) for k, v in settings.assignments.items()})
+        return out
 
     async def start(self, host: str = "127.0.0.1", port: int = 0) -> tuple[str, int]:
         """Load the program (once), run main; returns where it listens."""
         loop = asyncio.get_running_loop()
         if self.task is None:
-            text, path = self._program()
+            modules = self._program()
+            (text, path), *more = modules
+            self._own_program = self._own(modules)
             self.task = Task(text, path, log=self.log, pendant=self.pendant,
-                             overrides=self._overrides(text, host, port))
-        else:  # a restart: the same program and data, where it is told to listen now
-            for name, value in (("bind_address", host), ("port", float(port))):
-                if name in self.task.data:
+                             overrides=self._overrides(modules, host, port), modules=more)
+        elif self._own_program:  # a restart: the same program and data, where it is told to
+            for name, value in (("bind_address", host), ("port", float(port))):  # listen now
+                if name in self.task.data and name not in self.settings.assignments:
                     self.task.data[name].value = value
         self.task.services.update(
             network=self.network, motion=Motion(self.world, loop, self.settings),
             sysinfo={"lanip": self.settings.lan_ip or host, "systemname": "screwcal-virtual-irc5",
-                     "robottype": "IRB 1600"})
+                     "robottype": "IRB 1600", "serialno": "virtual-1",
+                     "swversion": "screwcal virtual IRC5 (RobotWare 6 RAPID subset)"})
         self.network.listen_event.clear()
         self.network.host_port_in_use = False
         self._thread = threading.Thread(target=self.task.run, name="rapid-task", daemon=True)

@@ -12,7 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from simulators.rapid.errors import ERRNUMS
+from simulators.rapid.errors import ERRNUMS, LONG_JMP_ALL_ERR
 from simulators.rapid.values import record
 
 
@@ -50,6 +50,7 @@ def predefined() -> dict[str, Any]:
     """The system's data, by lower-case name (values; all read-only)."""
     data: dict[str, Any] = {f"err_{k[4:].lower()}": float(v) for k, v in ERRNUMS.items()}
     data |= {
+        "long_jmp_all_err": float(LONG_JMP_ALL_ERR),
         "tool0": record("tooldata", True, _pose0(), [0.001, [0, 0, 0.001], [1, 0, 0, 0], 0, 0, 0]),
         "wobj0": record("wobjdata", False, True, "", _pose0(), _pose0()),
         "load0": record("loaddata", 0.001, [0, 0, 0.001], [1, 0, 0, 0], 0, 0, 0),

@@ -44,3 +44,10 @@ class Propagate(BaseException):
 class Fatal(BaseException):
     def __init__(self, error: RapidError):
         self.error = error
+
+
+class Jump(BaseException):
+    """GOTO: to the label (lower case) in this statement list or an enclosing one."""
+
+    def __init__(self, label: str):
+        self.label = label

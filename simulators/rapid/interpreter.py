@@ -17,25 +17,27 @@ from __future__ import annotations
 
 import functools
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
+from screwcal.rapid import RapidSyntaxError, parse_expression, parse_module
 from screwcal.rapid import ast as A  # noqa: N812 - the node classes, as A.If, A.Call
-from screwcal.rapid import parse_module
 from simulators.rapid.builtins import BUILTINS, predefined
 from simulators.rapid.control import (
     ExitCycle,
     Fatal,
+    Jump,
     Propagate,
     Retry,
     Return,
     Stopped,
     TryNext,
 )
-from simulators.rapid.errors import LoadError, RapidError
+from simulators.rapid.errors import LONG_JMP_ALL_ERR, LoadError, RapidError
 from simulators.rapid.evaluation import Evaluator
 from simulators.rapid.frame import Frame
 from simulators.rapid.operator import EventLog, Pendant
+from simulators.rapid.program import RapidText
 from simulators.rapid.storage import LiveVar, Var
 from simulators.rapid.values import (
     convert,
@@ -61,23 +63,29 @@ _CHECKED: set[tuple[str, str]] = set()
 
 
 class Task(Evaluator):
-    """One RAPID task running one program module. `services` are the controller's other parts
-    the built-ins use (sockets, motion); `overrides` replace data declarations' values (the
-    cell's own constants: a port, a bind address, joint limits)."""
+    """One RAPID task running its program modules (`text` at `path`, then `modules`, pairs of
+    text and path: a task of several modules shares their global data and routines).
+    `services` are the controller's other parts the built-ins use (sockets, motion);
+    `overrides` replace data declarations' values (the cell's own constants: a port, a bind
+    address, joint limits)."""
 
     def __init__(self, text: str, path: str = "<module>", *, log: EventLog | None = None,
                  pendant: Pendant | None = None, services: dict[str, Any] | None = None,
-                 overrides: dict[str, Any] | None = None):
+                 overrides: dict[str, Any] | None = None,
+                 modules: Sequence[tuple[str, str]] = ()):
         from simulators.rapid import library, motion, sockets  # noqa: F401 - register built-ins
 
         super().__init__()
-        self.path = path
-        self.module = loaded_module(text, path)
+        sources = [(text, path), *modules]
+        self.modules = [(loaded_module(t, p), p) for t, p in sources]
+        self.module = self.modules[0][0]
         self.log = log or EventLog()
         self.pendant = pendant or Pendant()
         self.services = services or {}
         self.overrides = {k.lower(): v for k, v in (overrides or {}).items()}
-        self.routines = {r.key: r for r in self.module.routines}
+        self.routines, self.declared, self._paths = _task_names(self.modules)
+        main = self.routines.get("main")
+        self.path = path if main is None else self._paths[id(main)]
         self.system = {k: Var("any", v, const=True) for k, v in predefined().items()}
         self.errno = 0.0
         self.stop_requested = threading.Event()
@@ -87,82 +95,121 @@ class Task(Evaluator):
         self._unwound: list[Frame] = []
         self._skip = False
         self._stack: list[Frame] = []
-        if (text, path) not in _CHECKED:  # the same text passes the same checks
-            self._check()
-            if len(_CHECKED) >= 64:
-                _CHECKED.clear()
-            _CHECKED.add((text, path))
-        unknown = set(self.overrides) - {d.key for d in self.module.data}
+        self._kept: list[Any] = []
+        for (t, p), (module, _) in zip(sources, self.modules, strict=True):
+            if (t, p) not in _CHECKED or len(sources) > 1:  # the same text passes the same checks
+                self._check(module, p)
+                if len(_CHECKED) >= 64:
+                    _CHECKED.clear()
+                _CHECKED.add((t, p))
+        unknown = set(self.overrides) - set(self.declared)
         if unknown:
             raise LoadError(path, 1, f"no data named {', '.join(sorted(unknown))} to set")
         self._exec: dict[type, Callable[[Any, Frame], None]] = {
             A.Assign: self._assign, A.ProcCall: self._proc_call, A.If: self._if,
             A.While: self._while, A.For: self._for, A.Test: self._test,
             A.Return: self._return, A.Raise: self._raise, A.Simple: self._simple,
+            A.Goto: self._goto, A.Label: _label,
         }
         self.data: dict[str, Any] = {}
         self.reset_data()
 
+    def path_of(self, routine: A.Routine) -> str:
+        """The file of the module a routine is declared in."""
+        return self._paths.get(id(routine), self.path)
+
     # ------------------------------------------------------------------ loading
-    def _check(self) -> None:
+    def _check(self, module: A.Module, path: str) -> None:
         """What a controller refuses at load: unknown instructions, functions, names, types."""
-        module_names = {d.key for d in self.module.data}
-        for d in self.module.data:
+        module_names = set(self.declared)
+        for d in module.data:
             if not known_type(d.type):
-                raise LoadError(self.path, d.line, f"unknown data type {d.type}")
-        for r in self.module.routines:
+                raise LoadError(path, d.line, f"unknown data type {d.type}")
+        for r in module.routines:
             if r.kind == "TRAP":
-                raise LoadError(self.path, r.line, "TRAP routines are not supported")
+                raise LoadError(path, r.line, "TRAP routines are not supported")
             local = {p.name.lower() for p in r.params} | {d.key for d in r.data}
             for d in r.data:
                 if not known_type(d.type):
-                    raise LoadError(self.path, d.line, f"unknown data type {d.type}")
+                    raise LoadError(path, d.line, f"unknown data type {d.type}")
             for node in _walk(r):
                 if isinstance(node, A.For):
                     local.add(node.var.lower())
             names = local | module_names | set(self.system) | {"true", "false", "errno"}
             for node in _walk(r):
-                self._check_node(node, names)
+                self._check_node(node, names, path)
+            for section in (r.body, r.error, r.undo, r.backward):
+                if section:
+                    _check_gotos(path, section, frozenset())
 
-    def _check_node(self, node: Any, names: set[str]) -> None:
+    def _check_node(self, node: Any, names: set[str], path: str) -> None:
         where = node.line if isinstance(node, A.Node) else 0
         if isinstance(node, A.ProcCall):
             if node.late is not None:
-                raise LoadError(self.path, where, "late-bound procedure calls are not supported")
+                raise LoadError(path, where, "late-bound procedure calls are not supported")
             r = self.routines.get(node.key)
             b = BUILTINS.get(node.key)
             if (r is None or r.kind != "PROC") and (b is None or b.kind != "proc"):
-                raise LoadError(self.path, where,
+                raise LoadError(path, where,
                                 f"instruction {node.name} is unknown to this controller")
         elif isinstance(node, A.Call):
             r = self.routines.get(node.key)
             b = BUILTINS.get(node.key)
             if (r is None or r.kind != "FUNC") and (b is None or b.kind != "func"):
-                raise LoadError(self.path, where,
+                raise LoadError(path, where,
                                 f"function {node.name} is unknown to this controller")
         elif isinstance(node, A.Name) and node.key not in names:
-            raise LoadError(self.path, where, f"no data named {node.name}")
-        elif isinstance(node, A.Goto | A.Label | A.Connect):
-            raise LoadError(self.path, where, f"{type(node).__name__.upper()} is not supported")
+            raise LoadError(path, where, f"no data named {node.name}")
+        elif isinstance(node, A.Connect):
+            raise LoadError(path, where, f"{type(node).__name__.upper()} is not supported")
         elif isinstance(node, A.Str) and len(node.value) > 80:
-            raise LoadError(self.path, where, "string literal longer than 80 characters")
+            raise LoadError(path, where, "string literal longer than 80 characters")
 
     def reset_data(self) -> None:
-        """The module's data at their declared values (load, PP to Main), overrides applied."""
+        """The modules' data at their declared values (load, PP to Main), overrides applied.
+        A declaration whose value names data of a module further on is evaluated after it."""
         frame = Frame(A.Routine(0, 0, 0, 0, "PROC", "<load>", False, None, (), (), ()), {})
         self.data = {}
-        for d in self.module.data:
-            dims = tuple(int(self.eval(e, frame)) for e in d.dims)
-            if d.key in self.overrides and callable(self.overrides[d.key]):
-                self.data[d.key] = LiveVar(d.type, self.overrides[d.key])
-                continue
-            if d.key in self.overrides:
-                value = convert(d.type, self.overrides[d.key], dims)
-            elif d.value is not None:
-                value = convert(d.type, self.eval(d.value, frame), dims)
-            else:
-                value = default(d.type, dims)
-            self.data[d.key] = Var(d.type, value, dims, const=d.storage == "CONST")
+        waiting = list(self.declared.values())
+        while waiting:
+            later: list[A.DataDecl] = []
+            for d in waiting:
+                try:
+                    self.data[d.key] = self._initial(d, frame)
+                except RapidError as err:
+                    if err.name != "ERR_REFUNKDAT":
+                        raise
+                    later.append(d)
+            if len(later) == len(waiting):  # nothing more resolves: the first one's error
+                self.data[later[0].key] = self._initial(later[0], frame)
+            waiting = later
+
+    def _initial(self, d: A.DataDecl, frame: Frame) -> Any:
+        """A declared datum at its initial value (an override's, its own, or the default)."""
+        dims = tuple(int(self.eval(e, frame)) for e in d.dims)
+        if d.key in self.overrides and callable(self.overrides[d.key]):
+            return LiveVar(d.type, self.overrides[d.key])
+        if isinstance(self.overrides.get(d.key), RapidText):
+            value = convert(d.type, self._set_value(d, self.overrides[d.key], frame), dims)
+        elif d.key in self.overrides:
+            value = convert(d.type, self.overrides[d.key], dims)
+        elif d.value is not None:
+            value = convert(d.type, self.eval(d.value, frame), dims)
+        else:
+            value = default(d.type, dims)
+        return Var(d.type, value, dims, const=d.storage == "CONST")
+
+    def _set_value(self, d: A.DataDecl, text: str, frame: Frame) -> Any:
+        """The value of `--set NAME=VALUE` as the datum's type (a string's quotes optional)."""
+        if d.type.lower() == "string" and not text.startswith('"'):
+            text = '"' + text.replace('"', '""') + '"'
+        try:
+            e = parse_expression(text, "--set")
+            self._kept.append(e)  # evaluation keeps closures by node: the node lives on
+            return self.eval(e, frame)
+        except (RapidSyntaxError, RapidError) as err:
+            raise LoadError("--set", 0, f"{d.name}={text}: not a {d.type} value ({err})") \
+                from None
 
     # ------------------------------------------------------------------ running
     def run(self, routine: str = "main") -> None:
@@ -190,7 +237,8 @@ class Task(Evaluator):
             self._stopped(self._unhandled(p.error), kind="error")
 
     def _unhandled(self, e: RapidError) -> str:
-        return f"execution error {e.name} at {self.path}:{e.origin or e.line}: {e.detail}"
+        return f"execution error {e.name} at {e.path or self.path}:{e.origin or e.line}: " \
+            f"{e.detail}"
 
     def _stopped(self, reason: str, kind: str) -> None:
         self.state = "stopped"
@@ -258,6 +306,7 @@ class Task(Evaluator):
             self._undo(frame)
             error = RapidError(p.error.errno, p.error.detail, line)
             error.origin = p.error.origin or p.error.line
+            error.path = p.error.path
             raise error from None
         except ExitCycle:
             self._undo(frame)
@@ -269,27 +318,39 @@ class Task(Evaluator):
             self._stack.pop()
 
     def exec_block(self, stmts: tuple[Any, ...], frame: Frame) -> None:
+        """The statements in turn; a GOTO to a label of this list goes on from there (one to
+        an enclosing list's label leaves it: the load checked that there is one)."""
         execs = self._exec
-        for st in stmts:
-            retries = 0
-            while True:
-                if self._stop:
-                    raise Stopped("stopped by the controller")
-                try:
-                    execs[type(st)](st, frame)
-                    break
-                except RapidError as e:
-                    if e.line is None:
-                        e.line = st.line
-                    if e.origin is None:
-                        e.origin = e.line
-                    if self._handle(e, frame):  # RETRY
-                        retries += 1
-                        if retries > MAX_RETRIES:
-                            raise Propagate(RapidError("ERR_EXCRTYMAX", line=st.line)) \
-                                from None
-                        continue
-                    break  # TRYNEXT
+        while True:
+            try:
+                for st in stmts:
+                    retries = 0
+                    while True:
+                        if self._stop:
+                            raise Stopped("stopped by the controller")
+                        try:
+                            execs[type(st)](st, frame)
+                            break
+                        except RapidError as e:
+                            if e.line is None:
+                                e.line = st.line
+                            if e.origin is None:
+                                e.origin = e.line
+                            if e.path is None:
+                                e.path = self.path_of(frame.routine)
+                            if self._handle(e, frame):  # RETRY
+                                retries += 1
+                                if retries > MAX_RETRIES:
+                                    raise Propagate(RapidError("ERR_EXCRTYMAX",
+                                                               line=st.line)) from None
+                                continue
+                            break  # TRYNEXT
+                return
+            except Jump as jump:
+                at = _label_index(stmts, jump.label)
+                if at is None:
+                    raise
+                stmts = stmts[at:]
 
     def _handle(self, e: RapidError, frame: Frame) -> bool:
         """The routine's ERROR handler for `e`: True for RETRY, False for TRYNEXT; raises to
@@ -298,7 +359,7 @@ class Task(Evaluator):
         if frame.in_handler:
             raise Fatal(e)
         if r.error is None or (r.error_numbers and not any(
-                self.eval(n, frame) == e.errno for n in r.error_numbers)):
+                self.eval(n, frame) in (e.errno, LONG_JMP_ALL_ERR) for n in r.error_numbers)):
             raise Propagate(e)
         self.errno = float(e.errno)
         saved, self._skip = self._skip, False
@@ -313,7 +374,7 @@ class Task(Evaluator):
             frame.in_handler = False
             if not self._skip:  # a recovered error still leaves its warning, unless SkipWarn
                 self.log.write("warning", f"Execution error {e.name}",
-                               f"{self.path}:{e.line}: {e.detail} (recovered in {r.name})")
+                               f"{self.path_of(r)}:{e.line}: {e.detail} (recovered in {r.name})")
             self._skip = saved
         raise Propagate(e)  # the handler's end: as RAISE
 
@@ -403,13 +464,83 @@ class Task(Evaluator):
             raise Retry()
         if kw == "TRYNEXT":
             raise TryNext()
-        raise Stopped(f"EXIT at {self.path}:{st.line}")
+        raise Stopped(f"EXIT at {self.path_of(frame.routine)}:{st.line}")
+
+    def _goto(self, st: A.Goto, frame: Frame) -> None:
+        raise Jump(st.label.lower())
 
     def _bool(self, e: Any, frame: Frame) -> bool:
         v = self.fn(e)(frame)
         if v is not True and v is not False:
             raise RapidError("ERR_ARGVALERR", "a condition must be a bool", e.line)
         return v
+
+
+def _task_names(modules: list[tuple[A.Module, str]]) -> tuple[
+        dict[str, A.Routine], dict[str, A.DataDecl], dict[int, str]]:
+    """A task's routines and data by name, and each routine's file. A name declared in two
+    modules is refused (its second declaration's line), but for a PERS declared alike in
+    both (persistents are shared: the one with a value initialises it)."""
+    routines: dict[str, A.Routine] = {}
+    data: dict[str, A.DataDecl] = {}
+    paths: dict[int, str] = {}
+    where: dict[str, str] = {}
+    for module, path in modules:
+        for d in module.data:
+            first = data.get(d.key)
+            if first is not None or d.key in routines:
+                if first is not None and first.storage == d.storage == "PERS" and \
+                        first.type.lower() == d.type.lower():
+                    if first.value is None:
+                        data[d.key] = d
+                    continue
+                raise LoadError(path, d.line, f"{d.name} is declared again (first in "
+                                f"{where[d.key]})")
+            data[d.key], where[d.key] = d, path
+        for r in module.routines:
+            if r.key in routines or r.key in data:
+                raise LoadError(path, r.line, f"{r.name} is declared again (first in "
+                                f"{where[r.key]})")
+            routines[r.key], where[r.key], paths[id(r)] = r, path, path
+    return routines, data, paths
+
+
+def _label(st: A.Label, frame: Frame) -> None:
+    """A label does nothing where it stands."""
+
+
+def _label_index(stmts: tuple[Any, ...], label: str) -> int | None:
+    for i, st in enumerate(stmts):
+        if isinstance(st, A.Label) and st.name.lower() == label:
+            return i
+    return None
+
+
+def _nested(st: Any) -> list[tuple[Any, ...]]:
+    """The statement lists inside a statement (IF's branches, loops' bodies, TEST's cases)."""
+    if isinstance(st, A.If):
+        return [body for _, body in st.branches] + [st.orelse]
+    if isinstance(st, A.While | A.For):
+        return [st.body]
+    if isinstance(st, A.Test):
+        return [c.body for c in st.cases] + ([st.default] if st.default else [])
+    return []
+
+
+def _check_gotos(path: str, stmts: tuple[Any, ...], outer: frozenset[str]) -> None:
+    """Every GOTO names a label of its own statement list or of one around it (RAPID: a GOTO
+    never jumps into an IF, a loop or a TEST); a label is declared once per list."""
+    here = [st.name.lower() for st in stmts if isinstance(st, A.Label)]
+    for st in stmts:
+        if isinstance(st, A.Label) and here.count(st.name.lower()) > 1:
+            raise LoadError(path, st.line, f"label {st.name} declared twice")
+    labels = outer | frozenset(here)
+    for st in stmts:
+        if isinstance(st, A.Goto) and st.label.lower() not in labels:
+            raise LoadError(path, st.line, f"GOTO {st.label}: no label {st.label} in this "
+                            "statement list or one around it")
+        for body in _nested(st):
+            _check_gotos(path, body, labels)
 
 
 def _walk(node: Any):  # noqa: ANN202

@@ -21,6 +21,7 @@ from screwcal.kinematics.pose import (
 from simulators.rapid.builtins import builtin
 from simulators.rapid.control import ExitCycle, Stopped
 from simulators.rapid.errors import RapidError
+from simulators.rapid.frames import unit_wxyz
 from simulators.rapid.values import RArray, Record, is_integer, num, record, string
 
 # ------------------------------------------------------------------ strings
@@ -204,19 +205,18 @@ def quaternion_of(R: np.ndarray) -> tuple[float, float, float, float]:
     return (w, x, y, z)
 
 
-def matrix_of(q: Record) -> np.ndarray:
-    """The rotation of an orient; one not normalised (beyond 1e-4) is RAPID's ERR_ARGVALERR."""
-    return _rotation_of_wxyz((q.f["q1"], q.f["q2"], q.f["q3"], q.f["q4"]))
-
-
-def _rotation_of_wxyz(q: tuple[float, ...]) -> np.ndarray:
-    """`matrix_of` of an orient's four numbers (q1..q4)."""
-    wxyz = np.array(q, dtype=float)
-    n = float(np.linalg.norm(wxyz))
-    if abs(n - 1) > 1e-4:
-        raise RapidError("ERR_ARGVALERR", f"orient not normalised (|q| = {n:.6f})")
-    R: np.ndarray = rotation_from_quaternion_wxyz(wxyz)
+def _rotation_of_wxyz(q: tuple[float, float, float, float]) -> np.ndarray:
+    """The rotation of an orient's four numbers (q1..q4), normalised as the controller does
+    (`frames.unit_wxyz`: an unusable one is ERR_ARGVALERR)."""
+    R: np.ndarray = rotation_from_quaternion_wxyz(unit_wxyz(q))
     return R
+
+
+@builtin("NOrient", "func")
+def _norient(task: Any, pos: list, opt: dict) -> Record:
+    """The orient normalised (an unusable one, its norm more than 0.1 from 1: ERR_ARGVALERR)."""
+    f = pos[0].f
+    return record("orient", *unit_wxyz((f["q1"], f["q2"], f["q3"], f["q4"])).tolist())
 
 
 @builtin("OrientZYX", "func")
@@ -234,7 +234,8 @@ def _euler_zyx_deg(packed: bytes) -> tuple[float, float, float]:
     """The Euler angles of one orient (its four numbers packed: -0.0 is not 0.0 here), kept
     for the next calls: a program asks for X, Y and Z of the same orient in turn (a refused
     orient raises every time: nothing is kept)."""
-    rx, ry, rz = euler_zyx_deg_from_rotation(_rotation_of_wxyz(_FOUR.unpack(packed))).tolist()
+    w, x, y, z = _FOUR.unpack(packed)
+    rx, ry, rz = euler_zyx_deg_from_rotation(_rotation_of_wxyz((w, x, y, z))).tolist()
     return rx, ry, rz
 
 

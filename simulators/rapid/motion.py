@@ -30,7 +30,8 @@ from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.ik import closed_form_ik
 from simulators.rapid.builtins import builtin
 from simulators.rapid.errors import RapidError
-from simulators.rapid.library import matrix_of, quaternion_of, wait
+from simulators.rapid.frames import Frames, matrix_of_pose
+from simulators.rapid.library import quaternion_of, wait
 from simulators.rapid.values import Record, convert, num, record
 
 _NINE_E9 = 9e9
@@ -44,6 +45,10 @@ class Motion:
         self.world, self.loop, self.settings = world, loop, settings
         self.lag_deg, self.settle_s = lag_deg, settle_s
         self.moves = 0
+        self.tool: Record | None = None  # the active tool and work object (None: tool0, wobj0)
+        self.wobj: Record | None = None
+        self.conf_l = self.conf_j = True  # ConfL, ConfJ \\On
+        self.sing_area = "off"
         self._lag = np.zeros(6)
         self._settle_end = 0.0
         self._settle_len = 0.0
@@ -63,16 +68,19 @@ class Motion:
             wait(task, left)
 
     # -- moving
-    def move(self, task: Any, target_deg: np.ndarray) -> None:
+    def move(self, task: Any, target_deg: np.ndarray, via: np.ndarray | None = None) -> None:
+        """To `target_deg`, timed through `via` when given (MoveC's CirPoint)."""
         lim = self.world.nominal.limits_deg
-        bad = np.flatnonzero((target_deg < lim[:, 0]) | (target_deg > lim[:, 1]))
-        if bad.size:
-            j = int(bad[0])
-            raise RapidError("ERR_ROBLIMIT", f"joint {j + 1} target {target_deg[j]:.4f} outside "
-                             f"[{lim[j, 0]:g}, {lim[j, 1]:g}]")
+        for q in (target_deg,) if via is None else (via, target_deg):
+            bad = np.flatnonzero((q < lim[:, 0]) | (q > lim[:, 1]))
+            if bad.size:
+                j = int(bad[0])
+                raise RapidError("ERR_ROBLIMIT", f"joint {j + 1} target {q[j]:.4f} outside "
+                                 f"[{lim[j, 0]:g}, {lim[j, 1]:g}]")
         self.wait_in_position(task)
         start = self.world.q_deg.astype(float)
-        travel = float(np.max(np.abs(target_deg - start)))
+        travel = float(np.max(np.abs(target_deg - start))) if via is None else \
+            float(np.max(np.abs(via - start)) + np.max(np.abs(target_deg - via)))
         scale = self.settings.time_scale
         duration = travel / self.settings.speed_deg_s * scale
         faults = self.settings.faults
@@ -118,55 +126,86 @@ class Motion:
         return [float(math.floor(q_deg[0] / 90)), float(math.floor(q_deg[3] / 90)),
                 float(math.floor(q_deg[5] / 90)), float(self.branch(q_deg, T))]
 
-    def robtarget(self, q_deg: np.ndarray) -> Record:
-        T = self.tool0(q_deg)  # once: the position, the orient and the branch
-        return record("robtarget", [num(v) for v in T[:3, 3]],
-                      [num(v) for v in quaternion_of(T[:3, :3])], self.conf(q_deg, T),
+    def robtarget(self, q_deg: np.ndarray, frames: Frames) -> Record:
+        """The robtarget of a joint vector: the TCP in the work object's object frame."""
+        T = self.tool0(q_deg)  # once: the pose, the orient and the branch
+        P = frames.target_of(T)
+        return record("robtarget", [num(v) for v in P[:3, 3]],
+                      [num(v) for v in quaternion_of(P[:3, :3])], self.conf(q_deg, T),
                       [_NINE_E9] * 6)
 
-    def solve(self, rt: Record) -> np.ndarray:
-        """CalcJointT: the joints (deg) for a robtarget, on its confdata's branch."""
-        T = np.eye(4)
-        T[:3, :3] = matrix_of(rt.f["rot"])
-        T[:3, 3] = [rt.f["trans"].f[k] for k in "xyz"]
+    def solve(self, rt: Record, frames: Frames, conf_on: bool = True) -> np.ndarray:
+        """CalcJointT and the moves: the joints (deg) for a robtarget with a tool and a work
+        object. Configuration control on (ConfJ/ConfL \\On): the branch of its confdata, axes
+        1, 4, 6 in its quadrants; off: the solution nearest the joints now."""
+        T = frames.flange_of(matrix_of_pose(rt.f["trans"], rt.f["rot"]))
         try:
             sol = closed_form_ik(self.world.nominal, T[None], require_all=False)
         except ScrewcalError as err:
             raise RapidError("ERR_OUTSIDE_REACH", str(err)) from None
+        lim = self.world.nominal.limits_deg
+        if not conf_on:
+            return self._nearest(np.degrees(sol.q[0]), sol.reachable[0], lim)
         conf = rt.f["robconf"].f
         b = int(conf["cfx"])
         if not 0 <= b < 8 or not sol.reachable[0, b]:
             raise RapidError("ERR_OUTSIDE_REACH", f"no solution on branch cfx {b}")
         q = np.degrees(sol.q[0, b])
-        lim = self.world.nominal.limits_deg
         for j, cf in ((0, conf["cf1"]), (3, conf["cf4"]), (5, conf["cf6"])):
             middle = cf * 90 + 45
             options = [q[j] + 360 * k for k in (-2, -1, 0, 1, 2)
                        if lim[j, 0] <= q[j] + 360 * k <= lim[j, 1]]
             if options:
                 q[j] = min(options, key=lambda v: abs(v - middle))
-        bad = np.flatnonzero((q < lim[:, 0]) | (q > lim[:, 1]))
-        if bad.size:
-            raise RapidError("ERR_ROBLIMIT", f"joint {int(bad[0]) + 1} would be "
-                             f"{q[bad[0]]:.3f} deg, outside its limits")
+        _within(q, lim)
         return q
+
+    def _nearest(self, branches_deg: np.ndarray, reachable: np.ndarray,
+                 lim: np.ndarray) -> np.ndarray:
+        """Of the reachable branches (8, 6) within the limits (axes turned by whole turns
+        toward the joints now), the one nearest the joints now (largest joint move)."""
+        now = self.world.q_deg.astype(float)
+        best: np.ndarray | None = None
+        for q, ok in zip(branches_deg, reachable, strict=True):
+            if not ok or np.isnan(q).any():
+                continue
+            q = q + 360.0 * np.round((now - q) / 360.0)
+            for j in range(6):  # a whole turn back inside the limits where one went out
+                if q[j] > lim[j, 1]:
+                    q[j] -= 360.0
+                elif q[j] < lim[j, 0]:
+                    q[j] += 360.0
+            if ((q < lim[:, 0]) | (q > lim[:, 1])).any():
+                continue
+            if best is None or np.max(np.abs(q - now)) < np.max(np.abs(best - now)):
+                best = q
+        if best is None:
+            raise RapidError("ERR_ROBLIMIT", "no solution within the joint limits")
+        return best
+
+
+def _within(q: np.ndarray, lim: np.ndarray) -> None:
+    bad = np.flatnonzero((q < lim[:, 0]) | (q > lim[:, 1]))
+    if bad.size:
+        raise RapidError("ERR_ROBLIMIT", f"joint {int(bad[0]) + 1} would be "
+                         f"{q[bad[0]]:.3f} deg, outside its limits")
 
 
 def _motion(task: Any) -> Motion:
     return task.services["motion"]
 
 
-def _tool0_only(opt: dict, pos_tool: Any = None) -> None:
-    for v in (pos_tool, opt.get("tool")):
-        if v is not None and (v.f["tframe"].f["trans"].f != {"x": 0.0, "y": 0.0, "z": 0.0}):
-            raise RapidError("ERR_ARGVALERR", "only tool0 is supported")
-    w = opt.get("wobj")
-    if w is not None and w.f["uframe"].f["trans"].f != {"x": 0.0, "y": 0.0, "z": 0.0}:
-        raise RapidError("ERR_ARGVALERR", "only wobj0 is supported")
+def _frames(tool: Record | None, wobj: Record | None) -> Frames:
+    return Frames(tool, wobj)
 
 
 def _jointtarget(q_deg: np.ndarray) -> Record:
     return record("jointtarget", [num(float(v)) for v in q_deg], [_NINE_E9] * 6)
+
+
+def _robtarget(rt: Record | list) -> Record:
+    """A robtarget written as an aggregate in the call is one once converted."""
+    return convert("robtarget", rt) if isinstance(rt, list) else rt
 
 
 def _robax(jt: Record | list) -> np.ndarray:
@@ -182,23 +221,24 @@ def _cjointt(task: Any, pos: list, opt: dict) -> Record:
 
 @builtin("CRobT", "func")
 def _crobt(task: Any, pos: list, opt: dict) -> Record:
-    _tool0_only(opt)
+    """Where the TCP is, in the tool and work object given, else the active ones (those of
+    the last move instruction)."""
     m = _motion(task)
-    return m.robtarget(m.joints())
+    frames = _frames(opt.get("tool", m.tool), opt.get("wobj", m.wobj))
+    return m.robtarget(m.joints(), frames)
 
 
 @builtin("CalcJointT", "func")
 def _calcjointt(task: Any, pos: list, opt: dict) -> Record:
     rt, tool = pos
-    _tool0_only(opt, tool)
-    return _jointtarget(_motion(task).solve(rt))
+    m = _motion(task)
+    return _jointtarget(m.solve(_robtarget(rt), _frames(tool, opt.get("wobj")), m.conf_l))
 
 
 @builtin("CalcRobT", "func")
 def _calcrobt(task: Any, pos: list, opt: dict) -> Record:
     jt, tool = pos
-    _tool0_only(opt, tool)
-    return _motion(task).robtarget(_robax(jt))
+    return _motion(task).robtarget(_robax(jt), _frames(tool, opt.get("wobj")))
 
 
 def _stop_point(task: Any, zone: Record, opt: dict) -> None:
@@ -207,25 +247,99 @@ def _stop_point(task: Any, zone: Record, opt: dict) -> None:
         m.wait_in_position(task)
 
 
+def _activate(m: Motion, tool: Record, opt: dict) -> Frames:
+    """The move's tool and work object (checked), active from now on for CRobT."""
+    wobj = opt.get("wobj")
+    frames = _frames(tool, wobj)
+    m.tool, m.wobj = tool, wobj
+    return frames
+
+
 @builtin("MoveAbsJ", "proc")
 def _moveabsj(task: Any, pos: list, opt: dict) -> None:
-    jt, _speed, zone, _tool = pos
-    _motion(task).move(task, _robax(jt))
+    jt, _speed, zone, tool = pos
+    m = _motion(task)
+    _activate(m, tool, opt)
+    m.move(task, _robax(jt))
     _stop_point(task, zone, opt)
 
 
 @builtin("MoveJ", "proc")
 def _movej(task: Any, pos: list, opt: dict) -> None:
-    rt, _speed, zone, tool = pos
-    _tool0_only(opt, tool)
-    m = _motion(task)
-    m.move(task, m.solve(rt))
-    _stop_point(task, zone, opt)
+    _move_to(task, pos, opt, _motion(task).conf_j)
 
 
 @builtin("MoveL", "proc")
 def _movel(task: Any, pos: list, opt: dict) -> None:
-    _movej(task, pos, opt)  # in joint space: the emulated world has no path, only arrivals
+    """In joint space: the emulated world has no path, only arrivals."""
+    _move_to(task, pos, opt, _motion(task).conf_l)
+
+
+def _move_to(task: Any, pos: list, opt: dict, conf_on: bool) -> None:
+    rt, _speed, zone, tool = pos
+    m = _motion(task)
+    m.move(task, m.solve(_robtarget(rt), _activate(m, tool, opt), conf_on))
+    _stop_point(task, zone, opt)
+
+
+@builtin("MoveC", "proc")
+def _movec(task: Any, pos: list, opt: dict) -> None:
+    """MoveC CirPoint, ToPoint, speed, zone, tool [\\WObj]: the circle through the TCP now,
+    CirPoint and ToPoint (in the work object). The three must be apart and not on one line
+    (the controller's "circle points too close"); the robot passes CirPoint and arrives at
+    ToPoint (the emulated world has arrivals, not paths: the travel is timed through both)."""
+    cir, to, _speed, zone, tool = pos
+    m = _motion(task)
+    frames = _activate(m, tool, opt)
+    cir, to = _robtarget(cir), _robtarget(to)
+    start = frames.target_of(m.tool0(m.world.q_deg.astype(float)))[:3, 3]
+    points = [start] + [np.array([r.f["trans"].f[k] for k in "xyz"]) for r in (cir, to)]
+    _check_circle(*points)
+    q_cir = m.solve(cir, frames, m.conf_l)
+    q_to = m.solve(to, frames, m.conf_l)
+    m.move(task, q_to, via=q_cir)
+    _stop_point(task, zone, opt)
+
+
+CIRCLE_MIN_MM = 0.1  # the circle's points at least this far apart
+
+
+def _check_circle(start: np.ndarray, cir: np.ndarray, to: np.ndarray) -> None:
+    for a, b, what in ((start, cir, "start and CirPoint"), (cir, to, "CirPoint and ToPoint"),
+                       (start, to, "start and ToPoint")):
+        if float(np.linalg.norm(a - b)) < CIRCLE_MIN_MM:
+            raise RapidError("ERR_ARGVALERR", f"circle points too close: {what} less than "
+                             f"{CIRCLE_MIN_MM:g} mm apart")
+    u, v = cir - start, to - start
+    sine = float(np.linalg.norm(np.cross(u, v))) / float(np.linalg.norm(u) * np.linalg.norm(v))
+    if sine < 1e-3:
+        raise RapidError("ERR_ARGVALERR", "circle points on one line: no circle through them")
+
+
+@builtin("ConfL", "proc")
+def _confl(task: Any, pos: list, opt: dict) -> None:
+    _motion(task).conf_l = _on_off(opt, "ConfL")
+
+
+@builtin("ConfJ", "proc")
+def _confj(task: Any, pos: list, opt: dict) -> None:
+    _motion(task).conf_j = _on_off(opt, "ConfJ")
+
+
+def _on_off(opt: dict, name: str) -> bool:
+    if bool(opt.get("on")) == bool(opt.get("off")):
+        raise RapidError("ERR_ARGVALERR", f"{name} takes one of \\On and \\Off")
+    return bool(opt.get("on"))
+
+
+@builtin("SingArea", "proc")
+def _singarea(task: Any, pos: list, opt: dict) -> None:
+    """How paths pass a singularity (\\Wrist, \\LockAxis4, \\Off): kept; the emulated world
+    moves in joint space (no path passes a singularity)."""
+    chosen = [k for k in ("wrist", "lockaxis4", "off") if opt.get(k)]
+    if len(chosen) != 1:
+        raise RapidError("ERR_ARGVALERR", "SingArea takes one of \\Wrist, \\LockAxis4, \\Off")
+    _motion(task).sing_area = chosen[0]
 
 
 @builtin("WaitRob", "proc")

@@ -5,9 +5,11 @@ real OS sockets, with the controller's error numbers:
   fraction is accepted), then ERR_SOCK_TIMEOUT;
 - a connection the peer closed or reset is ERR_SOCK_CLOSED (SocketReceive, SocketSend,
   SocketPeek);
-- SocketBind on an address still in use is ERR_SOCK_ADDR_INUSE, also while a connection the
-  controller closed first is in TIME_WAIT on that port (`Network.time_wait_s`; the OS sockets
-  themselves are opened with SO_REUSEADDR so that the emulator's host is not held up);
+- SocketBind on an address still in use (a socket bound or listening there) is
+  ERR_SOCK_ADDR_INUSE; a port whose connection the controller closed first (TIME_WAIT) can be
+  bound again at once, as the close-and-rebind pattern of public server modules needs (the OS
+  sockets are opened with SO_REUSEADDR); `Network.time_wait_s` > 0 models a stack that holds
+  such a port that long;
 - a SocketSend the peer does not take within `Network.send_timeout_s` drops the connection
   (the stack gives up): ERR_SOCK_CLOSED.
 
@@ -68,7 +70,7 @@ class Network:
 
     @property
     def time_wait_s(self) -> float:
-        return getattr(self.settings, "time_wait_s", 60.0)
+        return getattr(self.settings, "time_wait_s", 0.0)
 
     def shutdown(self) -> None:
         with self._lock:

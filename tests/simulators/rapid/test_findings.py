@@ -76,7 +76,9 @@ both = pytest.mark.parametrize("program", [None, BEFORE], ids=["shipped", "befor
 # 1. BYE (the server closes first: TIME_WAIT) must not stop the program -------------------------
 @both
 async def test_1_a_session_the_controller_closes_does_not_stop_it(program):
-    async with controller(program) as emu:
+    # on a stack that holds a port whose connection it closed first (TIME_WAIT) for a minute:
+    # the shipped module keeps its listening socket, the old one closed and bound it again
+    async with controller(program, time_wait_s=60.0) as emu:
         reader, writer = await asyncio.open_connection(*emu.address)
         writer.write(frame("1 HELO 1") + frame("2 BYE"))
         await reader.readexactly(2 * FRAME_LEN)
