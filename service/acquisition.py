@@ -177,16 +177,18 @@ class Acquisition:
         if self.drift is not None:
             self._check_limits(DRIFT_PHASE, self.drift.references)
         list_name = CONTROLLER_LIST[list_kind(phase)]
-        seen = self._seen()
-        while True:
-            measured = self.store.measured_indices(self.job_id, phase)  # once per chunk
+        seen = await asyncio.to_thread(self._seen)
+        while True:  # the store read once per chunk
+            measured = await asyncio.to_thread(self.store.measured_indices, self.job_id, phase)
             todo = [p for p in plan if p.idx not in measured]
             room = MAX_LIST
             if self.drift is not None:
-                state = DriftState(*self.store.phase_progress(self.job_id, DRIFT_PHASE))
+                state = DriftState(*await asyncio.to_thread(self.store.phase_progress,
+                                                            self.job_id, DRIFT_PHASE))
                 check = self.drift.due(state, time.time(), end_of_list=not todo)
                 if check is not None:
-                    done = self.store.measured_indices(self.job_id, DRIFT_PHASE)
+                    done = await asyncio.to_thread(self.store.measured_indices, self.job_id,
+                                                   DRIFT_PHASE)
                     poses = [p for p in self.drift.check(check) if p.idx not in done]
                     await self._run_list(DRIFT_PHASE, list_name, poses, seen,
                                          self.drift.per_check, self.drift.per_check - len(poses))
@@ -230,15 +232,16 @@ class Acquisition:
             planned = chunk[got.idx]
             reading = await self._read_pose(phase, planned.idx, got.joints_deg, seen.previous,
                                             seen.earlier)
-            self.store.add_measurement(self.job_id, phase, planned.idx, list(got.joints_deg),
-                                       list(got.tool0), reading.holes_mm.tolist(),
-                                       pose_from_transform(reading.flange).tolist())
+            await asyncio.to_thread(
+                self.store.add_measurement, self.job_id, phase, planned.idx,
+                list(got.joints_deg), list(got.tool0), reading.holes_mm.tolist(),
+                pose_from_transform(reading.flange).tolist())
             seen.previous = reading
             seen.earlier = seen.earlier.plus(reading, f"{phase}/{planned.idx}")
             done += 1
             await self.events.publish("measured", phase=phase, index=planned.idx,
                                       done=done, total=total)
-        self._count_discarded()
+        await asyncio.to_thread(self._count_discarded)
 
     async def move_through(self, phase: str, plan: list[PlannedPose]) -> None:
         """Run the robot through `plan` without measuring (a warm-up), in lists of at most

@@ -35,19 +35,19 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        own = store if store is not None else open_store(settings)
+        own = store if store is not None else await asyncio.to_thread(open_store, settings)
         manager = JobManager(own, settings, on_fatal=on_fatal)
         app.state.store, app.state.manager, app.state.settings = own, manager, settings
         app.state.planning = set()  # robots whose job is being planned by a request now
         app.state.plans = asyncio.Semaphore(settings.max_concurrent_plans)
-        manager.resume_unfinished()
+        await manager.resume_unfinished()
         # one BLAS thread for the service's whole life: jobs call BLAS in many worker threads
         # at once, a limit set and restored around each identification left the others the
         # spinning default pools (screwcal/calibration/blas_threads.py)
         with hold_one_blas_thread():
             yield
             await manager.stop()
-        own.close()
+        await asyncio.to_thread(own.close)
 
     app = FastAPI(title="screwcal job service", version="1", lifespan=lifespan,
                   docs_url=None, redoc_url=None,

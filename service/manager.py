@@ -71,24 +71,25 @@ class JobManager:
         if self._on_fatal is not None:
             self._on_fatal(reason)
 
-    def start(self, job_id: int, plans: dict[str, list[PlannedPose]] | None = None) -> bool:
+    async def start(self, job_id: int, plans: dict[str, list[PlannedPose]] | None = None
+                    ) -> bool:
         """Run a job; one whose records cannot make a runner (a robot stored before its fields
         were validated, say) fails with the reason instead. True when it runs. `plans`: its
         lists as the request that posted it built them (else the runner builds them)."""
         try:
-            runner = JobRunner(self.store, self.settings, self.events.of(job_id), job_id,
-                               on_fatal=self.fatal, plans=plans)
+            runner = await JobRunner.open(self.store, self.settings, self.events.of(job_id),
+                                          job_id, on_fatal=self.fatal, plans=plans)
         except (ScrewcalError, ServiceError, ValueError, KeyError, TypeError) as err:
-            self.store.fail(job_id, f"cannot run: {err}")
+            await asyncio.to_thread(self.store.fail, job_id, f"cannot run: {err}")
             return False
         self.runners[job_id] = runner
         self.tasks[job_id] = asyncio.create_task(runner.run(), name=f"job {job_id}")
         return True
 
-    def resume_unfinished(self) -> list[int]:
+    async def resume_unfinished(self) -> list[int]:
         """After a restart (or a crash): every unfinished job nobody else holds goes on where
         its store says; start-up never dies on one bad record. Then the leases are kept."""
-        resumed = self.adopt()
+        resumed = await self.adopt()
         if self._keeper is None:
             self._renewer = LeaseRenewer(self.store)
             self._renewer.start()
@@ -99,18 +100,22 @@ class JobManager:
         task = self.tasks.get(job_id)
         return task is not None and not task.done()
 
-    def adopt(self) -> list[int]:
+    async def adopt(self) -> list[int]:
         """Take and run the unfinished jobs nobody holds; their ids."""
-        return [j for j in self.store.adoptable()
-                if not self.running(j) and self.store.take(j) and self.start(j)]
+        adopted = []
+        for job_id in await asyncio.to_thread(self.store.adoptable):
+            if not self.running(job_id) and await asyncio.to_thread(self.store.take, job_id) \
+                    and await self.start(job_id):
+                adopted.append(job_id)
+        return adopted
 
-    def keep_leases(self) -> None:
+    async def keep_leases(self) -> None:
         """Stop the runners of jobs another service holds now (this one froze past their
         leases), adopt the jobs whose holder died. (The renewal is LeaseRenewer's.)"""
         live = [job_id for job_id, task in self.tasks.items() if not task.done()]
-        for job_id in self.store.held_elsewhere(live):
+        for job_id in await asyncio.to_thread(self.store.held_elsewhere, live):
             self.tasks[job_id].cancel()  # held by another service now: must not move on
-        self.adopt()
+        await self.adopt()
 
     async def _keep(self) -> None:
         while True:
@@ -118,21 +123,17 @@ class JobManager:
             try:
                 if self._renewer is not None and self._renewer.error is not None:
                     raise self._renewer.error
-                self.keep_leases()
+                await self.keep_leases()
             except StoreLostError as err:
                 self.fatal(str(err))
                 return
             except StoreError as err:  # a full disk: the jobs pause by themselves; try again
                 print(f"screwcal service: cannot keep its leases: {err}", file=sys.stderr)
 
-    def busy_with(self, robot_id: int) -> int | None:
-        """The unfinished job of this robot, if any."""
-        return self.store.unfinished_job(robot_id)
-
-    def runner(self, job_id: int) -> JobRunner:
+    async def runner(self, job_id: int) -> JobRunner:
         runner = self.runners.get(job_id)
         if runner is None or self.tasks[job_id].done():
-            holder, left_s = self.store.lease_of(job_id)
+            holder, left_s = await asyncio.to_thread(self.store.lease_of, job_id)
             if holder is not None and holder != self.store.holder and left_s > 0:
                 raise ConflictError(f"job {job_id} runs on another service ({holder}): ask "
                                     "that one (its go-aheads and abort are there)")
@@ -141,16 +142,17 @@ class JobManager:
 
     async def go(self, job_id: int, index: int, operator: str = "") -> None:
         """The operator's go-ahead for pose `index`, kept with who gave it (provenance)."""
-        gate = self.runner(job_id).gate
+        gate = (await self.runner(job_id)).gate
         waiting = gate.waiting_for
         if not gate.take(index):  # consumed now: a second go-ahead for this pose is refused
             raise ConflictError(f"job {job_id} is not waiting for pose {index} "
                                 f"(waiting for {waiting})")
         if waiting is not None:
-            self.store.add_confirmation(job_id, waiting[0], index, operator or "not named")
+            await asyncio.to_thread(self.store.add_confirmation, job_id, waiting[0], index,
+                                    operator or "not named")
 
     async def abort(self, job_id: int) -> None:
-        await self.runner(job_id).abort()
+        await (await self.runner(job_id)).abort()
 
     async def wait(self, job_id: int) -> None:
         task = self.tasks.get(job_id)
@@ -173,4 +175,4 @@ class JobManager:
                 await task
         if self.fatal_reason is None:
             with contextlib.suppress(StoreError):
-                self.store.release()
+                await asyncio.to_thread(self.store.release)

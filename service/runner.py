@@ -45,7 +45,7 @@ from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.modelfile import model_document, parse_model
 from service import analysis
 from service.acquisition import LINK_ERRORS, Acquisition, JobAborted, OperatorGate
-from service.document import PhaseRecord, ResultDocument
+from service.document import JobRecord, PhaseRecord, ResultDocument
 from service.drift import (
     DRIFT_PHASE,
     DriftSchedule,
@@ -74,20 +74,31 @@ from service.verify import drift_warnings as alarm_warnings
 
 
 class JobRunner:
-    def __init__(self, store: Store, settings: ServiceSettings, events: JobEvents, job_id: int,
-                 on_fatal: Callable[[str], None] | None = None,
+    """One job's runner. Every store call of its coroutines runs in a worker thread (the event
+    loop serves every other job and client meanwhile); `open` reads the job and its robot."""
+
+    def __init__(self, store: Store, settings: ServiceSettings, events: JobEvents,
+                 job: JobRecord, robot: dict, on_fatal: Callable[[str], None] | None = None,
                  plans: dict[str, list[PlannedPose]] | None = None):
-        self.store, self.settings, self.events, self.job_id = store, settings, events, job_id
+        self.store, self.settings, self.events, self.job_id = store, settings, events, job.id
         self.on_fatal = on_fatal
-        self.job = store.job(job_id)
-        self.robot = store.robot(self.job.robot_id)
+        self.job, self.robot = job, robot
         self.model = parse_model(self.robot["model"], f"robot {self.robot['id']}")
         self.options = self.job.options
         self.gate = OperatorGate(step_mode=self.job.mode == "STEP")
-        self.acquisition = Acquisition(store, settings, events, job_id, self.robot, self.model,
+        self.acquisition = Acquisition(store, settings, events, job.id, self.robot, self.model,
                                        self.gate)
         self._plans: dict[str, list[PlannedPose]] = dict(plans or {})
         self._compensated: dict[str, list[PlannedPose]] = {}
+
+    @classmethod
+    async def open(cls, store: Store, settings: ServiceSettings, events: JobEvents, job_id: int,
+                   on_fatal: Callable[[str], None] | None = None,
+                   plans: dict[str, list[PlannedPose]] | None = None) -> JobRunner:
+        """The runner of a stored job (its records read in a worker thread)."""
+        job = await asyncio.to_thread(store.job, job_id)
+        robot = await asyncio.to_thread(store.robot, job.robot_id)
+        return cls(store, settings, events, job, robot, on_fatal, plans)
 
     # -- plans ---------------------------------------------------------------------------------
     def plan(self, kind: str) -> list[PlannedPose]:
@@ -153,27 +164,27 @@ class JobRunner:
         job's phases there: what is done is skipped, a correction that was started and not
         finished is never sent again, and a runner whose job another ended stops."""
         try:
-            self._set("running", "")
+            await self._set("running", "")
             t0 = time.perf_counter()
             await self._build_plans()
             await self._with_links("setup")
             if "setup" not in self.job.phases:
-                self.store.finish_step(self.job_id, "setup", time.perf_counter() - t0)
+                await asyncio.to_thread(self.store.finish_step, self.job_id, "setup",
+                                        time.perf_counter() - t0)
             for step in self.steps():
-                phase = self.store.claim_step(self.job_id, step).get(step, PhaseRecord())
+                phase = await asyncio.to_thread(self._claim, step)
                 if phase.done:
                     continue
                 if step.startswith("correction") and phase.started \
                         and self.route.startswith("zero"):
                     raise SafetyError("the job stopped during the correction: whether ZERO took "
                                       "effect is unknown; check the controller, then start anew")
-                self.job = self.store.job(self.job_id)  # the results as stored, not our copy
                 start = time.perf_counter()
                 await self._with_links(step)
                 seconds = time.perf_counter() - start
-                self.store.finish_step(self.job_id, step, seconds)
+                await asyncio.to_thread(self.store.finish_step, self.job_id, step, seconds)
                 await self.events.publish("phase", phase=step, seconds=seconds)
-            self._set("done", "")
+            await self._set("done", "")
             await self.events.publish("done")
         except ConflictError as err:  # a stale runner: another ended this job; touch nothing
             await self.events.publish("stale", reason=str(err))
@@ -193,11 +204,18 @@ class JobRunner:
         except (SafetyError, CorrectionRefusedError, ScrewcalError) as err:
             await self._failed(str(err))
         except Exception as err:  # a job never stays "running" after its task ended
-            self._set("failed", f"internal error: {err!r}")
+            await self._set("failed", f"internal error: {err!r}")
             await self.events.publish("failed", reason=repr(err))
             raise
         finally:
             await self.acquisition.disconnect()
+
+    def _claim(self, step: str) -> PhaseRecord:
+        """Claim `step` in the store (ConflictError for a stale runner); its record as it was,
+        and the job's results as stored, not our copy."""
+        phase = self.store.claim_step(self.job_id, step).get(step, PhaseRecord())
+        self.job = self.store.job(self.job_id)
+        return phase
 
     async def abort(self) -> None:
         await self.acquisition.abort()
@@ -207,21 +225,21 @@ class JobRunner:
         committed pose (an unfinished job is resumed; if even this small write fails, the job
         stays as stored, unfinished, and is resumed all the same)."""
         try:
-            self._set("paused", str(err))
+            await self._set("paused", str(err))
         except StoreFullError:
             pass
         await self.events.publish("paused", reason=str(err))
 
     async def _aborted(self) -> None:
-        self._set("aborted", "aborted by the operator")
+        await self._set("aborted", "aborted by the operator")
         await self.events.publish("aborted")
 
     async def _failed(self, reason: str) -> None:
-        self._set("failed", reason)
+        await self._set("failed", reason)
         await self.events.publish("failed", reason=reason)
 
-    def _set(self, state: str, reason: str) -> None:
-        self.job = self.store.set_state(self.job_id, state, reason)
+    async def _set(self, state: str, reason: str) -> None:
+        self.job = await asyncio.to_thread(self.store.set_state, self.job_id, state, reason)
 
     async def _with_links(self, step: str) -> None:
         """Run a step; a lost link pauses the job until it is back, then the step goes on."""
@@ -232,10 +250,10 @@ class JobRunner:
             except LINK_ERRORS as err:
                 if self.gate.aborted.is_set():
                     raise JobAborted() from None
-                self._set("paused", f"{type(err).__name__}: {err}")
+                await self._set("paused", f"{type(err).__name__}: {err}")
                 await self.events.publish("paused", reason=str(err))
                 await self.acquisition.reconnect()
-                self._set("running", "")
+                await self._set("running", "")
                 await self.events.publish("resumed", phase=step)
 
     async def _step(self, step: str) -> None:
@@ -248,7 +266,8 @@ class JobRunner:
             if self.options.drift_poses and self.acquisition.drift is None:
                 # the test cube's search: in a thread, never in the loop (nor at start-up)
                 self.acquisition.drift = await asyncio.to_thread(self.drift_schedule)
-            await self.acquisition.measure(step, self.targets(step))
+            # compensated targets: CPU and a store read, in a thread
+            await self.acquisition.measure(step, await asyncio.to_thread(self.targets, step))
         elif step.startswith("estimation"):
             await asyncio.to_thread(self.estimate, suffix)
         elif step.startswith("correction"):
@@ -308,8 +327,9 @@ class JobRunner:
         doc["model_note"] = ("the robot once ZERO made the identified offsets the new zero: "
                              "the model of the joints as the controller now reads them")
         sent = correction.model_copy(update={"sent": True})
-        self.job = self.store.set_result(self.job_id, self.job.result.with_round(
-            suffix, calibration=doc, correction=sent))
+        self.job = await asyncio.to_thread(self.store.set_result, self.job_id,
+                                           self.job.result.with_round(suffix, calibration=doc,
+                                                                      correction=sent))
         await self.events.publish("corrected", route=self.route,
                                   zero_command_deg=zero.tolist())
 

@@ -90,3 +90,18 @@ def db_target(request, tmp_path):
     if request.param == "sqlite":
         return tmp_path / "jobs.db"
     return request.getfixturevalue("postgres_server").new_database()
+
+
+@pytest.fixture(autouse=True)
+def store_off_the_loop(request, monkeypatch):
+    """Every test of the service: no store call of the service's code on the event loop's
+    thread (tests/loop_guard.py)."""
+    if not str(request.path).startswith(str(Path(__file__).parent / "integration")) and \
+            not str(request.path).startswith(str(Path(__file__).parent / "service")):
+        yield
+        return
+    from tests.loop_guard import guard_store
+
+    seen = guard_store(monkeypatch)
+    yield
+    assert not seen, "store calls on the event loop's thread:\n" + "\n".join(sorted(set(seen)))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 from collections.abc import AsyncIterator
 from typing import Annotated, Any
@@ -23,7 +24,7 @@ FINISHED = ("done", "failed", "aborted")  # the stream ends with the job
 async def events(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep,
                  last_event_id: Annotated[str | None, Header(alias="Last-Event-ID")] = None
                  ) -> StreamingResponse:
-    store.job(job_id)
+    first = await asyncio.to_thread(store.job, job_id)  # 404 for no such job
     bus = manager.events.of(job_id)
     boot = manager.events.boot
     start = 0  # Last-Event-ID "BOOT-SEQ" of this run: go on after it; else from the start
@@ -42,15 +43,24 @@ async def events(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep,
 
     async def stream() -> AsyncIterator[str]:
         # First the job as it stands (a client that re-attaches, or comes after a restart,
-        # knows where it is and what it waits for), then the events.
-        job = public(store.job(job_id), manager).model_dump()
+        # knows where it is and what it waits for), then the events. The job's end is told by
+        # its events (a stale runner's by the store): an open stream never waits on the store.
+        job = public(first, manager).model_dump()
         yield frame({**job, "kind": "state", "job_kind": job["kind"]}, None)
+        state = first.state
+        ended = [e["kind"] for e in bus.items[:start] if e["kind"] in FINISHED]
+        if ended:  # resumed after the job's end
+            state = ended[-1]
         sent = start
         while True:
             while sent < len(bus.items):
-                yield frame(bus.items[sent], sent)
+                event = bus.items[sent]
+                yield frame(event, sent)
                 sent += 1
-            state = store.job(job_id).state
+                if event["kind"] in FINISHED:
+                    state = event["kind"]
+                elif event["kind"] == "stale":  # another runner ended the job: as stored
+                    state = (await asyncio.to_thread(store.job, job_id)).state
             if state in FINISHED and sent >= len(bus.items):
                 yield frame({"kind": "end", "state": state}, None)
                 return

@@ -29,11 +29,7 @@ async def create_job(body: JobCreate, _: Auth, request: Request, store: StoreDep
     """One unfinished job per robot: refused at once when the robot has one or another
     request is planning one for it; the database's unique index decides in the end (a
     second service on a server database included)."""
-    robot = store.robot(body.robot_id)
-    busy = store.unfinished_job(body.robot_id)
-    if busy is not None:
-        raise ConflictError(f"robot {body.robot_id} is busy with job {busy}: wait for it to "
-                            f"end or abort it (screwcal job abort {busy})")
+    robot, body = await asyncio.to_thread(_admit, store, body)
     planning: set[int] = request.app.state.planning
     if body.robot_id in planning:
         raise ConflictError(f"robot {body.robot_id} is busy: another request is starting a "
@@ -44,8 +40,15 @@ async def create_job(body: JobCreate, _: Auth, request: Request, store: StoreDep
     finally:
         planning.discard(body.robot_id)
 
-async def _plan_and_add(body: JobCreate, robot: dict, store: Store, manager: JobManager,
-                        plans: asyncio.Semaphore) -> JobPublic:
+
+def _admit(store: Store, body: JobCreate) -> tuple[dict, JobCreate]:
+    """The store's checks of a new job (in a worker thread): its robot exists and is not busy,
+    a verify job's options from the robot's newest model, a frame's source job has one."""
+    robot = store.robot(body.robot_id)
+    busy = store.unfinished_job(body.robot_id)
+    if busy is not None:
+        raise ConflictError(f"robot {body.robot_id} is busy with job {busy}: wait for it to "
+                            f"end or abort it (screwcal job abort {busy})")
     if body.kind == "verify":  # the robot's newest model: its frame, its targets
         body = body.model_copy(update={"options": verify_options(store, body.robot_id,
                                                                  body.options)})
@@ -54,6 +57,11 @@ async def _plan_and_add(body: JobCreate, robot: dict, store: Store, manager: Job
         raise HTTPException(422, f"job {source} has no identified robot base frame to "
                             "measure in: choose a calibration or procedure job that ran "
                             "its estimation")
+    return robot, body
+
+
+async def _plan_and_add(body: JobCreate, robot: dict, store: Store, manager: JobManager,
+                        plans: asyncio.Semaphore) -> JobPublic:
     try:  # a job that cannot run is refused now, with the reason, not at run time
         model = parse_model(robot["model"], f"robot {body.robot_id}")
         async with plans:  # a bounded number of plans at once: each takes a worker thread
@@ -62,8 +70,9 @@ async def _plan_and_add(body: JobCreate, robot: dict, store: Store, manager: Job
     except ScrewcalError as err:
         raise HTTPException(422, f"this job cannot run on robot {body.robot_id}: "
                             f"{err}") from None
-    job = store.add_job(body.robot_id, body.kind, body.mode, body.options.model_dump())
-    manager.start(job.id, built)  # the runner's plans: built once, here, off the event loop
+    job = await asyncio.to_thread(store.add_job, body.robot_id, body.kind, body.mode,
+                                  body.options.model_dump())
+    await manager.start(job.id, built)  # the runner's plans: built once, here, off the loop
     return public(job, manager)
 
 @router.get("", response_model=list[JobPublic])
@@ -105,6 +114,7 @@ def calibrated_model(job_id: JobId, _: Read, store: StoreDep,
     return doc
 
 @router.get("/{job_id}/report", response_class=HTMLResponse)
-async def report(job_id: JobId, _: Read, store: StoreDep) -> str:
+def report(job_id: JobId, _: Read, store: StoreDep) -> str:
+    """(A sync route: FastAPI runs it in its thread pool, the store's reads and the page.)"""
     job = store.job(job_id)
-    return await asyncio.to_thread(report_html, job, store.robot(job.robot_id))
+    return report_html(job, store.robot(job.robot_id))

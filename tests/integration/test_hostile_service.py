@@ -102,8 +102,8 @@ async def test_a_stale_runner_never_repeats_zero(app_http, rig):
         "options": {**FAST, "model": "thesis", "correction": "zero"}})
     job_id = r.json()["id"]
     store = app.state.manager.store
-    stale = JobRunner(store, app.state.manager.settings,
-                      app.state.manager.events.of(job_id), job_id)  # its copy: unfinished
+    stale = await JobRunner.open(store, app.state.manager.settings,
+                                 app.state.manager.events.of(job_id), job_id)  # unfinished
     job = await wait_state(http, job_id, operator=True)
     assert job["state"] == "done", job["reason"]
     truth_after_one_zero = rig.emu.world.truth
