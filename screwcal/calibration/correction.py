@@ -43,6 +43,7 @@ from screwcal.kinematics.se3 import Array, Mask
 
 if TYPE_CHECKING:  # a type only: compensating a program needs none of the error models
     from screwcal.calibration.error_parameters import Param
+    from screwcal.calibration.residual_model import ResidualModel, ResidualPrediction
 
 PLAUSIBLE_OFFSET_DEG = 5.0
 # A compensated joint moves by its offset plus what the other joints' errors ask of it (J4 and
@@ -100,6 +101,7 @@ class Compensation:
     nominal_tool0: Array  # (N, 4, 4) the nominal flange pose of those joints: what to program
     change_deg: Array  # (N, n) q_rad minus the reference solution, deg (zeros without one)
     refused: tuple[tuple[int, str], ...] = ()  # (target, why), with strict=False only
+    residual: ResidualPrediction | None = None  # the residual model's correction, when given
 
     @property
     def ok(self) -> Array:
@@ -117,7 +119,8 @@ class Compensation:
 def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLike,
                q_ref: ArrayLike | None = None, *,
                frame: Literal["base", "measuring"] = "measuring",
-               bound_deg: float = PLAUSIBLE_CHANGE_DEG, strict: bool = True) -> Compensation:
+               bound_deg: float = PLAUSIBLE_CHANGE_DEG, strict: bool = True,
+               residual: ResidualModel | None = None) -> Compensation:
     """Joint targets (from q_ref (N, n) or (n,), on its branch and turn; without it, the
     branch nearest all zeros; within the limits) and nominal tool0 poses that take the
     calibrated robot to T_desired (N, 4, 4): flange poses in the robot base frame
@@ -127,7 +130,16 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
     calibration moves a joint that far. `strict`: the first refused target raises
     (CorrectionRefusedError, UnreachableError or JointLimitError naming it); otherwise the
     refusals are listed in the result and those rows keep q_ref.
+
+    `residual` (`residual_model`): the calibrated robot is its model plus that residual; each
+    target is moved back by the residual's correction (into the target's frame), taken at the
+    reference solution (or, without one, at the physical model's solution): the compensated
+    joints differ from it by far less than the residual's length scale. The result carries
+    the correction and its uncertainty per target (`Compensation.residual`).
     """
+    if residual is not None:
+        return _with_residual(calibrated, nominal, np.asarray(T_desired, dtype=float), q_ref,
+                              residual, frame=frame, bound_deg=bound_deg, strict=strict)
     T = np.asarray(T_desired, dtype=float)
     robot = calibrated if frame == "measuring" else \
         calibrated.with_frames(base=np.eye(4), tool=np.eye(4))
@@ -193,6 +205,31 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
     bad = [k for k, _ in refused]
     q[bad], change[bad] = ref[bad], 0.0
     return Compensation(q, flange_kinematics(nominal, q), change, tuple(refused))
+
+
+def _with_residual(calibrated: SerialModel, nominal: SerialModel, T: Array,
+                   q_ref: ArrayLike | None, residual: ResidualModel, *,
+                   frame: Literal["base", "measuring"], bound_deg: float, strict: bool
+                   ) -> Compensation:
+    """`compensate` of the targets moved back by the residual model's correction."""
+    from dataclasses import replace
+
+    at = calibrated.n_joints
+    if q_ref is None:
+        robot = calibrated if frame == "measuring" else \
+            calibrated.with_frames(base=np.eye(4), tool=np.eye(4))
+        at_q = nearest_home_solution(robot, T)
+    else:
+        at_q = np.broadcast_to(np.asarray(q_ref, float), (T.shape[0], at))
+    seen = residual.predict(at_q)
+    shift = seen.correction_mm  # measuring frame; a base-frame target: into the robot's base
+    if frame == "base":
+        shift = shift @ calibrated.base[:3, :3]
+    moved = T.copy()
+    moved[:, :3, 3] -= shift
+    comp = compensate(calibrated, nominal, moved, q_ref, frame=frame, bound_deg=bound_deg,
+                      strict=strict)
+    return replace(comp, residual=seen)
 
 
 WRIST_SINGULAR_DEG = 10.0  # axes 4 and 6 this close to parallel: the wrist singularity's band
@@ -326,22 +363,26 @@ def _turned_toward(q: Array, ref: Array) -> Array:
 
 def compensate_each(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLike, *,
                     frame: Literal["base", "measuring"] = "measuring",
-                    bound_deg: float = PLAUSIBLE_CHANGE_DEG) -> Compensation:
+                    bound_deg: float = PLAUSIBLE_CHANGE_DEG,
+                    residual: ResidualModel | None = None) -> Compensation:
     """Every target of T_desired (N, 4, 4) that can be compensated, from the nominal solution
     nearest home (`frame="base"`) or the calibrated one nearest home (`"measuring"`); the
-    others are listed in `refused` with why (their rows hold zeros), never raised."""
+    others are listed in `refused` with why (their rows hold zeros), never raised.
+    `residual`: as `compensate`'s (refused rows: a zero correction)."""
     T = np.asarray(T_desired, dtype=float)
     try:
-        return _compensate_from_home(calibrated, nominal, T, frame, bound_deg)
+        return _compensate_from_home(calibrated, nominal, T, frame, bound_deg, residual)
     except TargetRefusedError:
         pass  # one target fails the batch: each on its own
     n = calibrated.n_joints
     q, tool0, change = np.zeros((len(T), n)), np.tile(np.eye(4), (len(T), 1, 1)), \
         np.zeros((len(T), n))
     refused = []
+    seen = []  # the residual model's prediction for each target compensated
     for k in range(len(T)):
         try:
-            one = _compensate_from_home(calibrated, nominal, T[k:k + 1], frame, bound_deg)
+            one = _compensate_from_home(calibrated, nominal, T[k:k + 1], frame, bound_deg,
+                                        residual)
         except TargetRefusedError as err:
             refused.append((k, str(err).replace("target 0 is", "it is")
                             .replace("target 0: ", "").replace("target 0", "it")))
@@ -350,17 +391,34 @@ def compensate_each(calibrated: SerialModel, nominal: SerialModel, T_desired: Ar
             refused.append((k, one.refused[0][1]))
             continue
         q[k], tool0[k], change[k] = one.q_rad[0], one.nominal_tool0[0], one.change_deg[0]
-    return Compensation(q, tool0, change, tuple(refused))
+        if one.residual is not None:
+            seen.append((k, one.residual))
+    return Compensation(q, tool0, change, tuple(refused), _gathered(seen, len(T)))
+
+
+def _gathered(seen: list[tuple[int, ResidualPrediction]], n: int) -> ResidualPrediction | None:
+    """The residual predictions of single targets as one for all n (zeros where none)."""
+    if not seen:
+        return None
+    from screwcal.calibration.residual_model import ResidualPrediction
+
+    rows = [k for k, _ in seen]
+    correction, std, nearest = np.zeros((n, 3)), np.zeros(n), np.zeros(n)
+    correction[rows] = [p.correction_mm[0] for _, p in seen]
+    std[rows] = [p.std_mm[0] for _, p in seen]
+    nearest[rows] = [p.nearest_lengths[0] for _, p in seen]
+    return ResidualPrediction(correction, std, nearest, seen[0][1].reach_lengths)
 
 
 def _compensate_from_home(calibrated: SerialModel, nominal: SerialModel, T: Array,
-                          frame: Literal["base", "measuring"], bound_deg: float
-                          ) -> Compensation:
+                          frame: Literal["base", "measuring"], bound_deg: float,
+                          residual: ResidualModel | None = None) -> Compensation:
     if frame == "measuring":
-        return compensate(calibrated, nominal, T, frame=frame, bound_deg=bound_deg)
+        return compensate(calibrated, nominal, T, frame=frame, bound_deg=bound_deg,
+                          residual=residual)
     q_ref = nearest_home_solution(nominal.with_frames(np.eye(4), np.eye(4)), T)
     return compensate(calibrated, nominal, T, q_ref, frame=frame, bound_deg=bound_deg,
-                      strict=False)
+                      strict=False, residual=residual)
 
 
 def nearest_home_solution(robot: SerialModel, T: Array) -> Array:

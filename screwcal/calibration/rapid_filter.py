@@ -21,7 +21,7 @@ import re
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from operator import itemgetter
-from typing import TypeGuard
+from typing import TYPE_CHECKING, TypeGuard
 
 import numpy as np
 
@@ -42,6 +42,9 @@ from screwcal.kinematics.pose import (
     rotation_from_quaternion_wxyz,
 )
 from screwcal.kinematics.se3 import Array, invert_transform
+
+if TYPE_CHECKING:
+    from screwcal.calibration.residual_model import ResidualModel
 
 TRANS_DECIMALS = 4  # mm
 QUAT_DECIMALS = 9
@@ -69,11 +72,17 @@ class FilterReport:
     max_rotation_change_deg: float = 0.0
     refused: list[Note] = field(default_factory=list)  # declared targets left unchanged
     not_static: list[Note] = field(default_factory=list)  # targets only the program knows
+    residual: str = ""  # the residual model's corrections, when one was given
+    uncorrected: list[Note] = field(default_factory=list)  # beyond the residual model's reach
 
     def summary(self) -> str:
         lines = [f"{self.path}: {self.compensated} robtargets compensated; largest change "
                  f"{self.max_position_change_mm:.3f} mm, {self.max_rotation_change_deg:.4f} deg"]
-        for title, notes in (("refused (left unchanged)", self.refused),
+        if self.residual:
+            lines.append(f"  {self.residual}")
+        for title, notes in (("compensated without the residual's correction",
+                              self.uncorrected),
+                             ("refused (left unchanged)", self.refused),
                              ("not compensated statically", self.not_static)):
             if notes:
                 lines.append(f"  {len(notes)} {title}:")
@@ -159,9 +168,11 @@ def _frames(module: RapidModule) -> tuple[Frames, Frames]:
 
 
 def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialModel, *,
-                 tool: str = "tool0", wobj: str = "wobj0") -> tuple[str, FilterReport]:
+                 tool: str = "tool0", wobj: str = "wobj0",
+                 residual: ResidualModel | None = None) -> tuple[str, FilterReport]:
     """The module's text with every declared robtarget compensated, and what was done.
-    `tool` and `wobj` apply to targets no motion instruction of the module names."""
+    `tool` and `wobj` apply to targets no motion instruction of the module names.
+    `residual`: the calibrated robot's residual model (`correction.compensate`)."""
     report = FilterReport(module.path)
     tools, wobjs = _frames(module)
     for name, known in ((tool, tools), (wobj, wobjs)):
@@ -193,7 +204,8 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
         frames += [(wframe, tframe)] * len(found)
     if not targets:
         return module.text, report
-    return _compensated_text(module.text, targets, frames, calibrated, nominal, report), report
+    return _compensated_text(module.text, targets, frames, calibrated, nominal, report,
+                             residual), report
 
 
 def _uses(module: RapidModule, report: FilterReport) -> dict[str, set[tuple[str, str]]]:
@@ -245,8 +257,8 @@ def _frame_problem(tname: str, tframe: Array | str | None, wname: str,
 
 
 def _compensated_text(text: str, targets: list[_Target], frames: list[tuple[Array, Array]],
-                      calibrated: SerialModel, nominal: SerialModel, report: FilterReport
-                      ) -> str:
+                      calibrated: SerialModel, nominal: SerialModel, report: FilterReport,
+                      residual: ResidualModel | None = None) -> str:
     """The text with each target's numbers replaced by its compensated ones; the targets
     the nominal or the calibrated robot cannot reach are noted as refused in the report."""
     W = np.array([f[0] for f in frames])
@@ -266,10 +278,16 @@ def _compensated_text(text: str, targets: list[_Target], frames: list[tuple[Arra
     if idx.size == 0:
         return text
     comp = compensate(calibrated, nominal, T_flange[idx], q_nominal[idx], frame="base",
-                      strict=False)
+                      strict=False, residual=residual)
     for row, why in comp.refused:  # the calibrated robot cannot reach it plausibly
         report.refused.append(Note(targets[idx[row]].line, targets[idx[row]].name, why))
     comp_ok = comp.ok
+    if comp.residual is not None:  # what the residual model corrected, and where it could not
+        report.residual = comp.residual.summary()
+        report.uncorrected += [Note(targets[idx[k]].line, targets[idx[k]].name,
+                                    comp.residual.note(k))
+                               for k in np.flatnonzero(np.logical_and(
+                                   ~comp.residual.within_reach, comp_ok)).tolist()]
     idx = idx[comp_ok]
     if idx.size == 0:
         return text

@@ -4,7 +4,7 @@ docs/formats.md. `compensate` is in commands/compensate.py.
     screwcal calibrate --robot irb1600 --data measurements.csv --out result.json
                        [--error-model full|thesis|joints|frames] [--solver lm|de]
                        [--weight-mm W] [--base-frame unknown|known]
-                       [--residual pose|position|distance]
+                       [--residual pose|position|distance] [--residual-model auto|none|gp]
 
 --robot is a library robot (`screwcal robot list`) or a robot file (`screwcal robot import`,
 docs/robots.md). By default the measuring system's frame and the measured point's offset from
@@ -14,6 +14,12 @@ the thesis's Eq. 2.4 objective with that W; otherwise residuals are weighted sta
 the noise levels, which are estimated from the data (variance components) unless `--noise-mm`
 / `--joint-noise-deg` fix them; the result reports the levels used with their uncertainty.
 `--model` is the offline contract's name of `--error-model`.
+
+After identification, `--residual-model` (default auto) learns what the physical model leaves of
+the measured point's position as a function of the joints (a Gaussian process, docs/formats.md
+"residual_model"); auto keeps it only when cross-validation on the calibration poses shows it
+beats the physical model by more than its spread. predict and compensate then add its
+correction, with its standard deviation.
 """
 
 from __future__ import annotations
@@ -54,6 +60,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from screwcal.calibration.base_alignment import base_from_sweeps, read_sweeps_csv
     from screwcal.calibration.identify import NoiseModel, identify
     from screwcal.calibration.measurements import read_measurements_csv
+    from screwcal.calibration.residual_stage import learn_residual
     from screwcal.calibration.resultfile import result_document
     from screwcal.errors import DataFileError, IdentificationError
     from screwcal.kinematics.modelfile import resolve_model
@@ -83,8 +90,12 @@ def run_calibrate(args: argparse.Namespace) -> int:
                 "weight_mm": args.weight_mm, "noise_mm": args.noise_mm,
                 "joint_noise_deg": args.joint_noise_deg, "data": str(args.data),
                 "poses": len(data), "compliance": args.compliance, "lag": args.lag,
-                "outliers": args.outliers, "joint_convention": convention}
+                "outliers": args.outliers, "joint_convention": convention,
+                "residual_model": args.residual_model}
     doc = result_document(result, nominal.name, settings)
+    residual = learn_residual(result, data, args.residual_model)  # the stage after identify
+    doc["residual_model"] = residual.to_dict()
+    doc["warnings"] += list(residual.warnings)
     backlash = backlash_of_measurements(result, data)
     if backlash is not None:
         doc["backlash"] = backlash
@@ -119,7 +130,10 @@ def run_calibrate(args: argparse.Namespace) -> int:
             f"{j['joint']} {j['backlash_deg']:.4f} +- {j['std_deg']:.4f} deg"
             for j in backlash["joints"] if j["identified"]) or "no joint separable")
             + f"; {backlash['compensation']}")
-    for warning in result.warnings:
+    print(f"residual model {residual.note}" + (
+        f"; predictive std {residual.model.std_at_calibration_mm():.4f} mm (per component, "
+        "mean over the calibration poses)" if residual.used and residual.model else ""))
+    for warning in doc["warnings"]:
         print(f"warning: {warning}")
     if result.degenerate:
         print("warning: some requested parameters cannot be identified from these data; see "
@@ -268,6 +282,11 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
                    help="joint readings that lag the motion (the diagnostics flag them): "
                    "estimate the lag from the residuals and correct the readings (default auto: "
                    "when flagged; rows are taken in the file's order)")
+    p.add_argument("--residual-model", choices=["auto", "none", "gp"], default="auto",
+                   help="after identification, learn what the physical model leaves over joint "
+                   "space (a Gaussian process): auto (default) keeps it when cross-validation "
+                   "shows it beats the physical model by more than its spread; gp keeps it; "
+                   "none skips it")
     add_joint_convention(p, "how the file's q1..q6 count joint 3")
     add_payload_arguments(p)
     p.set_defaults(func=run_calibrate)

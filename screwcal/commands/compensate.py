@@ -13,6 +13,7 @@ from screwcal.commands.joint_convention import add_joint_convention, joint_conve
 from screwcal.commands.options import add_option, check_outputs
 
 if TYPE_CHECKING:
+    from screwcal.calibration.residual_model import ResidualModel
     from screwcal.kinematics.model import SerialModel
 
 PARTIAL_EXIT = 3  # some targets refused (listed), the others written
@@ -37,11 +38,18 @@ input is not a RAPID module, --out names an input, or the model is position-only
 from positions of a point on joint 6's axis: it does not know the orientation).
 A target at the wrist singularity is solved with joints 4 and 6 kept nearest the nominal
 solution.
+
+A result that carries a residual model (`calibrate --residual-model`) compensates for it too:
+each target is moved back by the residual's correction where the robot will be; the targets'
+CSV gains the columns dx, dy, dz (the correction, mm, in the targets' frame), std_mm (its
+predictive standard deviation per component) and note (a target beyond the residual model's
+reach in joint space gets no correction), and --rapid says the corrections' size.
 """
 
 
 def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.calibration.correction import compensate_each
+    from screwcal.calibration.residual_model import residual_from_document
     from screwcal.errors import DataFileError
     from screwcal.kinematics.modelfile import parse_model, read_model_document
     from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
@@ -54,12 +62,13 @@ def run_compensate(args: argparse.Namespace) -> int:
     # the result's
     nominal = nominal_of(document, args.result, args.robot) or calibrated
     _refuse_position_only(document, args.result)
+    residual = residual_from_document(document, args.result)
     if args.rapid:
-        return _compensate_rapid(args, calibrated, nominal)
+        return _compensate_rapid(args, calibrated, nominal, residual)
     frame: Literal["base", "measuring"] = "base" if args.targets else "measuring"
     table = read_numeric_csv(source, ["x", "y", "z", "rx", "ry", "rz"])
     T = transform_from_pose(table.take(["x", "y", "z", "rx", "ry", "rz"]))
-    comp = compensate_each(calibrated, nominal, T, frame=frame)
+    comp = compensate_each(calibrated, nominal, T, frame=frame, residual=residual)
     ok = comp.ok
     for k, why in comp.refused:
         print(f"refused: {table.path}, line {table.lines[k]} (id {table.ids[k]}): {why}",
@@ -73,16 +82,24 @@ def run_compensate(args: argparse.Namespace) -> int:
     q_deg = readings_from_serial(calibrated.joints_to_deg(comp.q_rad), convention)
     poses = pose_from_transform(comp.nominal_tool0)
     header = ["id", *joint_columns(calibrated.n_joints), "x", "y", "z", "rx", "ry", "rz"]
-    write_csv_atomic(args.out, header, ([i, *(f"{v:.4f}" for v in q), *(f"{v:.4f}" for v in p)]
-                                        for i, q, p, good in zip(table.ids, q_deg, poses, ok,
-                                                                 strict=True) if good))
+    rows = [[i, *(f"{v:.4f}" for v in q), *(f"{v:.4f}" for v in p)]
+            for i, q, p in zip(table.ids, q_deg, poses, strict=True)]
+    seen = comp.residual
+    if seen is not None:
+        shift = seen.correction_mm if frame == "measuring" else \
+            seen.correction_mm @ calibrated.base[:3, :3]
+        header += ["dx", "dy", "dz", "std_mm", "note"]
+        for k, row in enumerate(rows):
+            row += [*(f"{v:.4f}" for v in shift[k]), f"{seen.std_mm[k]:.4f}", seen.note(k)]
+    write_csv_atomic(args.out, header, (row for row, good in zip(rows, ok, strict=True)
+                                        if good))
     where = "tool0 in the robot base frame" if frame == "base" else \
         "measured point in the measuring frame"
     print(f"compensated {int(ok.sum())} of {len(ok)} targets ({where}) -> {args.out}: joint "
           f"targets, and the nominal tool0 poses of model '{nominal.name}' to program; largest "
           f"joint change {comp.max_change_deg:.3f} deg"
           + ("; joint 3 as FANUC counts it (to the horizontal)" if convention == "fanuc"
-             else ""))
+             else "") + ("" if seen is None else f"; {seen.summary()}"))
     if comp.refused:
         print(f"{len(comp.refused)} targets refused (listed on stderr), not in {args.out}")
         return PARTIAL_EXIT
@@ -128,7 +145,7 @@ def nominal_of(doc: object, result_path: str, robot: str | None) -> SerialModel 
 
 
 def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
-                      nominal: SerialModel) -> int:
+                      nominal: SerialModel, residual: ResidualModel | None = None) -> int:
     from screwcal.calibration.rapid_filter import filter_rapid
     from screwcal.calibration.rapid_source import read_rapid_module
     from screwcal.errors import DataFileError
@@ -144,7 +161,7 @@ def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
     with cycle_collection_paused():  # the module's tree lives through the filter: no cycle
         module = read_rapid_module(str(path), text)  # in it, nothing for passes over it
         out_text, report = filter_rapid(module, calibrated, nominal, tool=args.tool,
-                                        wobj=args.wobj)
+                                        wobj=args.wobj, residual=residual)
         del module  # freed here, not gone through once more by the collector it resumes
     if report.compensated == 0:
         print(report.summary(), file=sys.stderr)

@@ -6,6 +6,11 @@
 --result (a calibration result, or a calibrated model file) predicts the measured point in the
 measuring system's frame; --robot (a library robot or a robot file) the nominal flange (tool0)
 pose in the robot base frame. --model, the offline contract's spelling, takes either.
+
+A result that carries a residual model (`calibrate --residual-model`) adds its correction to each
+position, and the file gains the columns dx, dy, dz (the correction, mm), std_mm (its predictive
+standard deviation per component, 1 sigma) and note (joints beyond the residual model's reach:
+no correction there).
 """
 
 from __future__ import annotations
@@ -14,11 +19,13 @@ import argparse
 import sys
 
 OUTPUT_COLUMNS = ("id", "x", "y", "z", "rx", "ry", "rz")
+RESIDUAL_COLUMNS = ("dx", "dy", "dz", "std_mm", "note")  # with a residual model only
 
 
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from screwcal.calibration.residual_model import residual_from_document
     from screwcal.commands.calibrate import with_payload
     from screwcal.commands.joint_convention import joint_convention
     from screwcal.commands.options import check_outputs
@@ -39,11 +46,26 @@ def run(args: argparse.Namespace) -> int:
     for k in np.flatnonzero(outside)[:5]:
         print(f"warning: {table.path}, line {table.lines[k]}: joints outside the limits of model "
               f"'{model.name}' (predicted anyway)", file=sys.stderr)
-    poses = pose_from_transform(forward_kinematics(model, model.joints_from_deg(q_deg)))
-    write_csv_atomic(args.out, OUTPUT_COLUMNS,
-                     ([pid] + [f"{v:.6f}" for v in pose] for pid, pose in zip(table.ids, poses,
-                                                                              strict=True)))
-    print(f"predicted {len(poses)} poses with model '{model.name}' -> {args.out}")
+    q_rad = model.joints_from_deg(q_deg)
+    poses = pose_from_transform(forward_kinematics(model, q_rad))
+    residual = residual_from_document(document, str(given)) if args.result or args.model \
+        else None
+    if residual is None:
+        write_csv_atomic(args.out, OUTPUT_COLUMNS, (
+            [pid] + [f"{v:.6f}" for v in pose] for pid, pose in zip(table.ids, poses,
+                                                                  strict=True)))
+        print(f"predicted {len(poses)} poses with model '{model.name}' -> {args.out}")
+        return 0
+    seen = residual.predict(q_rad)
+    poses[:, :3] += seen.correction_mm
+    for k in np.flatnonzero(~seen.within_reach)[:5]:
+        print(f"note: {table.path}, line {table.lines[k]}: {seen.note(int(k))}", file=sys.stderr)
+    write_csv_atomic(args.out, OUTPUT_COLUMNS + RESIDUAL_COLUMNS, (
+        [pid, *(f"{v:.6f}" for v in pose), *(f"{v:.6f}" for v in d), f"{s:.6f}", seen.note(k)]
+        for k, (pid, pose, d, s) in enumerate(zip(table.ids, poses, seen.correction_mm,
+                                                  seen.std_mm, strict=True))))
+    print(f"predicted {len(poses)} poses with model '{model.name}' and its "
+          f"{seen.summary()} -> {args.out}")
     return 0
 
 
