@@ -8,7 +8,7 @@
                            [--program FILE.mod|DIR ...] [--set NAME=VALUE ...] [--verbose]
     screwcal emulator arm --port PORT [--world FILE] [--pty]
     (both: [--arm-faults duplicate=P,late=P,stale=P])
-    screwcal emulator tracker --port PORT [--world FILE] [--stand X,Y,Z]
+    screwcal emulator tracker --port PORT [--world FILE] [--stand-mm X Y Z]
     (irc5 --tracker-port P, and tracker: [--tracker-faults beam=K,beam_n=N,drop=K,uninit=K,warm=K])
 
 The IRC5 executes the RAPID module users load on a real controller (ScrewcalServer.mod, or a
@@ -29,7 +29,7 @@ own, following the world file the IRC5 process writes: `--world FILE`, or by def
 private folder per run, whose file the IRC5 process prints on its second line. Until a robot is
 known the arm answers `$NM ... NO_ROBOT`. The laser tracker (emScon TPI, simulators/tracker.py)
 runs the same two ways (`--tracker-port`, or `emulator tracker --world FILE`): it measures one
-SMR on the flange from where it stands (--stand, mm in the robot frame). Ctrl-C (SIGINT) or
+SMR on the flange from where it stands (--stand-mm, robot frame). Ctrl-C (SIGINT) or
 `kill` (SIGTERM) closes the servers and exits 0, also when started in the background by a
 script.
 """
@@ -89,7 +89,7 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
     if args.tracker_port is not None:
         from simulators.tracker import TrackerEmulator, WorldSource
 
-        tracker = TrackerEmulator(WorldSource(world), args.stand, faults=args.tracker_faults,
+        tracker = TrackerEmulator(WorldSource(world), args.stand_mm, faults=args.tracker_faults,
                                   seed=args.seed if args.noise_seed is None else args.noise_seed)
         tracker_host, tracker_port = await tracker.start(args.host, args.tracker_port)
         line += f"; laser tracker on emscon://{tracker_host}:{tracker_port}"
@@ -136,7 +136,7 @@ async def _serve_tracker(args: argparse.Namespace) -> None:
         print("warning: no --world: this tracker knows no robot and finds no reflector; pass "
               "the world file the irc5 emulator printed", file=sys.stderr)
     world = args.world or str(Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "none.json")
-    tracker = TrackerEmulator(WorldFileSource(world), args.stand, seed=args.seed,
+    tracker = TrackerEmulator(WorldFileSource(world), args.stand_mm, seed=args.seed,
                               faults=args.tracker_faults)
     host, port = await tracker.start(args.host, args.port)
     stopped = stop_on_signals()
@@ -271,23 +271,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_tracker(p: argparse.ArgumentParser) -> None:
+    from screwcal.commands.options import add_vector
     from screwcal.instrument import TRACKER_STAND_MM
 
-    p.add_argument("--stand", type=_three_numbers, default=TRACKER_STAND_MM, metavar="X,Y,Z",
-                   help="where the tracker stands, mm in the robot's base frame (default "
-                   f"{','.join(f'{v:g}' for v in TRACKER_STAND_MM)})")
+    add_vector(p, "--stand-mm", default=TRACKER_STAND_MM,
+               help="where the tracker stands, mm in the robot's base frame (default "
+               f"{' '.join(f'{v:g}' for v in TRACKER_STAND_MM)})")
     p.add_argument("--tracker-faults", type=_tracker_faults, default=None, metavar="NAME=K,...",
                    help="faults at a measurement attempt K (from 0): beam (broken for beam_n "
                    "attempts, default 3), drop (the connection), uninit (initialisation lost), "
                    "warm (laser warming up), e.g. beam=5,drop=9")
-
-
-def _three_numbers(text: str) -> tuple[float, float, float]:
-    try:
-        x, y, z = (float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: three numbers X,Y,Z (mm)") from None
-    return x, y, z
 
 
 def _tracker_faults(text: str) -> object:

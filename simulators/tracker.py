@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import math
 from dataclasses import dataclass, field, fields
 from typing import Protocol
 
@@ -30,19 +29,17 @@ import numpy as np
 
 from protocol import emscon as es
 from protocol.errors import FramingError
-from screwcal.instrument import (
-    SMR_ACCEPTANCE_DEG,
-    TRACKER_RANGE_MM,
-    TRACKER_STAND_MM,
-    tracker_noise_mm,
+from screwcal.calibration.line_of_sight import (
+    DEFAULT_SMR_AXIS,
+    DEFAULT_SMR_MM,
+    TrackerView,
+    beam_blocked,
+    view_from,
 )
+from screwcal.instrument import TRACKER_STAND_MM, tracker_noise_mm
 from screwcal.kinematics.se3 import Array, transform_points
 from simulators.world import World
 
-DEFAULT_SMR_MM = (30.0, 20.0, 40.0)  # the SMR's centre in tool0 (off the flange's axis)
-DEFAULT_SMR_AXIS = (0.0, 0.0, 1.0)  # where its opening faces, in tool0
-LINK_RADIUS_MM = (120.0, 110.0, 90.0, 80.0, 60.0, 40.0)  # the capsules, base to flange
-SMR_CLEARANCE_MM = 60.0  # the beam's last part, inside the SMR's own nest, is not checked
 STANDARD_AIR = (20.0, 1013.25, 50.0)  # deg C, mbar, %RH
 
 _LENGTH_PER_MM = {0: 1e-3, 1: 1.0, 2: 1e3, 3: 1 / 304.8, 4: 1 / 914.4, 5: 1 / 25.4}
@@ -54,78 +51,6 @@ def refractive_index(temperature_c: float, pressure_mbar: float, humidity_pct: f
     n = 1 + 7.86e-4 p / (273 + t) - 1.5e-11 RH (t^2 + 160), p in kPa."""
     t, p_kpa = temperature_c, pressure_mbar / 10.0
     return 1.0 + 7.86e-4 * p_kpa / (273.0 + t) - 1.5e-11 * humidity_pct * (t * t + 160.0)
-
-
-@dataclass(frozen=True)
-class TrackerView:
-    """What the tracker can see of the robot, in the world's frame (mm)."""
-
-    smr_mm: Array  # (3,) the SMR's true centre
-    smr_axis: Array  # (3,) unit, where its opening faces
-    skeleton_mm: Array  # (n + 1, 3) the true robot's skeleton
-    base: Array  # (4, 4) the robot's base frame (world <- base): where the tracker stands
-
-
-def view_of(world: World, smr_mm: tuple[float, float, float] = DEFAULT_SMR_MM,
-            smr_axis: tuple[float, float, float] = DEFAULT_SMR_AXIS) -> TrackerView:
-    return view_from(world.true_tool0(), world.true_skeleton_mm(), world.truth.base, smr_mm,
-                     smr_axis)
-
-
-def view_from(tool0: Array, skeleton_mm: Array, base: Array,
-              smr_mm: tuple[float, float, float] = DEFAULT_SMR_MM,
-              smr_axis: tuple[float, float, float] = DEFAULT_SMR_AXIS) -> TrackerView:
-    """The view of an SMR at `smr_mm` of tool0 (4, 4), its opening along `smr_axis`."""
-    axis = tool0[:3, :3] @ np.asarray(smr_axis, dtype=float)
-    return TrackerView(transform_points(tool0, np.asarray(smr_mm, dtype=float)[None])[0],
-                       axis / np.linalg.norm(axis), skeleton_mm, base)
-
-
-def _segment_distance(p0: Array, p1: Array, q0: Array, q1: Array) -> float:
-    """The shortest distance between segments p0-p1 and q0-q1."""
-    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a, e, f = float(d1 @ d1), float(d2 @ d2), float(d2 @ r)
-    c, b = float(d1 @ r), float(d1 @ d2)
-    if a < 1e-12 and e < 1e-12:
-        return float(np.linalg.norm(r))
-    if a < 1e-12:
-        s, t = 0.0, min(max(f / e, 0.0), 1.0)
-    else:
-        if e < 1e-12:
-            s, t = min(max(-c / a, 0.0), 1.0), 0.0
-        else:
-            denom = a * e - b * b
-            s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 1e-12 else 0.0
-            t = (b * s + f) / e
-            if t < 0.0:
-                s, t = min(max(-c / a, 0.0), 1.0), 0.0
-            elif t > 1.0:
-                s, t = min(max((b - c) / a, 0.0), 1.0), 1.0
-    return float(np.linalg.norm(p0 + d1 * s - (q0 + d2 * t)))
-
-
-def beam_blocked(view: TrackerView, station_mm: Array, *,
-                 acceptance_deg: float = SMR_ACCEPTANCE_DEG,
-                 range_mm: tuple[float, float] = TRACKER_RANGE_MM,
-                 link_radius_mm: tuple[float, ...] = LINK_RADIUS_MM) -> str | None:
-    """Why the tracker at `station_mm` cannot lock on the SMR, or None when it can."""
-    line = station_mm - view.smr_mm
-    distance = float(np.linalg.norm(line))
-    if not range_mm[0] <= distance <= range_mm[1]:
-        return f"out of range ({distance:.0f} mm, the tracker measures {range_mm[0]:.0f}-" \
-               f"{range_mm[1]:.0f} mm)"
-    toward = line / distance
-    angle = math.degrees(math.acos(min(1.0, max(-1.0, float(toward @ view.smr_axis)))))
-    if angle > acceptance_deg:
-        return f"the reflector faces away ({angle:.0f} deg off its axis, accepts " \
-               f"{acceptance_deg:.0f})"
-    beam_end = view.smr_mm + toward * SMR_CLEARANCE_MM
-    skeleton = view.skeleton_mm
-    for k in range(len(skeleton) - 1):
-        radius = link_radius_mm[min(k, len(link_radius_mm) - 1)]
-        if _segment_distance(station_mm, beam_end, skeleton[k], skeleton[k + 1]) < radius:
-            return f"link {k + 1} of the robot breaks the beam"
-    return None
 
 
 @dataclass
@@ -164,6 +89,12 @@ class TrackerFaults:
             setattr(self, name, None)
             return True
         return False
+
+
+def view_of(world: World, smr_mm: tuple[float, float, float] = DEFAULT_SMR_MM,
+            smr_axis: tuple[float, float, float] = DEFAULT_SMR_AXIS) -> TrackerView:
+    return view_from(world.true_tool0(), world.true_skeleton_mm(), world.truth.base, smr_mm,
+                     smr_axis)
 
 
 class TrackerSource(Protocol):

@@ -21,7 +21,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from screwcal.commands.options import ERROR_MODELS, add_option
+from screwcal.commands.options import ERROR_MODELS, add_option, add_vector
+from screwcal.instrument import TRACKER_STAND_MM
 from service.demo import DEFAULT_POSES, DEFAULT_POSES_REAL, NOISE_SEED
 
 
@@ -33,6 +34,15 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     realism = PRESETS[args.realism]
     poses = args.poses or (DEFAULT_POSES if realism.is_ideal else DEFAULT_POSES_REAL)
+    if args.instrument == "tracker":
+        from service.tracker_demo import run_demo, summary_lines
+
+        done_t = run_demo(seed=args.seed, poses=poses, cycles=args.cycles,
+                          time_scale=args.time_scale, realism=args.realism, stand_mm=args.stand_mm)
+        for line in summary_lines(done_t, args.stand_mm):
+            print(line)
+        print(f"  done in {time.perf_counter() - started:.1f} s")
+        return 0
     emulation = ["geometric errors " + ("of the thesis's Table 11" if args.seed is None else
                                         f"drawn from seed {args.seed}")
                  + f"; realism {realism.name}:", *realism.describe()]
@@ -146,4 +156,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="motion time factor of the emulated robot")
     p.add_argument("--realism", choices=["ideal", "typical", "harsh"], default="typical",
                    help="what the emulated robot has beyond its geometry (default typical)")
+    p.add_argument("--instrument", choices=["arm", "tracker"], default="arm",
+                   help="the measuring instrument: the measuring arm through the job service "
+                   "(default), or a laser tracker over emScon, one SMR (service/tracker_demo.py)")
+    add_vector(p, "--stand-mm", default=TRACKER_STAND_MM,
+               help="where the tracker stands, mm in the robot frame (--instrument tracker; "
+               "default " + " ".join(f"{v:g}" for v in TRACKER_STAND_MM) + ")")
     p.set_defaults(func=run)

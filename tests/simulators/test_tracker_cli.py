@@ -49,7 +49,7 @@ async def test_the_tracker_in_the_irc5_process_and_in_its_own(tmp_path):
 
 def test_bad_tracker_options_are_refused():
     for args, what in ((["--tracker-faults", "laser=1"], "tracker fault 'laser'"),
-                       (["--stand", "1,2"], "three numbers")):
+                       (["--stand-mm", "1", "2"], "--stand-mm")):
         out = subprocess.run([*EXE, "tracker", "--port", "0", *args], capture_output=True,
                              text=True, timeout=30)
         assert out.returncode == 2 and what in out.stderr, out.stderr

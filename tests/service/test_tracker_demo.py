@@ -1,0 +1,53 @@
+"""`screwcal demo --instrument tracker`: the procedure with the emulated laser tracker (a real
+process, real TCP, the emScon driver), its figures and its handling of the tracker's faults."""
+
+import numpy as np
+import pytest
+
+from screwcal.calibration.line_of_sight import visible
+from screwcal.instrument import TRACKER_STAND_MM
+from screwcal.kinematics.robots import irb1600
+from service.errors import ServiceError
+from service.tracker_demo import calibration_poses, performance_poses, run_demo
+
+
+def test_planned_poses_face_the_tracker():
+    model = irb1600()
+    q = calibration_poses(model, 40, TRACKER_STAND_MM, seed=1)
+    assert q.shape == (40, 6)
+    assert visible(model, np.radians(q), np.array(TRACKER_STAND_MM)).all()
+    # drawn blindly, most poses of the working region would not be seen
+    rng = np.random.default_rng(1)
+    from screwcal.calibration.posesets import random_configurations
+
+    blind = random_configurations(200, rng)
+    assert visible(model, blind, np.array(TRACKER_STAND_MM)).mean() < 0.5
+    perf = performance_poses(model, 2, TRACKER_STAND_MM)
+    assert len(perf) == 20
+    with pytest.raises(ServiceError, match="does not see every ISO 9283 pose"):
+        performance_poses(model, 2, (-3000.0, 0.0, 900.0))  # behind the robot
+
+
+@pytest.mark.slow
+def test_the_tracker_procedure_calibrates_the_typical_robot(capsys):
+    done = run_demo(seed=None, poses=80, cycles=3, time_scale=0.0, realism="typical")
+    assert done.ap_after_mm <= 0.10
+    assert done.ap_before_mm > 10 * done.ap_after_mm
+    assert done.ap_after_geometric_mm > done.ap_after_mm
+    assert all(run.skipped == 0 and not run.faults for run in done.runs.values())
+    assert "laser tracker emscon://" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_tracker_faults_mid_run_pause_and_every_pose_is_measured_once():
+    """Beam broken over four attempts (three poses skipped, the fourth found again), the
+    connection dropped, the initialisation lost, the laser warming up: the run goes on."""
+    done = run_demo(seed=None, poses=60, cycles=2, time_scale=0.0, realism="ideal",
+                    tracker_faults="beam=25,beam_n=4,drop=40,uninit=50,warm=60")
+    cal = done.runs["calibration"]
+    assert len(cal.points) == 60  # one entry per pose: none measured twice
+    assert cal.skipped == 3
+    assert cal.faults == {"beam broken (pose skipped)": 3, "LinkLostError": 1,
+                          "not initialised": 1, "warming up": 1}
+    assert sum(p is not None and p.searched for p in cal.points) == 1
+    assert done.ap_after_mm <= 0.10
