@@ -1,15 +1,21 @@
 """`screwcal rapid check`: what can be found wrong in RAPID modules without a controller.
 
-Four classes of finding, each with file:line:col and a one-line reason:
+Classes of finding, each with file:line:col and a one-line reason:
 - syntax: the module does not parse;
-- unknown: an instruction or function that is neither in the RAPID reference's table
-  (`names`) nor a routine of the modules checked together (one task: every file given);
-- argument: too few or too many positional arguments, or an optional `\\Name` the routine
-  does not have;
+- unknown: an instruction, function or data type that is neither in the RobotWare tables
+  (`names`: the base system and the options selected) nor a routine, record or alias of the
+  modules checked together (one task: every file given);
+- option: such a name that a RobotWare option not selected brings (the option is named);
+- argument: too few or too many positional arguments, an optional `\\Name` the routine
+  does not have, or two optional arguments that are alternatives of one another;
 - type: what the parser can see, i.e. a literal or a declared datum of num, dnum, string or bool
   where another of these is needed (a declaration's value, an assignment, a condition, an
   operator, an argument of a routine of the checked modules);
 - string: a string literal over 80 characters (RAPID's limit).
+
+Two more are notes, not errors (the controller loads such modules): placeholder (`<SMT>`,
+`<EXP>`...: the program stops with an execution error where it reaches one) and encrypted (a
+module whose text is not RAPID source: nothing in it can be checked here).
 """
 
 from __future__ import annotations
@@ -39,8 +45,8 @@ from screwcal.rapid.ast import (
     Unary,
     While,
 )
-from screwcal.rapid.names import FUNCTIONS, INSTRUCTIONS, Signature
-from screwcal.rapid.parser import RapidSyntaxError, parse_module
+from screwcal.rapid.names import CALIBRATION_CELL, Catalogue, Signature, catalogue
+from screwcal.rapid.parser import RapidEncryptedError, RapidSyntaxError, parse_module
 
 MAX_STRING = 80  # characters in a RAPID string
 SIMPLE_TYPES = ("num", "dnum", "string", "bool")
@@ -66,11 +72,19 @@ class Finding:
     path: str
     line: int
     col: int
-    kind: str  # syntax, unknown, argument, type, string
+    kind: str  # syntax, unknown, option, argument, type, string; notes: placeholder, encrypted
     reason: str
+
+    @property
+    def is_note(self) -> bool:
+        """A note: the controller loads the module as it is."""
+        return self.kind in NOTE_KINDS
 
     def __str__(self) -> str:
         return f"{self.path}:{self.line}:{self.col}: {self.kind}: {self.reason}"
+
+
+NOTE_KINDS = frozenset(("placeholder", "encrypted"))
 
 
 def _children(node: Node) -> Iterator[Node]:
@@ -94,7 +108,9 @@ def _signature(routine: Routine) -> Signature:
     required = [p for p in routine.params if not p.optional]
     options = frozenset(a.name.lower() for p in routine.params if p.optional
                         for a in (p, *p.alternatives))
-    return Signature(routine.name, len(required), len(required), options)
+    groups = tuple(frozenset(a.name.lower() for a in (p, *p.alternatives))
+                   for p in routine.params if p.optional and p.alternatives)
+    return Signature(routine.name, len(required), len(required), options, groups)
 
 
 def _literal_type(e: Expr) -> str | None:
@@ -112,12 +128,16 @@ def _same(a: str, b: str) -> bool:
 
 
 class _Checker:
-    def __init__(self, modules: dict[str, Module], known: frozenset[str]):
+    def __init__(self, modules: dict[str, Module], known: frozenset[str], names: Catalogue):
         self.modules = modules
         self.known = known
+        self.names = names
         self.findings: list[Finding] = []
         self.global_routines: dict[str, Routine] = {}
         self.global_data: dict[str, str] = {}
+        self.global_types = {r.name.lower() for m in modules.values() for r in m.records
+                             if not r.local} | {a.name.lower() for m in modules.values()
+                                                for a in m.aliases if not a.local}
         for m in modules.values():
             for r in m.routines:
                 if not r.local:
@@ -141,6 +161,12 @@ class _Checker:
         module_data = dict(self.global_data)
         module_data.update({d.key: d.type.lower() for d in module.data})
         self.scope = module_data
+        self.types = self.global_types | {r.name.lower() for r in module.records} | \
+            {a.name.lower() for a in module.aliases}
+        for p in module.placeholders:
+            self.add(path, p, "placeholder", f"<{p.kind}>: a part not yet written; the "
+                     "controller loads the module and stops with an error where it reaches it")
+        self.data_types(module)
         for d in module.data:
             self.declaration(d)
         for r in module.routines:
@@ -157,6 +183,29 @@ class _Checker:
             if isinstance(node, Str) and len(node.value) > MAX_STRING:
                 self.add(path, node, "string", f"a string of {len(node.value)} characters: "
                          f"RAPID strings hold at most {MAX_STRING}")
+
+    def data_types(self, module: Module) -> None:
+        """Every data type the module names (data, parameters, record components, function
+        values, aliases) is the system's, an option's, or a record or alias of the task."""
+        named: list[tuple[Node, str]] = [(d, d.type) for d in module.data]
+        named += [(f, f.type) for r in module.records for f in r.fields]
+        named += [(a, a.type) for a in module.aliases]
+        for r in module.routines:
+            named += [(d, d.type) for d in r.data]
+            named += [(p, p.type) for p in r.params for p in (p, *p.alternatives)]
+            if r.type:
+                named.append((r, r.type))
+        for node, type_ in named:
+            key = type_.lower()
+            if key in self.types or key in self.names.types or key in self.known:
+                continue
+            options = self.names.elsewhere.get(key)
+            if options:
+                self.add(self.path, node, "option", f"data type '{type_}' comes with the "
+                         f"RobotWare option {' or '.join(options)}, not selected (--options)")
+            else:
+                self.add(self.path, node, "unknown", f"unknown data type '{type_}' (not in "
+                         "the RobotWare tables nor a RECORD or ALIAS of the modules checked)")
 
     def declaration(self, d: DataDecl) -> None:
         if d.value is None or d.dims:
@@ -241,12 +290,17 @@ class _Checker:
                      f"not a{'n' if instruction else ''} {what}")
             return
         sig = _signature(routine) if routine is not None else \
-            (INSTRUCTIONS if instruction else FUNCTIONS).get(name.lower())
+            (self.names.instructions if instruction else self.names.functions).get(name.lower())
         if sig is None:
             if name.lower() in self.known:
                 return
-            self.add(self.path, node, "unknown", f"unknown {what} '{name}' (not in the RAPID "
-                     "reference table nor a routine of the modules checked)")
+            options = self.names.elsewhere.get(name.lower())
+            if options:
+                self.add(self.path, node, "option", f"{what} '{name}' comes with the RobotWare "
+                         f"option {' or '.join(options)}, not selected (--options)")
+                return
+            self.add(self.path, node, "unknown", f"unknown {what} '{name}' (not in the RobotWare "
+                     "tables nor a routine of the modules checked)")
             return
         positional = [a for a in args if not a.optional]
         if sig.min_positional is not None and not (
@@ -260,6 +314,12 @@ class _Checker:
                 if a.optional and a.name and a.name.lower() not in sig.options:
                     self.add(self.path, a, "argument", f"{sig.name} has no optional "
                              f"argument \\{a.name}")
+        given = [a for a in args if a.optional and a.name]
+        for group in sig.alternatives:
+            both = [a for a in given if a.name and a.name.lower() in group]
+            if len(both) > 1:
+                self.add(self.path, both[1], "argument", f"{sig.name}: \\{both[0].name} and "
+                         f"\\{both[1].name} are alternatives of one another: give one")
         if routine is not None:
             required = [p for p in routine.params if not p.optional]
             for a, p in zip(positional, required, strict=False):
@@ -279,16 +339,20 @@ def _shown(e: Expr) -> str:
     return "the target"
 
 
-def check_modules(sources: Sequence[tuple[str, str]],
-                  known: Iterable[str] = ()) -> list[Finding]:
+def check_modules(sources: Sequence[tuple[str, str]], known: Iterable[str] = (),
+                  options: Iterable[str] = CALIBRATION_CELL) -> list[Finding]:
     """Findings for (path, text) pairs checked together as one task's modules: a syntax error
-    stops that file's other checks. `known`: routines defined elsewhere (other modules of the
-    task, options), not reported as unknown."""
+    stops that file's other checks. `known`: routines and data types defined elsewhere (other
+    modules of the task, a gripper's package), not reported as unknown; `options`: the
+    RobotWare options of the controller (keys of `names.OPTIONS`)."""
     findings: list[Finding] = []
     modules: dict[str, Module] = {}
     for path, text in sources:
         try:
             modules[path] = parse_module(text, path)
+        except RapidEncryptedError as err:
+            findings.append(Finding(path, err.line, err.col, "encrypted", err.reason))
         except RapidSyntaxError as err:
             findings.append(Finding(path, err.line, err.col, "syntax", err.reason))
-    return findings + _Checker(modules, frozenset(k.lower() for k in known)).run()
+    return findings + _Checker(modules, frozenset(k.lower() for k in known),
+                               catalogue(options)).run()

@@ -315,15 +315,8 @@ class _Parser(ExpressionParser):
                 self.expect(";", " after CONNECT")
                 return Connect(*self.loc(start), target, trap)
             self.fail(f"expected a statement, found {self.shown()}")
-        if kind == "ph":  # <SMT> (and <EIT>, <CSE> in their blocks): no ';' after it
-            node = self.placeholder()
-            if self.at(":="):  # `<VAR> := <EXP>;`
-                self.advance()
-                val = self.expr()
-                self.expect(";", " after the assignment")
-                return Assign(*self.loc(start), node, val)
-            self.accept(";")
-            return node
+        if kind == "ph":
+            return self.placeholder_statement(start)
         if kind == "op" and value == "%":
             self.advance()
             late = self.expr()
@@ -349,6 +342,18 @@ class _Parser(ExpressionParser):
         self.advance()
         args = self.arguments(";")
         return ProcCall(*self.loc(start), value, args)
+
+    def placeholder_statement(self, start: int) -> Stmt:
+        """`<SMT>` (and `<EIT>`, `<CSE>` in their blocks), with no ';' after it; or
+        `<VAR> := <EXP>;`."""
+        node = self.placeholder()
+        if self.at(":="):
+            self.advance()
+            val = self.expr()
+            self.expect(";", " after the assignment")
+            return Assign(*self.loc(start), node, val)
+        self.accept(";")
+        return node
 
     def plain_call(self, start: int, name: str, plain: re.Match[str]) -> ProcCall:
         line = bisect_right(self.starts, start)
