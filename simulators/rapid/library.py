@@ -22,7 +22,7 @@ from simulators.rapid.builtins import builtin
 from simulators.rapid.control import ExitCycle, Stopped
 from simulators.rapid.errors import RapidError
 from simulators.rapid.frames import unit_wxyz
-from simulators.rapid.values import RArray, Record, is_integer, num, record, string
+from simulators.rapid.values import RArray, Record, convert, is_integer, num, record, string
 
 # ------------------------------------------------------------------ strings
 
@@ -215,7 +215,8 @@ def _rotation_of_wxyz(q: tuple[float, float, float, float]) -> np.ndarray:
 @builtin("NOrient", "func")
 def _norient(task: Any, pos: list, opt: dict) -> Record:
     """The orient normalised (an unusable one, its norm more than 0.1 from 1: ERR_ARGVALERR)."""
-    f = pos[0].f
+    o = pos[0]
+    f = (convert("orient", o) if isinstance(o, list) else o).f
     return record("orient", *unit_wxyz((f["q1"], f["q2"], f["q3"], f["q4"])).tolist())
 
 

@@ -230,9 +230,10 @@ def _crobt(task: Any, pos: list, opt: dict) -> Record:
 
 @builtin("CalcJointT", "func")
 def _calcjointt(task: Any, pos: list, opt: dict) -> Record:
+    """The joints of a robtarget on its confdata's branch (ConfL/ConfJ do not apply)."""
     rt, tool = pos
     m = _motion(task)
-    return _jointtarget(m.solve(_robtarget(rt), _frames(tool, opt.get("wobj")), m.conf_l))
+    return _jointtarget(m.solve(_robtarget(rt), _frames(tool, opt.get("wobj"))))
 
 
 @builtin("CalcRobT", "func")
@@ -345,3 +346,35 @@ def _singarea(task: Any, pos: list, opt: dict) -> None:
 @builtin("WaitRob", "proc")
 def _waitrob(task: Any, pos: list, opt: dict) -> None:
     _motion(task).wait_in_position(task)
+
+
+@builtin("Offs", "func")
+def _offs(task: Any, pos: list, opt: dict) -> Record:
+    """The robtarget moved by (x, y, z) mm in its work object's object frame."""
+    rt, dx, dy, dz = pos
+    out = _robtarget(rt).copy()
+    t = out.f["trans"].f
+    t["x"], t["y"], t["z"] = num(t["x"] + dx), num(t["y"] + dy), num(t["z"] + dz)
+    return out
+
+
+@builtin("RelTool", "func")
+def _reltool(task: Any, pos: list, opt: dict) -> Record:
+    """The robtarget moved by (x, y, z) mm in its own (the tool's) frame, then turned by \\Rx,
+    \\Ry, \\Rz degrees about the tool's axes (in that order)."""
+    rt, dx, dy, dz = pos
+    out = _robtarget(rt).copy()
+    T = matrix_of_pose(out.f["trans"], out.f["rot"])
+    p = T[:3, 3] + T[:3, :3] @ np.array([dx, dy, dz])
+    R = T[:3, :3]
+    for axis, key in ((0, "rx"), (1, "ry"), (2, "rz")):
+        angle = math.radians(opt.get(key, 0.0))
+        if angle:
+            c, s = math.cos(angle), math.sin(angle)
+            i, j = [k for k in range(3) if k != axis]
+            turn = np.eye(3)
+            turn[i, i], turn[i, j], turn[j, i], turn[j, j] = c, -s, s, c
+            R = R @ turn
+    out.f["trans"] = record("pos", *[num(v) for v in p])
+    out.f["rot"] = record("orient", *[num(v) for v in quaternion_of(R)])
+    return out
