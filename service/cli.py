@@ -31,6 +31,7 @@ from screwcal.commands.options import (
     positive_int,
 )
 from service.errors import ServiceError
+from service.job_state import JobState
 
 if TYPE_CHECKING:  # imported where used: `screwcal --help` pays for neither
 
@@ -153,7 +154,7 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                 print(result_table(op.result(job["id"])))
                 return 0 if state in ("done", "waiting") else 1
         elif args.action == "watch":
-            if op.job(args.id)["state"] in ("done", "failed", "aborted"):
+            if JobState(op.job(args.id)["state"]).finished:
                 print(result_table(op.result(args.id)))  # finished: its summary, no replay
                 return 0 if op.job(args.id)["state"] == "done" else 1
             state = op.watch(args.id)

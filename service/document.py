@@ -31,6 +31,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from screwcal.calibration.error_parameters import ModelKind
 from screwcal.performance.iso9283 import PoseMetrics
+from service.job_state import JobState
 from service.phases import Round
 
 SQLITE_MAX_ID = 2**63 - 1  # SQLite's INTEGER: a larger id can name nothing (and must not 500)
@@ -321,7 +322,7 @@ class JobRecord(BaseModel):
     robot_id: int
     kind: Literal["performance", "calibration", "procedure", "verify"]
     mode: Literal["AUTO", "STEP"]
-    state: str
+    state: JobState
     reason: str
     options: JobOptions
     phases: dict[str, PhaseRecord]

@@ -22,16 +22,15 @@ from typing import Any
 from pydantic import BaseModel, Field
 
 from service.document import JobRecord
+from service.job_state import JobState
 from service.phases import PERF_PHASES
 from service.store import IDENTITY, Store
-
-FINISHED_OK = "done"
 
 
 class HistoryEntry(BaseModel):
     job: int
     kind: str
-    state: str
+    state: JobState
     created: float
     finished: float | None = Field(None, description="when the job ended (epoch seconds)")
     software: str = Field(description="the screwcal that made the job")
@@ -84,11 +83,11 @@ def _accuracy(job: JobRecord) -> tuple[float | None, float | None, float | None]
 
 def _entry(job: JobRecord, extra: dict[str, Any], version: int | None,
            confirmations: list[dict[str, Any]]) -> HistoryEntry:
-    before, ap, rp = _accuracy(job) if job.state == FINISHED_OK else (None, None, None)
+    before, ap, rp = _accuracy(job) if job.state == JobState.DONE else (None, None, None)
     route = job.result.correction.route if job.result.correction is not None else None
     return HistoryEntry(
         job=job.id, kind=job.kind, state=job.state, created=job.created,
-        finished=job.updated if job.state in ("done", "failed", "aborted") else None,
+        finished=job.updated if job.state.finished else None,
         software=extra["software"] or "unknown (made before provenance was kept)",
         service=extra["service"], robot_identity=extra["robot_identity"],
         poses=extra["poses"], route=route, model_version=version, ap_before_mm=before,
@@ -127,7 +126,7 @@ def robot_history(store: Store, robot_id: int, threshold_mm: float) -> RobotHist
     robot = store.robot(robot_id)
     entries, version = [], 0
     for job, extra in store.robot_jobs(robot_id):
-        made = job.state == FINISHED_OK and job.result.estimation is not None
+        made = job.state == JobState.DONE and job.result.estimation is not None
         version += made
         entries.append(_entry(job, extra, version if made else None,
                               store.confirmations(job.id)))

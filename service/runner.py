@@ -55,6 +55,7 @@ from service.drift import (
 )
 from service.errors import ConflictError, SafetyError, StoreFullError, StoreLostError
 from service.events import JobEvents
+from service.job_state import JobState
 from service.phases import (
     ESTIMATION_FOR,
     HOME_PHASES,
@@ -164,7 +165,7 @@ class JobRunner:
         job's phases there: what is done is skipped, a correction that was started and not
         finished is never sent again, and a runner whose job another ended stops."""
         try:
-            await self._set("running", "")
+            await self._set(JobState.RUNNING, "")
             t0 = time.perf_counter()
             await self._build_plans()
             await self._with_links("setup")
@@ -184,8 +185,8 @@ class JobRunner:
                 seconds = time.perf_counter() - start
                 await asyncio.to_thread(self.store.finish_step, self.job_id, step, seconds)
                 await self.events.publish("phase", phase=step, seconds=seconds)
-            await self._set("done", "")
-            await self.events.publish("done")
+            await self._set(JobState.DONE, "")
+            await self.events.publish(JobState.DONE)
         except ConflictError as err:  # a stale runner: another ended this job; touch nothing
             await self.events.publish("stale", reason=str(err))
         except StoreFullError as err:  # nothing committed is lost: the job waits for space
@@ -193,7 +194,7 @@ class JobRunner:
         except StoreLostError as err:
             if self.on_fatal is not None:
                 self.on_fatal(str(err))
-            await self.events.publish("failed", reason=str(err))
+            await self.events.publish(JobState.FAILED, reason=str(err))
         except JobAborted:
             await self._aborted()
         except ControllerError as err:
@@ -204,8 +205,8 @@ class JobRunner:
         except (SafetyError, CorrectionRefusedError, ScrewcalError) as err:
             await self._failed(str(err))
         except Exception as err:  # a job never stays "running" after its task ended
-            await self._set("failed", f"internal error: {err!r}")
-            await self.events.publish("failed", reason=repr(err))
+            await self._set(JobState.FAILED, f"internal error: {err!r}")
+            await self.events.publish(JobState.FAILED, reason=repr(err))
             raise
         finally:
             await self.acquisition.disconnect()
@@ -225,20 +226,20 @@ class JobRunner:
         committed pose (an unfinished job is resumed; if even this small write fails, the job
         stays as stored, unfinished, and is resumed all the same)."""
         try:
-            await self._set("paused", str(err))
+            await self._set(JobState.PAUSED, str(err))
         except StoreFullError:
             pass
-        await self.events.publish("paused", reason=str(err))
+        await self.events.publish(JobState.PAUSED, reason=str(err))
 
     async def _aborted(self) -> None:
-        await self._set("aborted", "aborted by the operator")
-        await self.events.publish("aborted")
+        await self._set(JobState.ABORTED, "aborted by the operator")
+        await self.events.publish(JobState.ABORTED)
 
     async def _failed(self, reason: str) -> None:
-        await self._set("failed", reason)
-        await self.events.publish("failed", reason=reason)
+        await self._set(JobState.FAILED, reason)
+        await self.events.publish(JobState.FAILED, reason=reason)
 
-    async def _set(self, state: str, reason: str) -> None:
+    async def _set(self, state: JobState, reason: str) -> None:
         self.job = await asyncio.to_thread(self.store.set_state, self.job_id, state, reason)
 
     async def _with_links(self, step: str) -> None:
@@ -250,10 +251,10 @@ class JobRunner:
             except LINK_ERRORS as err:
                 if self.gate.aborted.is_set():
                     raise JobAborted() from None
-                await self._set("paused", f"{type(err).__name__}: {err}")
-                await self.events.publish("paused", reason=str(err))
+                await self._set(JobState.PAUSED, f"{type(err).__name__}: {err}")
+                await self.events.publish(JobState.PAUSED, reason=str(err))
                 await self.acquisition.reconnect()
-                await self._set("running", "")
+                await self._set(JobState.RUNNING, "")
                 await self.events.publish("resumed", phase=step)
 
     async def _step(self, step: str) -> None:

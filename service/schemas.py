@@ -16,6 +16,7 @@ from service.document import (
     PhaseRecord,
     ResultDocument,
 )
+from service.job_state import JobState
 
 __all__ = ["SQLITE_MAX_ID", "GoAhead", "Id", "JobCreate", "JobOptions", "JobPublic", "JobResult",
            "MeasurementPublic", "RobotCreate", "RobotPublic"]
@@ -111,7 +112,7 @@ class JobPublic(BaseModel):
     robot_id: int
     kind: str
     mode: str
-    state: str
+    state: JobState
     reason: str
     options: dict[str, Any]
     phases: dict[str, Any]
@@ -155,7 +156,7 @@ class JobResult(ResultDocument):
     GET /jobs/ID/model."""
 
     id: int
-    state: str
+    state: JobState
     reason: str
     phases: dict[str, PhaseRecord] = Field(description="seconds per phase (set-up, measuring, "
                                            "...)")

@@ -44,14 +44,14 @@ from service.errors import (
     NotFoundError,
     SchemaTooNewError,
 )
+from service.job_state import UNFINISHED, JobState, check_transition, sql_list
 from service.migrations import MIGRATIONS, SCHEMA_VERSION
 
 if TYPE_CHECKING:
     from service.settings import ServiceSettings
 
-UNFINISHED = ("queued", "running", "paused")
-_UNFINISHED_SQL = "(" + ", ".join(f"'{s}'" for s in UNFINISHED) + ")"  # in queries, not in
-# the migrations (a migration is history: it keeps the states it was written with)
+_UNFINISHED_SQL = sql_list(UNFINISHED)  # in queries, not in the migrations (a migration is
+# history: it keeps the states it was written with)
 DEFAULT_LEASE_S = 10.0
 IDENTITY = ("serial", "controller_software", "tool", "payload_kg")  # a robot's, as it changes
 
@@ -187,9 +187,10 @@ class Store:
                 jid = db.execute(
                     "INSERT INTO jobs (robot_id, kind, mode, state, reason, options, phases, "
                     "created, updated, holder, lease_expires, software, robot_identity) VALUES "
-                    f"(?, ?, ?, 'queued', '', ?, '{{}}', ?, ?, ?, {self.db.now_sql} + ?, ?, ?) "
+                    f"(?, ?, ?, ?, '', ?, '{{}}', ?, ?, ?, {self.db.now_sql} + ?, ?, ?) "
                     "RETURNING id",
-                    (robot_id, kind, mode, json.dumps(options), now, now, self.holder,
+                    (robot_id, kind, mode, JobState.QUEUED.value, json.dumps(options), now, now,
+                     self.holder,
                      self.lease_s, f"screwcal {__version__}", json.dumps(identity))
                 ).fetchone()["id"]
         except self.db.integrity_errors:
@@ -283,7 +284,7 @@ class Store:
                              (job_id,)).fetchone()
             if row is None:
                 raise NotFoundError(f"no such job {job_id}")
-            if row["state"] not in UNFINISHED:
+            if JobState(row["state"]).finished:
                 raise ConflictError(f"job {job_id} is {row['state']}: this runner is stale")
             phases = json.loads(self._check_held(db, job_id))
             if not phases.get(step, {}).get("done"):
@@ -326,25 +327,21 @@ class Store:
         return self.job(job_id)
 
     def fail(self, job_id: int, reason: str) -> None:
-        """A job that cannot run, whatever its state (its records cannot make a runner), only
-        while this service holds it."""
-        with self.db.tx() as db:
-            self._check_held(db, job_id)
-            db.execute("UPDATE jobs SET state = 'failed', reason = ?, updated = ? WHERE id = ?",
-                       (reason, time.time(), job_id))
+        """A job that cannot run (its records cannot make a runner), only while this service
+        holds it."""
+        self.set_state(job_id, JobState.FAILED, reason)
 
-    def set_state(self, job_id: int, state: str, reason: str) -> JobRecord:
-        """A runner's state change, only while the job is unfinished and held by this service:
-        ConflictError when another runner (or service) has ended or taken it, so a stale runner
-        never revives a finished job."""
+    def set_state(self, job_id: int, state: JobState | str, reason: str) -> JobRecord:
+        """A runner's state change, only while this service holds the job and along the table
+        of service/job_state.py: JobStateError when another runner (or service) has ended it,
+        so a stale runner never revives a finished job."""
         with self.db.tx() as db:
             self._check_held(db, job_id)
-            cur = db.execute(
-                f"UPDATE jobs SET state = ?, reason = ?, updated = ? WHERE id = ? AND state IN "
-                f"{_UNFINISHED_SQL}", (state, reason, time.time(), job_id))
-            if cur.rowcount == 0:
-                raise ConflictError(f"job {job_id} is no longer unfinished: this runner is "
-                                    "stale and changes nothing")
+            old = db.execute(f"SELECT state FROM jobs WHERE id = ?{self.db.for_update}",
+                             (job_id,)).fetchone()["state"]
+            new = check_transition(job_id, old, state)
+            db.execute("UPDATE jobs SET state = ?, reason = ?, updated = ? WHERE id = ?",
+                       (new.value, reason, time.time(), job_id))
         return self.job(job_id)
 
     def finish_step(self, job_id: int, step: str, seconds: float) -> None:

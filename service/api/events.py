@@ -11,9 +11,9 @@ from fastapi import APIRouter, Header, HTTPException
 from fastapi.responses import StreamingResponse
 
 from service.api.deps import JobId, ManagerDep, Read, StoreDep, public
+from service.job_state import FINISHED, JobState
 
 router = APIRouter(prefix="/jobs", tags=["jobs"])
-FINISHED = ("done", "failed", "aborted")  # the stream ends with the job
 
 
 @router.get("/{job_id}/events", response_class=StreamingResponse, responses={200: {
@@ -47,10 +47,11 @@ async def events(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep,
         # its events (a stale runner's by the store): an open stream never waits on the store.
         job = public(first, manager).model_dump()
         yield frame({**job, "kind": "state", "job_kind": job["kind"]}, None)
+        # the stream ends with the job: its end is the event named for its final state
         state = first.state
         ended = [e["kind"] for e in bus.items[:start] if e["kind"] in FINISHED]
         if ended:  # resumed after the job's end
-            state = ended[-1]
+            state = JobState(ended[-1])
         sent = start
         while True:
             while sent < len(bus.items):
@@ -58,10 +59,10 @@ async def events(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep,
                 yield frame(event, sent)
                 sent += 1
                 if event["kind"] in FINISHED:
-                    state = event["kind"]
+                    state = JobState(event["kind"])
                 elif event["kind"] == "stale":  # another runner ended the job: as stored
                     state = (await asyncio.to_thread(store.job, job_id)).state
-            if state in FINISHED and sent >= len(bus.items):
+            if state.finished and sent >= len(bus.items):
                 yield frame({"kind": "end", "state": state}, None)
                 return
             if not await bus.wait_beyond(sent, 1.0):
