@@ -2,7 +2,8 @@
 
     screwcal robot list
     screwcal robot show NAME|FILE
-    screwcal robot import FILE [--format json|dh|mdh|screws|urdf] --out robot.json
+    screwcal robot import FILE|NAME [--format json|dh|mdh|screws|urdf] [--base-link LINK]
+                         [--tip-link LINK] --out robot.json
     screwcal robot export RESULT.json --format urdf|mdh|dh|screws|json --out FILE
 
 `import` reads a model file in any representation (the templates of docs/robots.md: a DH or
@@ -17,6 +18,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
+from pathlib import Path
+
+from screwcal.errors import ModelError
 
 FORMATS = ("json", "screws", "dh", "mdh", "urdf")
 
@@ -45,6 +50,8 @@ def run_show(args: argparse.Namespace) -> int:
               f", within {c.tol_mm:g} mm)")
         if entry.note:
             print(f"  note: {entry.note}")
+        print(f"  frames: {entry.frames_text()} (`robot import {entry.name} --base-link NAME`"
+              " writes the robot in another)")
     if model.n_joints == 6 and model.is_revolute.all():
         print(f"  reach (wrist centre from axis 1): {reach_mm(model):.1f} mm")
     print("  joint  type  direction              point at home (mm)            limits (deg)"
@@ -67,12 +74,34 @@ def run_show(args: argparse.Namespace) -> int:
 
 
 def run_import(args: argparse.Namespace) -> int:
-    from screwcal.kinematics.describe import read_description
-    from screwcal.kinematics.modelfile import load_model, save_model
+    import json
 
-    model, form = read_description(args.file, args.format, name=args.name)
-    save_model(model, args.out, "screws")  # checked: it is read back before the message
-    load_model(args.out)
+    from screwcal.kinematics.describe import read_description
+    from screwcal.kinematics.modelfile import model_document, parse_model
+    from screwcal.kinematics.robots import LIBRARY
+    from screwcal.tables import write_text_atomic
+
+    notes: list[str] = []
+    entry = LIBRARY.get(args.file)
+    if entry is not None and not Path(args.file).exists():
+        if args.tip_link not in (None, "tool0"):
+            raise ModelError(f"robot '{entry.name}': the library's chain ends at tool0; "
+                             f"--tip-link {args.tip_link} is for URDF files")
+        model, form = entry.model_in(args.base_link or entry.frame), "library"
+        if args.name:
+            model = replace(model, name=args.name)
+        notes.append(f"in frame '{args.base_link or entry.frame}'"
+                     f"{'' if args.base_link else ' (default; --base-link)'} of the frames "
+                     f"{', '.join(n for n, _ in entry.frames)}")
+    else:
+        model, form = read_description(args.file, args.format, name=args.name,
+                                       base_link=args.base_link, tip_link=args.tip_link,
+                                       notes=notes)
+    text = json.dumps(model_document(model, "screws"), indent=2) + "\n"
+    parse_model(json.loads(text), str(args.out))  # what the next command reads: written if valid
+    write_text_atomic(args.out, text.encode("utf-8"))
+    for note in notes:
+        print(f"note: {note}")
     print(f"imported {form} description of '{model.name}' ({model.n_joints} joints"
           f"{', ' + str(len(model.masses)) + ' masses' if model.masses else ''}) -> {args.out}")
     return 0
@@ -104,11 +133,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     a.set_defaults(func=run_show)
     a = actions.add_parser("import", help="a DH / MDH / screw table or URDF -> robot file")
     a.add_argument("file", metavar="FILE", help="the description (JSON per docs/robots.md, or "
-                   "a URDF)")
+                   "a URDF), or a library robot's name (to write it in another frame)")
     a.add_argument("--format", choices=["json", "dh", "mdh", "screws", "urdf"], default=None,
                    help="what FILE is (default: from its content); dh, mdh and screws are the "
                    "JSON templates of docs/robots.md and are checked to be that representation")
     a.add_argument("--name", default=None, help="the robot's name (default: the file's)")
+    a.add_argument("--base-link", default=None, metavar="LINK",
+                   help="the frame the robot file is written in: a URDF link (default base_link, "
+                   "else the root; 'base' is ROS-Industrial's controller frame: FANUC's World, "
+                   "UR's base) or, for a library robot, one of the frames `robot show` lists")
+    a.add_argument("--tip-link", default=None, metavar="LINK",
+                   help="the URDF link the chain ends at: the flange (default tool0, else "
+                   "flange, else the end of the chain with the most moving joints)")
     a.add_argument("--out", required=True, help="the robot file (JSON, screw table) to write")
     a.set_defaults(func=run_import)
     a = actions.add_parser("export", help="a calibrated result's robot as URDF or a table")

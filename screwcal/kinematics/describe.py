@@ -16,9 +16,13 @@ ExportFormat = Literal["json", "screws", "dh", "mdh", "urdf"]
 
 
 def read_description(path: str | Path, fmt: ImportFormat | None = None,
-                     name: str | None = None) -> tuple[SerialModel, str]:
+                     name: str | None = None, base_link: str | None = None,
+                     tip_link: str | None = None, notes: list[str] | None = None
+                     ) -> tuple[SerialModel, str]:
     """A robot from a description file, and the form it was read as. `fmt` None: a URDF when
-    the file is XML, else a model file (any representation) or a calibration result."""
+    the file is XML (a byte order mark and the declared encoding honoured), else a model file
+    (any representation) or a calibration result. `base_link` / `tip_link` choose a URDF's
+    chain; what the reader chose or assumed is appended to `notes`."""
     from dataclasses import replace
 
     from screwcal.kinematics.modelfile import parse_model
@@ -26,26 +30,36 @@ def read_description(path: str | Path, fmt: ImportFormat | None = None,
 
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        data = path.read_bytes()
     except FileNotFoundError:
         raise ModelError(f"{path}: robot description not found") from None
+    except OSError as err:
+        raise ModelError(f"{path}: not readable ({err.strerror})") from None
+    head = data[:64].lstrip(b"\xef\xbb\xbf \t\r\n")
+    if fmt == "urdf" or (fmt is None and (head.startswith(b"<") or data[:2] in (
+            b"\xff\xfe", b"\xfe\xff"))):
+        model, said = model_from_urdf(data, str(path), name, base_link, tip_link)
+        if notes is not None:
+            notes += said
+        return model, "urdf"
+    if base_link or tip_link:
+        raise ModelError(f"{path}: --base-link and --tip-link choose a URDF's chain; this file "
+                         "is not a URDF")
+    try:
+        text = data.decode("utf-8-sig")
+        parsed = json.loads(text)
     except UnicodeDecodeError as err:
         raise ModelError(f"{path}: not a text file ({err})") from None
-    if fmt == "urdf" or (fmt is None and text.lstrip().startswith("<")):
-        model, _ = model_from_urdf(text, str(path), name)
-        return model, "urdf"
-    try:
-        data = json.loads(text)
     except json.JSONDecodeError as err:
         raise ModelError(f"{path}: neither JSON (the templates of docs/robots.md) nor a URDF "
                          f"({err})") from None
-    doc = data["model"] if isinstance(data, dict) and "model" in data and \
-        "representation" not in data else data
+    doc = parsed["model"] if isinstance(parsed, dict) and "model" in parsed and \
+        "representation" not in parsed else parsed
     form = doc.get("representation") if isinstance(doc, dict) else None
     if fmt in ("dh", "mdh", "screws") and form != fmt:
         raise ModelError(f"{path}: --format {fmt} but the file's representation is "
                          f"{form!r}; see docs/robots.md for the {fmt} template")
-    model = parse_model(data, str(path))
+    model = parse_model(parsed, str(path))
     return (replace(model, name=name) if name else model), str(form)
 
 

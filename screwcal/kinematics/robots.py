@@ -18,7 +18,7 @@ compliance absorbs the scale; only the shape of the torques matters.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -35,6 +35,8 @@ Axes = tuple[tuple[float, float, float], ...]  # unit joint directions at home, 
 # A drawing's six lengths (mm): base, shoulder, upper arm, forearm offset, forearm, flange.
 Dims = tuple[float, float, float, float, float, float]
 Limits = list[list[float]]  # per joint [min, max] deg
+Pose6 = tuple[float, float, float, float, float, float]
+_ORIGIN: Pose6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 ABB_AXES: Axes = (_Z, _Y, _Y, _X, _Y, _X)
 KUKA_AXES: Axes = (_NZ, _Y, _Y, _NX, _Y, _NX)  # A1, A4, A6 turn clockwise seen from outside
 FANUC_AXES: Axes = (_Z, _Y, _NY, _NX, _NY, _NX)  # every 6-axis arm, the LR Mate 200iD's J6 too
@@ -67,9 +69,53 @@ class RobotEntry:
     check: DatasheetCheck
     build: Callable[[], SerialModel]
     note: str = ""
+    # frames a controller or ROS reports in, by ROS-Industrial's link name: pose (x, y, z mm,
+    # rx, ry, rz deg) in the entry's own frame, which is the first
+    frames: tuple[tuple[str, Pose6], ...] = (("base_link", _ORIGIN), ("base", _ORIGIN))
 
     def model(self) -> SerialModel:
         return self.build()
+
+    @property
+    def frame(self) -> str:
+        """The frame the entry's geometry is written in (the default of every command)."""
+        return self.frames[0][0]
+
+    def frames_text(self) -> str:
+        """The frames for people: the default, then where each other one lies in it."""
+        return "; ".join([f"{self.frame} (default)", *(f"{name} at {pose_words(pose)}"
+                                                       for name, pose in self.frames[1:])])
+
+    def model_in(self, frame: str) -> SerialModel:
+        """The nominal model with its base in one of `frames` (by name)."""
+        poses = dict(self.frames)
+        if frame not in poses:
+            raise ModelError(f"robot '{self.name}' has no frame '{frame}'; its frames: "
+                             f"{', '.join(poses)} (default {self.frame})")
+        return in_frame(self.model(), transform_from_pose(poses[frame]))
+
+
+def pose_words(pose: Sequence[float]) -> str:
+    """A pose (x, y, z mm, rx, ry, rz deg) for people: its non-zero parts, e.g. 'z 330 mm'."""
+    parts = [f"{k} {round(float(v), 6) + 0.0:g} {'mm' if k in 'xyz' else 'deg'}"
+             for k, v in zip(("x", "y", "z", "rx", "ry", "rz"), pose, strict=True)
+             if abs(v) > 1e-9]
+    return ", ".join(parts) or "the same place"
+
+
+def in_frame(model: SerialModel, F: np.ndarray) -> SerialModel:
+    """The same robot with its base frame moved to F (the new frame's pose in the old base
+    frame, mm): axes, home flange and masses re-expressed; the measuring frame's `base` keeps
+    the robot where it is. F turns about z only (gravity stays along -z)."""
+    if abs(F[2, 2] - 1.0) > 1e-12:
+        raise ModelError("a robot's base frame can only turn about its z axis here")
+    Finv = np.linalg.inv(F)
+    R, t = Finv[:3, :3], Finv[:3, 3]
+    masses = tuple(replace(m, home_mm=tuple((R @ np.asarray(m.home_mm) + t).tolist()))
+                   for m in model.masses)
+    return replace(model, axis_dirs=model.axis_dirs @ R.T,
+                   axis_points_mm=model.axis_points_mm @ R.T + t,
+                   home_flange=Finv @ model.home_flange, base=model.base @ F, masses=masses)
 
 
 def _lumped(total_kg: float, shoulder: np.ndarray, elbow: np.ndarray, wrist: np.ndarray
@@ -149,6 +195,15 @@ def _reach(mm: float, source: str, tol: float = 0.005) -> DatasheetCheck:
     return DatasheetCheck("reach_mm", (mm,), tol * mm, source)
 
 
+def _fanuc_frames(j2_height_mm: float) -> tuple[tuple[str, Pose6], ...]:
+    """FANUC's World frame (ROS-I's `base`) lies in the plane of J2, above `base_link`."""
+    return (("base_link", _ORIGIN), ("base", (0.0, 0.0, j2_height_mm, 0.0, 0.0, 0.0)))
+
+
+# UR: the geometry is in the controller's base frame (UR's DH frame 0, ROS's `base`);
+# ROS's base_link is turned 180 deg about z from it
+_UR_FRAMES: tuple[tuple[str, Pose6], ...] = (("base", _ORIGIN),
+                                             ("base_link", (0.0, 0.0, 0.0, 0.0, 0.0, 180.0)))
 _ABB_PS = "ABB product specification"
 _KR_AGILUS: Limits = [[-170, 170], [-190, 45], [-120, 156], [-185, 185], [-120, 120], [-350, 350]]
 ENTRIES: tuple[RobotEntry, ...] = (
@@ -208,26 +263,28 @@ ENTRIES: tuple[RobotEntry, ...] = (
                _other("lrmate200id", 25.0, (330, 50, 330, 35, 335, 80),
                       [[-170, 170], [-100, 145], [-140, 280], [-190, 190], [-125, 125],
                        [-360, 360]], FANUC_AXES, True, FANUC_TOOL0),
-               note=FANUC_NOTE),
+               note=FANUC_NOTE, frames=_fanuc_frames(330.0)),
     RobotEntry("m20ia", "FANUC M-20iA", "FANUC", 250.0,
                "FANUC M-20iA datasheet (dimensions, motion ranges, mass 250 kg)",
                _reach(1811.0, "M-20iA datasheet: reach 1811 mm"),
                _other("m20ia", 250.0, (525, 150, 790, 250, 835, 100),
                       [[-170, 170], [-100, 160], [-185, 273], [-200, 200], [-140, 140],
                        [-270, 270]], FANUC_AXES, True, FANUC_TOOL0),
-               note=FANUC_NOTE),
+               note=FANUC_NOTE, frames=_fanuc_frames(525.0)),
     RobotEntry("ur5e", "Universal Robots UR5e", "Universal Robots", 20.6,
                "UR's published DH parameters of the UR5e (d1 162.5, a2 -425, a3 -392.2, d4 "
                "133.3, d5 99.7, d6 99.6 mm); datasheet mass 20.6 kg, joint ranges +-360 deg",
                DatasheetCheck("home_flange_mm", (-817.2, -232.9, 62.8), 1e-6,
                               "UR5e DH table: flange at all joints 0"),
-               lambda: ur_arm("ur5e", 162.5, -425.0, -392.2, 133.3, 99.7, 99.6, 20.6)),
+               lambda: ur_arm("ur5e", 162.5, -425.0, -392.2, 133.3, 99.7, 99.6, 20.6),
+               frames=_UR_FRAMES),
     RobotEntry("ur10e", "Universal Robots UR10e", "Universal Robots", 33.5,
                "UR's published DH parameters of the UR10e (d1 180.7, a2 -612.7, a3 -571.55, "
                "d4 174.15, d5 119.85, d6 116.55 mm); datasheet mass 33.5 kg, ranges +-360 deg",
                DatasheetCheck("home_flange_mm", (-1184.25, -290.7, 60.85), 1e-6,
                               "UR10e DH table: flange at all joints 0"),
-               lambda: ur_arm("ur10e", 180.7, -612.7, -571.55, 174.15, 119.85, 116.55, 33.5)),
+               lambda: ur_arm("ur10e", 180.7, -612.7, -571.55, 174.15, 119.85, 116.55, 33.5),
+               frames=_UR_FRAMES),
 )
 LIBRARY: dict[str, RobotEntry] = {e.name: e for e in ENTRIES}
 BUILTIN_MODELS: dict[str, Callable[[], SerialModel]] = {e.name: e.build for e in ENTRIES}

@@ -11,15 +11,16 @@ joint values are the controller's. The measuring system's frame (`measuring_fram
 Lumped masses become point-mass `inertial`s (one per link: masses of a link are merged). URDF has
 no joint compliance; a model with some is written without it, and says so.
 
-Read with the standard library's XML parser rather than a URDF package: the chain needs only
-joint origins, axes, limits and link masses, no meshes, and the core takes no new dependency
-for it. Units: URDF's metres and radians, converted at this boundary.
+Read (`urdf_tree`: the document checked and refused by file, line and element, XML attacks
+refused by defusedxml) rather than through a URDF package: the chain needs only joint origins,
+axes, limits and link masses, no meshes. The chain may start at any link fixed to the base
+(`base_link`, or ROS-Industrial's `base`, the controller's frame) and end at any link.
+Units: URDF's metres and radians, converted at this boundary.
 """
 
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -27,8 +28,9 @@ import numpy as np
 from screwcal.errors import ModelError
 from screwcal.kinematics.compliance import LumpedMass
 from screwcal.kinematics.model import PRISMATIC, SerialModel
-from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, rotation_from_euler_zyx_deg
+from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, pose_from_transform
 from screwcal.kinematics.se3 import Array, exp_twist, invert_transform
+from screwcal.kinematics.urdf_tree import Joint, UrdfTree, read_tree
 
 _RY90 = np.array([[0.0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1]])  # flange -> tool0
 
@@ -116,129 +118,151 @@ def urdf_from_model(model: SerialModel) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _floats(text: str | None, n: int, where: str) -> Array:
-    if text is None:
-        return np.zeros(n)
-    try:
-        values = np.array([float(v) for v in text.split()])
-    except ValueError:
-        raise ModelError(f"{where}: not {n} numbers: '{text}'") from None
-    if values.shape != (n,) or not np.all(np.isfinite(values)):
-        raise ModelError(f"{where}: not {n} finite numbers: '{text}'")
-    return values
-
-
-def _transform(elem: ET.Element | None, where: str) -> Array:
-    T = np.eye(4)
-    if elem is None:
-        return T
-    T[:3, 3] = _floats(elem.get("xyz"), 3, f"{where} origin xyz") * 1000.0
-    T[:3, :3] = rotation_from_euler_zyx_deg(np.degrees(_floats(elem.get("rpy"), 3,
-                                                               f"{where} origin rpy")))
-    return T
-
-
-def model_from_urdf(text: str, source: str = "URDF", name: str | None = None
+def model_from_urdf(data: str | bytes, source: str = "URDF", name: str | None = None,
+                    base_link: str | None = None, tip_link: str | None = None
                     ) -> tuple[SerialModel, list[str]]:
-    """The serial chain of a URDF from `base_link` (else the root) to `tool0` (else `flange`,
-    else the chain's end), with limits and link masses, and notes on what was assumed."""
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as err:
-        raise ModelError(f"{source}: not a URDF (XML error: {err})") from None
-    if root.tag != "robot":
-        raise ModelError(f"{source}: not a URDF (root element <{root.tag}>, not <robot>)")
-    links = {e.get("name", ""): e for e in root.findall("link")}
-    by_child: dict[str, ET.Element] = {}  # child link -> its joint
-    parent_of: dict[str, str] = {}  # child link -> parent link
-    for j in root.findall("joint"):
-        child, parent = j.find("child"), j.find("parent")
-        if child is None or parent is None:
-            raise ModelError(f"{source}: joint '{j.get('name')}' without parent or child")
-        by_child[child.get("link", "")] = j
-        parent_of[child.get("link", "")] = parent.get("link", "")
-    children = set(parent_of.values())
-    roots = [n for n in links if n not in by_child]
-    start = "base_link" if "base_link" in links else (roots[0] if roots else None)
-    if start is None:
-        raise ModelError(f"{source}: no root link")
-    tip: str | None = next((t for t in ("tool0", "flange") if t in links), None)
-    notes = []
-    if tip is None:
-        leaves = [n for n in links if n not in children]
-        tip = max(leaves, key=lambda n: len(_path(parent_of, n, start) or []))
-        notes.append(f"no tool0 or flange link: the flange is link '{tip}'")
-    path = _path(parent_of, tip, start)
-    if path is None:
-        raise ModelError(f"{source}: link '{tip}' does not hang from '{start}'")
+    """The serial chain of a URDF from `base_link` (default the link named base_link, else the
+    root) to `tip_link` (default tool0, else flange turned to z out, else the end of the
+    longest chain), with limits and link masses, and notes on what was chosen or assumed. The
+    base may sit above the chain's first moving joint through fixed joints (ROS-Industrial's
+    `base`: the frame the controller reports in)."""
+    tree = read_tree(data, source)
+    notes: list[str] = []
+    start = _chosen(tree, base_link, "--base-link") if base_link else \
+        ("base_link" if "base_link" in tree.links else tree.root)
+    tip = _chosen(tree, tip_link, "--tip-link") if tip_link else _default_tip(tree, notes)
+    climbed, chain = _route(tree, start, tip)
     T = np.eye(4)
-    dirs, points, types, limits = [], [], [], []
-    masses = []
-    for child_link in path:
-        joint = by_child[child_link]
-        jname = joint.get("name")
-        kind = joint.get("type")
-        if joint.find("mimic") is not None:
-            raise ModelError(f"{source}: joint '{jname}' mimics another: not a serial arm")
-        T = T @ _transform(joint.find("origin"), f"{source}: joint '{jname}'")
-        if kind in ("revolute", "continuous", "prismatic"):
-            axis_element = joint.find("axis")
-            axis = _floats("1 0 0" if axis_element is None else axis_element.get("xyz"), 3,
-                           f"{source}: joint '{jname}' axis")
-            if np.linalg.norm(axis) == 0:
-                raise ModelError(f"{source}: joint '{jname}': zero axis")
-            dirs.append(T[:3, :3] @ (axis / np.linalg.norm(axis)))
+    for j in climbed:
+        T = invert_transform(j.origin.T) @ T
+    dirs, points, types, limits, masses = [], [], [], [], []
+    for j in chain:
+        if j.mimic:
+            raise ModelError(f"{tree.where(j)} mimics another joint: not a serial arm")
+        if j.kind in ("floating", "planar"):
+            raise ModelError(f"{tree.where(j)} of type '{j.kind}': not a serial arm")
+        T = T @ j.origin.T
+        if j.kind != "fixed":
+            dirs.append(T[:3, :3] @ j.axis)
             points.append(T[:3, 3].copy())
-            types.append("P" if kind == "prismatic" else "R")
-            limit = joint.find("limit")
-            if kind == "continuous" or limit is None:
-                limits.append([-2 * math.pi, 2 * math.pi] if kind != "prismatic" else [-1e3, 1e3])
-                notes.append(f"joint '{jname}' has no limits: +-360 deg assumed")
-            else:
-                lo, hi = float(limit.get("lower", "0")), float(limit.get("upper", "0"))
-                limits.append([lo * 1000.0, hi * 1000.0] if kind == "prismatic" else [lo, hi])
-        elif kind != "fixed":
-            raise ModelError(f"{source}: joint '{jname}' of type '{kind}': not a serial arm")
-        inertial = links[child_link].find("inertial")
-        mass = None if inertial is None else inertial.find("mass")
-        if inertial is not None and types and mass is not None:
-            kg = float(mass.get("value", "0"))
-            if kg > 0:
-                com = (T @ _transform(inertial.find("origin"), f"{source}: inertial"))[:3, 3]
-                masses.append(LumpedMass(len(types) - 1, kg, tuple(com.tolist())))
+            types.append(PRISMATIC if j.kind == "prismatic" else "R")
+            limits.append(_limits(j, tree, notes))
+        inertial = tree.links[j.child].inertial
+        if inertial is not None and types and inertial.kg > 0:
+            com = (T @ inertial.origin.T)[:3, 3]
+            masses.append(LumpedMass(len(types) - 1, inertial.kg, tuple(com.tolist())))
     if not types:
         raise ModelError(f"{source}: no moving joint between '{start}' and '{tip}'")
     home = T @ (_RY90 if tip == "flange" else np.eye(4))
-    base, tool = _measuring_frames(links, by_child, source)
-    model = SerialModel(name=name or root.get("name") or Path(source).stem,
-                        joint_types=tuple(types), axis_dirs=np.array(dirs),
-                        axis_points_mm=np.array(points), home_flange=home,
-                        limits=np.array(limits), base=base, tool=tool, masses=tuple(masses))
+    moving = ", ".join(j.name for j in chain if j.kind != "fixed")
+    notes[:0] = [f"chain from '{start}'{' (default; --base-link)' if not base_link else ''} to "
+                 f"'{tip}'{' (default; --tip-link)' if not tip_link else ''}: "
+                 f"{len(types)} moving joints ({moving})"]
+    notes += _other_bases(tree, start) + _placeholder_masses(tree, chain)
+    base, tool = _measuring_frames(tree, start, tip)
+    try:
+        model = SerialModel(name=name or tree.name or Path(source).stem,
+                            joint_types=tuple(types), axis_dirs=np.array(dirs),
+                            axis_points_mm=np.array(points), home_flange=home,
+                            limits=np.array(limits), base=base, tool=tool,
+                            masses=tuple(masses))
+    except ModelError as err:
+        raise ModelError(f"{source}: {err}") from None
     return model, notes
 
 
-def _measuring_frames(links: dict[str, ET.Element], by_child: dict[str, ET.Element],
-                      source: str) -> tuple[Array, Array]:
+def _chosen(tree: UrdfTree, link: str, option: str) -> str:
+    if link not in tree.links:
+        some = ", ".join(list(tree.links)[:12]) + (" ..." if len(tree.links) > 12 else "")
+        raise ModelError(f"{tree.source}: {option} '{link}' is not a link of the file (links: "
+                         f"{some})")
+    return link
+
+
+def _default_tip(tree: UrdfTree, notes: list[str]) -> str:
+    for t in ("tool0", "flange"):
+        if t in tree.links:
+            return t
+    parents = {j.parent for j in tree.joint_of.values()}
+    leaves = [n for n in tree.links if n not in parents]
+    tip = max(leaves, key=lambda n: sum(j.kind != "fixed" for j in tree.upward(n)))
+    notes.append(f"no tool0 or flange link: the flange is link '{tip}', the end of the chain "
+                 "with the most moving joints (--tip-link to choose another)")
+    return tip
+
+
+def _route(tree: UrdfTree, start: str, tip: str) -> tuple[list[Joint], list[Joint]]:
+    """The fixed joints climbed from `start` to the lowest link above `tip` too, and the joints
+    from there down to `tip` (in order)."""
+    down = tree.upward(tip)
+    above_tip = {tip} | {j.parent for j in down}
+    climbed, link = [], start
+    for j in tree.upward(start):
+        if link in above_tip:
+            break
+        if j.kind != "fixed":
+            raise ModelError(f"{tree.where(j)} ({j.kind}) lies between '{start}' and the chain "
+                             f"to '{tip}': '{start}' moves with the arm; choose a --base-link "
+                             "below the first moving joint's parent")
+        climbed.append(j)
+        link = j.parent
+    chain = []
+    for j in down:
+        if j.child == link:
+            break
+        chain.append(j)
+    return climbed, chain[::-1]
+
+
+def _limits(j: Joint, tree: UrdfTree, notes: list[str]) -> list[float]:
+    if j.kind == "continuous" or j.limit is None:
+        notes.append(f"joint '{j.name}' ({j.kind}) has no limits: "
+                     f"{'+-1000 mm' if j.kind == 'prismatic' else '+-360 deg'} assumed")
+        return [-1e3, 1e3] if j.kind == "prismatic" else [-2 * math.pi, 2 * math.pi]
+    lo, hi = j.limit
+    return [lo * 1000.0, hi * 1000.0] if j.kind == "prismatic" else [lo, hi]
+
+
+def _other_bases(tree: UrdfTree, start: str) -> list[str]:
+    """ROS-Industrial's `base` (the controller's frame: FANUC's World, UR's base) when the
+    chain starts elsewhere and the file places it differently."""
+    if start == "base" or "base" not in tree.links:
+        return []
+    T = tree.fixed_transform(start, "base")
+    if T is None or np.allclose(T, np.eye(4), atol=1e-9):
+        return []
+    from screwcal.kinematics.robots import pose_words
+
+    return [f"link 'base' (ROS-Industrial: the frame the controller reports in) is at "
+            f"{pose_words(pose_from_transform(T).tolist())} in '{start}': --base-link base "
+            "imports the robot in it"]
+
+
+def _placeholder_masses(tree: UrdfTree, chain: list[Joint]) -> list[str]:
+    """Every moving link with the same mass and inertia at its origin: figures written to fill
+    the file (ROS-Industrial's KUKA files: 2 kg each), not the arm's."""
+    inertials = [(j.child, tree.links[j.child].inertial) for j in chain if j.kind != "fixed"]
+    given = [(n, i) for n, i in inertials if i is not None and i.kg > 0]
+    if len(given) < 3 or len({(i.kg, i.inertia) for _, i in given}) > 1 or \
+            any(any(i.origin.xyz_m) for _, i in given):
+        return []
+    return [f"placeholder masses: links {', '.join(repr(n) for n, _ in given)} all carry "
+            f"{given[0][1].kg:g} kg at their origins with the same inertia, as files without the "
+            "arm's figures do; imported as lumped masses: replace them with the arm's before "
+            "calibrating joint compliance"]
+
+
+def _measuring_frames(tree: UrdfTree, start: str, tip: str) -> tuple[Array, Array]:
     """Base (world from robot base) and tool (flange to measured point) from the links
-    `measuring_frame` and `measured_point` where the file has them; identity otherwise."""
+    `measuring_frame` and `measured_point` where the file has them fixed to the base and the
+    flange; identity otherwise."""
     base, tool = np.eye(4), np.eye(4)
-    if "measuring_frame" in links and by_child.get("measuring_frame") is not None:
-        j = by_child["measuring_frame"]
-        base = invert_transform(_transform(j.find("origin"), f"{source}: measuring_frame"))
-    if "measured_point" in links and by_child.get("measured_point") is not None:
-        tool = _transform(by_child["measured_point"].find("origin"), f"{source}: measured_point")
+    if "measuring_frame" in tree.links:
+        T = tree.fixed_transform(start, "measuring_frame")
+        if T is not None:
+            base = invert_transform(T)
+    if "measured_point" in tree.links:
+        T = tree.fixed_transform(tip, "measured_point")
+        if T is not None:
+            tool = (_RY90 if tip == "flange" else np.eye(4)).T @ T
     return base, tool
-
-
-def _path(parent_of: dict[str, str], tip: str, start: str) -> list[str] | None:
-    """The links from `start` down to `tip` (each named by the child link of its joint, `start`
-    itself left out), or None when `tip` does not hang from `start`."""
-    path = []
-    link = tip
-    while link != start:
-        parent = parent_of.get(link)
-        if parent is None:
-            return None
-        path.append(link)
-        link = parent
-    return path[::-1]

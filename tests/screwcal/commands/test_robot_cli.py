@@ -131,3 +131,53 @@ def test_calibrate_help_is_calibrate_s_own_and_every_option_has_help():
     for name in ("calibrate", "compensate", "align", "predict", "robot"):
         assert all(a.help for a in commands[name]._actions if a.option_strings), name
     assert "screwcal compensate" not in commands["calibrate"].format_help()
+
+
+def test_library_robot_written_in_the_frame_its_controller_reports_in(tmp_path, rng, capsys):
+    """FANUC's World frame (ROS-I's `base`) is 330 mm above the LR Mate's base_link; UR's
+    controller base is the library's frame and base_link is turned 180 deg from it."""
+    assert main(["robot", "show", "lrmate200id"]) == 0
+    assert "frames: base_link (default); base at z 330 mm" in capsys.readouterr().out
+    assert main(["robot", "show", "ur5e"]) == 0
+    assert "frames: base (default); base_link at rz 180 deg" in capsys.readouterr().out
+    out = tmp_path / "world.json"
+    assert main(["robot", "import", "lrmate200id", "--base-link", "base", "--out", str(out)]) == 0
+    assert "in frame 'base'" in capsys.readouterr().out
+    world, model = load_model(out), LIBRARY["lrmate200id"].model()
+    q = random_q(model, rng, 100)
+    shift = forward_kinematics(model, q)[:, :3, 3] - [0, 0, 330.0]
+    np.testing.assert_allclose(world.with_frames(np.eye(4)).home_flange[:3, 3],
+                               model.home_flange[:3, 3] - [0, 0, 330.0], atol=1e-9)
+    np.testing.assert_allclose(forward_kinematics(world.with_frames(np.eye(4)), q)[:, :3, 3],
+                               shift, atol=1e-9)
+    assert main(["robot", "import", "ur5e", "--base-link", "base_link", "--out", str(out)]) == 0
+    np.testing.assert_allclose(load_model(out).axis_dirs[1], [0, 1, 0], atol=1e-12)  # was -y
+    assert main(["robot", "import", "ur5e", "--base-link", "world", "--out",
+                 str(tmp_path / "no.json")]) == 2
+    assert "no frame 'world'; its frames: base, base_link (default base)" in \
+        capsys.readouterr().err and not (tmp_path / "no.json").exists()
+
+
+def test_urdf_import_in_the_controller_frame_by_link_name(tmp_path, capsys):
+    """An exported LR Mate with ROS-I's `base` link added: the default import starts at
+    base_link and says where `base` is; --base-link base gives the library's World-frame robot;
+    --tip-link ends the chain elsewhere."""
+    from screwcal.kinematics.urdf import urdf_from_model
+
+    text = urdf_from_model(LIBRARY["lrmate200id"].model()).replace(
+        "</robot>", '<link name="base"/><joint name="base_link-base" type="fixed"><parent '
+        'link="base_link"/><child link="base"/><origin xyz="0 0 0.33"/></joint></robot>')
+    path, out = tmp_path / "lrmate.urdf", tmp_path / "r.json"
+    path.write_text(text)
+    assert main(["robot", "import", str(path), "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "chain from 'base_link' (default; --base-link) to 'tool0' (default" in said
+    assert "link 'base' (ROS-Industrial: the frame the controller reports in) is at z 330 mm" \
+        in said
+    assert main(["robot", "import", str(path), "--base-link", "base", "--out", str(out)]) == 0
+    expected = LIBRARY["lrmate200id"].model_in("base")
+    np.testing.assert_allclose(load_model(out).home_flange, expected.home_flange, atol=1e-9)
+    np.testing.assert_allclose(load_model(out).axis_points_mm, expected.axis_points_mm,
+                               atol=1e-9)
+    assert main(["robot", "import", str(path), "--tip-link", "link_5", "--out", str(out)]) == 0
+    assert load_model(out).n_joints == 5

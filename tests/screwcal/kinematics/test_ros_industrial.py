@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from screwcal.kinematics.forward import flange_kinematics
+from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
 from screwcal.kinematics.robots import LIBRARY
 from screwcal.kinematics.urdf import model_from_urdf, urdf_from_model
 
@@ -98,9 +98,19 @@ def _T(origin: Origin) -> np.ndarray:
     return T
 
 
-def _rosi_at_zero(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Joint directions, points on the axes and tool0, all at zero, in the library's frame."""
+# ROS-I's `base` link (the controller's frame) in base_link: FANUC's World in J2's plane, UR's
+# base turned 180 deg; ABB's and KUKA's files place it on base_link
+ROSI_BASE = {"lrmate200id": ((0, 0, 0.33), _Z0), "m20ia": ((0, 0, 0.525), _Z0),
+             "ur5e": ((0, 0, 0), (0, 0, PI)), "ur10e": ((0, 0, 0), (0, 0, PI))}
+
+
+def _rosi_at_zero(name: str, link: str | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Joint directions, points on the axes and tool0, all at zero, in the library's frame
+    (or in ROS-I's `link`: base_link or base)."""
     joints, tool0, frame = ROSI[name]
+    if link is not None:
+        frame = ROSI_BASE.get(name, ((0, 0, 0), _Z0)) if link == "base" else ((0, 0, 0), _Z0)
     A = np.linalg.inv(_T(frame))
     dirs, points = [], []
     for origin, axis in joints:
@@ -128,6 +138,24 @@ def test_library_robot_turns_and_stands_as_ros_industrial_describes_it(name):
         assert np.linalg.norm(np.cross(p - q, w)) < 1e-6  # q on the library's axis line
     np.testing.assert_allclose(model.home_flange[:3, 3], tool0[:3, 3], atol=1e-6)
     np.testing.assert_allclose(model.home_flange[:3, :3], tool0[:3, :3], atol=1e-9)
+
+
+@pytest.mark.parametrize("link", ["base_link", "base"])
+@pytest.mark.parametrize("name", sorted(ROSI))
+def test_library_robot_in_each_frame_a_controller_or_ros_reports_in(name, link):
+    """`robot import NAME --base-link base|base_link`: the robot written in ROS-I's frame of
+    that name (FANUC's World 330 / 525 mm above base_link, UR's base turned 180 deg)."""
+    entry = LIBRARY[name]
+    model = entry.model_in(link)
+    dirs, points, tool0 = _rosi_at_zero(name, link)
+    np.testing.assert_allclose(model.axis_dirs, dirs, atol=1e-9)
+    for w, p, q in zip(model.axis_dirs, model.axis_points_mm, points, strict=True):
+        assert np.linalg.norm(np.cross(p - q, w)) < 1e-6
+    np.testing.assert_allclose(model.home_flange, tool0, atol=1e-6)
+    q = np.random.default_rng(5).uniform(-1, 1, (50, 6))  # the robot itself has not moved
+    nominal = entry.model()
+    np.testing.assert_allclose(forward_kinematics(model, q), forward_kinematics(nominal, q),
+                               atol=1e-9)
 
 
 def test_lr_mate_turns_j6_as_the_m20ia_does():
@@ -191,10 +219,14 @@ def test_third_party_urdf_matches_its_library_robot(stem):
     written-in numbers of ROSI above are the file's."""
     path = _third_party(stem)
     name = THIRD_PARTY[stem]
-    model, _ = model_from_urdf(path.read_text(encoding="utf-8"), str(path))
+    model, notes = model_from_urdf(path.read_text(encoding="utf-8"), str(path))
     dirs, points, tool0 = _rosi_at_zero(name)
-    frame = _T(ROSI[name][2])
+    frame = _T(ROSI[name][2])  # the library's frame in base_link
     np.testing.assert_allclose(model.axis_dirs, dirs @ frame[:3, :3].T, atol=1e-9)
     in_file = points @ frame[:3, :3].T + frame[:3, 3]
     np.testing.assert_allclose(model.axis_points_mm, in_file, atol=1e-6)  # the joint origins
     np.testing.assert_allclose(model.home_flange, frame @ tool0, atol=1e-6)
+    in_base, _ = model_from_urdf(path.read_bytes(), str(path), base_link="base")
+    np.testing.assert_allclose(in_base.home_flange, _rosi_at_zero(name, "base")[2], atol=1e-6)
+    if name in ROSI_BASE:  # the import says where the controller's frame is
+        assert any("--base-link base" in n for n in notes), notes
