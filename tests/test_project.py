@@ -26,8 +26,10 @@ ALLOWED = {
 _BASE = {"screwcal", "screwcal.errors", "screwcal.tables", "screwcal._lazy", "screwcal.instrument"}
 LAYERS = {
     "rapid": {"screwcal.rapid"},
+    "programs": {"screwcal.programs"},
     "kinematics": {*_BASE - {"screwcal.tables"}, "screwcal.kinematics"},
-    "calibration": {*_BASE, "screwcal.kinematics", "screwcal.rapid", "screwcal.calibration"},
+    "calibration": {*_BASE, "screwcal.kinematics", "screwcal.rapid", "screwcal.programs",
+                    "screwcal.calibration"},
     "performance": {*_BASE, "screwcal.kinematics", "screwcal.performance"},
     "studies": {*_BASE, "screwcal.kinematics", "screwcal.rapid", "screwcal.calibration",
                 "screwcal.performance", "screwcal.studies"},

@@ -5,7 +5,8 @@ flange (`flange`), base alignment by hand (`base_alignment`), the correction of 
 (`correction`), pose sets and their design (`posesets`, `design`). Its errors are in
 `screwcal.errors`.
 
-May import: `screwcal.kinematics`, `screwcal.rapid` (the RAPID parser), `screwcal.errors`,
+May import: `screwcal.kinematics`, `screwcal.rapid` (the RAPID parser), `screwcal.programs`
+(the readers of other makers' programs), `screwcal.errors`,
 `screwcal.tables`; never performance, studies, commands, nor `protocol`, `service` or `simulators`.
 """
 

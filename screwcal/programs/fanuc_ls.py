@@ -1,0 +1,136 @@
+"""FANUC LS programs (the ASCII form of a TP program): the `/POS` section's positions and the
+`/MN` section's motions, read into a `Program`.
+
+A position: `P[1]{ GP1: UF : 0, UT : 1, CONFIG : 'N U T, 0, 0, 0', X = 500.000 mm, Y = ...,
+Z = ..., W = -180.000 deg, P = ..., R = ... };` (mm; W, P, R deg fixed angles about X, Y, Z,
+so R = Rz(R) Ry(P) Rx(W)). Its user frame and tool frame are the numbers it carries (UF 0: the
+world, the robot base; UT 0: the faceplate); their values come from a frames file
+(`read_frames`: `UF,1,x,y,z,w,p,r` / `UT,1,...` lines). A position in joints (`J1 = ... deg`)
+is left as it is; groups other than GP1 (positioners) too.
+
+Not compensated, listed with the line: a position a motion uses with `INC` (an increment, not a
+pose); motions to position registers (`PR[n]`: their values live in the controller); offsets
+(`Offset,PR[n]`, `Tool_Offset`, `VOFFSET`) applied in the nominal frame, noted.
+"""
+
+from __future__ import annotations
+
+import re
+
+from screwcal.programs.program import Flag, Frame, Note, Program, ProgramSyntaxError, Target
+
+_POS = re.compile(r"^[ \t]*P\[(\d+)(?::[^\]]*)?\][ \t]*\{", re.M)
+_GROUP = re.compile(r"GP(\d+)[ \t]*:", re.I)
+_FIELD = re.compile(r"\b(UF|UT|CONFIG|X|Y|Z|W|P|R|J\d)[ \t]*[:=][ \t]*"
+                    r"('[^']*'|[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|\*+|F)", re.I)
+_MOTION = re.compile(r"^[ \t]*\d+:[ \t]*([JLCA])[ \t]+([^;]*);", re.M)
+_REF = re.compile(r"\b(P|PR)\[(\d+)(?::[^\]]*)?\]", re.I)
+_OFFSETS = re.compile(r"\b(Offset|Tool_Offset|VOFFSET|INC)\b", re.I)
+_POSE = ("X", "Y", "Z", "W", "P", "R")
+
+
+def _line(text: str, offset: int) -> int:
+    return text.count("\n", 0, offset) + 1
+
+
+def read_frames(path: str, text: str, program: Program) -> None:
+    """User and tool frames from a frames file: `UF,n,x,y,z,w,p,r` and `UT,n,...` (mm, deg;
+    '#' starts a comment)."""
+    for k, raw in enumerate(text.splitlines(), 1):
+        row = raw.split("#", 1)[0].strip()
+        if not row:
+            continue
+        parts = [p.strip() for p in row.split(",")]
+        if len(parts) != 8 or parts[0].upper() not in ("UF", "UT") or not parts[1].isdigit():
+            raise ProgramSyntaxError(path, k, "expected 'UF,n,x,y,z,w,p,r' or 'UT,n,x,y,z,w,p,"
+                                     f"r' (mm, deg), got {row[:60]!r}")
+        try:
+            values = tuple(float(v) for v in parts[2:])
+        except ValueError:
+            raise ProgramSyntaxError(path, k, "the six values must be numbers (mm, deg)") \
+                from None
+        store = program.frames if parts[0].upper() == "UF" else program.tools
+        store[f"{parts[0].upper()}[{int(parts[1])}]"] = Frame(values)
+
+
+def read_ls(path: str, text: str, program: Program) -> None:
+    """The positions and motions of one LS file into `program`."""
+    pos_at = text.upper().find("/POS")
+    positions: dict[int, Target] = {}
+    for m in _POS.finditer(text):
+        if pos_at < 0 or m.start() < pos_at:
+            continue
+        end = text.find("};", m.end())
+        if end < 0:
+            raise ProgramSyntaxError(path, _line(text, m.start()), "a position's '{' is never "
+                                     "closed by '};'")
+        target = _position(path, text, int(m.group(1)), m.end(), end, program)
+        if target is not None:
+            positions[int(m.group(1))] = target
+            program.targets.append(target)
+    used_inc: set[int] = set()
+    for m in _MOTION.finditer(text):
+        if pos_at >= 0 and m.start() > pos_at:
+            break
+        line = _line(text, m.start())
+        body = m.group(2)
+        offset = _OFFSETS.search(body)
+        inc = offset is not None and offset.group(1).upper() == "INC"
+        for ref in _REF.finditer(body):
+            if ref.group(1).upper() == "PR":
+                if offset is None or ref.start() < offset.start():  # the motion's own target
+                    program.notes.append(Note(path, line, ref.group(0), "a position register: "
+                                              "its value lives in the controller"))
+            elif inc:
+                used_inc.add(int(ref.group(2)))
+        if offset is not None and not inc:
+            program.notes.append(Note(path, line, offset.group(1), "an offset applied when the "
+                                      "program runs, in the nominal frame"))
+    for n in used_inc:
+        if n in positions:
+            positions[n].problem = "used with INC: an increment from where the robot stands"
+
+
+def _position(path: str, text: str, number: int, start: int, end: int, program: Program
+              ) -> Target | None:
+    """The GP1 Cartesian position between start and end, or None for joints."""
+    body_start = start
+    groups = list(_GROUP.finditer(text, start, end))
+    if groups:
+        gp1 = [g for g in groups if g.group(1) == "1"]
+        if not gp1:
+            return None
+        body_start = gp1[0].end()
+        later = [g.start() for g in groups if g.start() > body_start]
+        end = min(later) if later else end
+    fields = {m.group(1).upper(): m for m in _FIELD.finditer(text, body_start, end)}
+    line = _line(text, start)
+    if "J1" in fields:
+        program.joint_targets += 1
+        return None
+    name = f"P[{number}]"
+    missing = [k for k in _POSE if k not in fields]
+    if missing:
+        raise ProgramSyntaxError(path, line, f"{name}: no {', '.join(missing)} (a Cartesian "
+                                 "position has X, Y, Z, W, P, R)")
+    values = tuple(float(fields[k].group(2)) for k in _POSE)
+    spans = tuple(fields[k].span(2) for k in _POSE)
+    flags = {}
+    if "CONFIG" in fields:
+        c = fields["CONFIG"]
+        flags["CONFIG"] = Flag("CONFIG", c.group(2)[1:-1], (c.start(2) + 1, c.end(2) - 1))
+    target = Target(path, line, name, values, spans, flags=flags)
+    for key, store, kind in (("UF", program.frames, "user frame"),
+                             ("UT", program.tools, "tool frame")):
+        raw = fields[key].group(2) if key in fields else "0"
+        if not raw.isdigit():
+            target.problem = f"its {kind} is {raw!r}: not a frame number"
+        elif int(raw):
+            k = f"{key}[{int(raw)}]"
+            store.setdefault(k, Frame(None, f"{key} {int(raw)} is not in the frames file "
+                                      "given (--frames)"))
+            if key == "UF":
+                target.frame = k
+            else:
+                target.tool = k
+    return target

@@ -1,0 +1,219 @@
+"""URScript programs: pose literals `p[x, y, z, rx, ry, rz]` (m; a rotation vector in rad) in
+motions and pose variables, read into a `Program`.
+
+Targets: a literal as the pose of `movel`, `movej`, `movep`, `movec` (its via and end points)
+or of `get_inverse_kin` inside one; a pose variable assigned a literal once (`p1 = p[...]`) and
+named by a motion; the second pose of `pose_trans(feature, p[...])` where the feature is a
+literal or a variable assigned one (the target is then in that feature's frame). The tool: the
+last `set_tcp(p[...])` before the motion in the file (else the flange: the installation's TCP
+is not in the program). Joint targets (`movej([...])`) are left as they are.
+
+Not compensated, listed with the line: poses computed by `pose_add`, `pose_sub`, `pose_trans`
+of computed operands, `interpolate_pose` and the like; variables assigned more than once or
+from an expression; a TCP set from an expression.
+"""
+
+from __future__ import annotations
+
+import re
+
+from screwcal.programs.program import Frame, Note, Program, Target
+
+_LITERAL = re.compile(r"\bp\[")
+_MOTION = re.compile(r"\b(movel|movej|movep|movec)[ \t]*\(")
+_TCP = re.compile(r"\bset_tcp[ \t]*\(")
+_VAR = re.compile(r"^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*=(?!=)[ \t]*",
+                  re.M)
+_NAME = re.compile(r"[A-Za-z_]\w*")
+_NUM = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
+def _line(text: str, offset: int) -> int:
+    return text.count("\n", 0, offset) + 1
+
+
+def _code(text: str) -> str:
+    """The text with comments and strings blanked (offsets kept)."""
+    out = list(text)
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if c == "#":
+            while i < n and text[i] != "\n":
+                out[i] = " "
+                i += 1
+        elif c in "\"'":
+            j = text.find(c, i + 1)
+            j = n - 1 if j < 0 else j
+            for k in range(i + 1, j):
+                out[k] = " " if text[k] != "\n" else "\n"
+            i = j + 1
+        else:
+            i += 1
+    return "".join(out)
+
+
+def _close(code: str, open_at: int, pair: str = "()") -> int:
+    """The offset of the bracket closing the one at open_at."""
+    depth = 0
+    for i in range(open_at, len(code)):
+        if code[i] == pair[0]:
+            depth += 1
+        elif code[i] == pair[1]:
+            depth -= 1
+            if depth == 0:
+                return i
+    return len(code)
+
+
+def _split(code: str, a: int, b: int) -> list[tuple[int, int]]:
+    """Top-level comma-separated spans of code[a:b], stripped."""
+    out, depth, start = [], 0, a
+    for i in range(a, b + 1):
+        c = code[i] if i < b else ","
+        if c in "([":
+            depth += 1
+        elif c in ")]":
+            depth -= 1
+        elif c == "," and depth == 0:
+            s, e = start, i
+            while s < e and code[s].isspace():
+                s += 1
+            while e > s and code[e - 1].isspace():
+                e -= 1
+            out.append((s, e))
+            start = i + 1
+    return out
+
+
+def _literal(path: str, text: str, code: str, at: int, name: str) -> Target:
+    """The pose literal whose 'p[' starts at `at`."""
+    open_at = at + 1
+    close = _close(code, open_at, "[]")
+    parts = _split(code, open_at + 1, close)
+    line = _line(text, at)
+    if len(parts) != 6:
+        return Target(path, line, name, (), (), problem=f"a pose of {len(parts)} numbers, not 6")
+    if not all(_NUM.fullmatch(code[s:e]) for s, e in parts):
+        return Target(path, line, name, (), (), problem="a number of the pose is an expression, "
+                      "computed when the program runs")
+    return Target(path, line, name, tuple(float(code[s:e]) for s, e in parts), tuple(parts))
+
+
+def read_urscript(path: str, text: str, program: Program) -> None:
+    """The targets of one URScript file into `program`."""
+    code = _code(text)
+    variables: dict[str, Target] = {}
+    assigned: dict[str, int] = {}
+    for m in _VAR.finditer(code):
+        name = m.group(1)
+        assigned[name] = assigned.get(name, 0) + 1
+        if code.startswith("p[", m.end()):
+            variables[name] = _literal(path, text, code, m.end(), name)
+    for name, count in assigned.items():
+        if count > 1 and name in variables:
+            variables[name].problem = f"assigned {count} times: its value depends on the run"
+    events = sorted([(m.start(), "tcp", m) for m in _TCP.finditer(code)] +
+                    [(m.start(), "move", m) for m in _MOTION.finditer(code)], key=lambda e: e[0])
+    tool: str | None = None
+    uses: dict[str, set[tuple[str | None, str | None]]] = {}
+    for offset, kind, m in events:
+        close = _close(code, m.end() - 1)
+        args = _split(code, m.end(), close)
+        line = _line(text, offset)
+        if kind == "tcp":
+            tool = _tcp(path, text, code, line, args, variables, program)
+            continue
+        for s, e in args[:2 if m.group(1) == "movec" else 1]:
+            _pose_argument(path, text, code, s, e, m.group(1), tool, variables, program, uses)
+    for name, t in variables.items():
+        if name not in uses and not _feature_only(code, name):
+            program.notes.append(Note(path, t.line, name, "a pose no motion names directly "
+                                      "(used in a computation): left as it is"))
+    for name, combos in uses.items():
+        t = variables[name]
+        if len(combos) > 1:
+            t.problem = t.problem or "used with several TCPs or features: one value cannot " \
+                "serve them all"
+        else:
+            (t.tool, t.frame), = combos
+        program.targets.append(t)
+    program.targets.sort(key=lambda t: (t.path, t.line))
+
+
+def _feature_only(code: str, name: str) -> bool:
+    """Whether a variable is used as a feature (pose_trans's first pose) or a TCP."""
+    return re.search(rf"\b(?:pose_trans[ \t]*\([ \t]*|set_tcp[ \t]*\([ \t]*){name}\b",
+                     code) is not None
+
+
+def _tcp(path: str, text: str, code: str, line: int, args: list[tuple[int, int]],
+         variables: dict[str, Target], program: Program) -> str | None:
+    key = f"{path}:{line}:tcp"
+    arg = code[args[0][0]:args[0][1]] if args else ""
+    source = variables.get(arg) if _NAME.fullmatch(arg) else \
+        _literal(path, text, code, args[0][0], "set_tcp") if arg.startswith("p[") else None
+    if source is None or source.problem or len(source.values) != 6:
+        why = source.problem if source is not None and source.problem else \
+            f"set_tcp({arg[:30]}): computed when the program runs"
+        program.tools[key] = Frame(None, why)
+    else:
+        program.tools[key] = Frame(source.values)
+    return key
+
+
+def _pose_argument(path: str, text: str, code: str, s: int, e: int, verb: str,
+                   tool: str | None, variables: dict[str, Target], program: Program,
+                   uses: dict[str, set[tuple[str | None, str | None]]]) -> None:
+    arg = code[s:e]
+    line = _line(text, s)
+    if arg.startswith("["):
+        program.joint_targets += 1
+    elif arg.startswith("p["):
+        t = _literal(path, text, code, s, f"{verb} pose")
+        t.tool = tool
+        program.targets.append(t)
+    elif _NAME.fullmatch(arg) and arg in variables:
+        uses.setdefault(arg, set()).add((tool, None))
+    elif arg.startswith("get_inverse_kin(") and code.startswith("p[", s + 16):
+        t = _literal(path, text, code, s + 16, f"{verb} pose")
+        t.tool = tool
+        program.targets.append(t)
+    elif arg.startswith("pose_trans("):
+        _feature_target(path, text, code, s, verb, tool, variables, program, uses)
+    else:
+        program.notes.append(Note(path, line, arg[:40], "computed when the program runs"))
+
+
+def _feature_target(path: str, text: str, code: str, s: int, verb: str, tool: str | None,
+                    variables: dict[str, Target], program: Program,
+                    uses: dict[str, set[tuple[str | None, str | None]]]) -> None:
+    """pose_trans(feature, pose): the pose in the feature's frame, both literals (or
+    variables assigned one); anything else is noted."""
+    open_at = s + len("pose_trans")
+    parts = _split(code, open_at + 1, _close(code, open_at))
+    line = _line(text, s)
+    if len(parts) != 2:
+        program.notes.append(Note(path, line, "pose_trans", "computed when the program runs"))
+        return
+    (fs, fe), (ps, pe) = parts
+    feature, pose = code[fs:fe], code[ps:pe]
+    key = f"{path}:{line}:feature"
+    ft: Target | None
+    if feature.startswith("p["):
+        ft = _literal(path, text, code, fs, "feature")
+    else:
+        ft = variables.get(feature) if _NAME.fullmatch(feature) else None
+    if ft is None or ft.problem or not ft.values:
+        program.notes.append(Note(path, line, f"pose_trans({feature[:20]}, ...)",
+                                  "its frame is computed when the program runs"))
+        return
+    program.frames[key] = Frame(ft.values)
+    if pose.startswith("p["):
+        t = _literal(path, text, code, ps, f"{verb} pose")
+        t.tool, t.frame = tool, key
+        program.targets.append(t)
+    elif _NAME.fullmatch(pose) and pose in variables:
+        uses.setdefault(pose, set()).add((tool, key))
+    else:
+        program.notes.append(Note(path, line, pose[:40], "computed when the program runs"))
