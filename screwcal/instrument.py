@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 POSITION_NOISE_MM = 0.013
 HOLE_SPACING_MM = 50.0
 ORIENTATION_NOISE_RAD = POSITION_NOISE_MM * math.sqrt(2.0) / HOLE_SPACING_MM
@@ -43,3 +45,30 @@ def tracker_noise_mm(distance_mm: float) -> tuple[float, float]:
     The lateral one is half the MPE (k = 2) at that range."""
     lateral = (TRACKER_MPE_CONSTANT_MM + TRACKER_MPE_PER_M_MM * distance_mm / 1000.0) / 2.0
     return TRACKER_RADIAL_NOISE_MM, lateral
+
+
+def tracker_covariance_mm2(points_mm: np.ndarray) -> np.ndarray:
+    """The covariance (N, 3, 3) mm^2 of points (N, 3) measured by a tracker at the origin of
+    their frame: `tracker_noise_mm` along the beam and across it."""
+    p = np.asarray(points_mm, dtype=float)
+    distance = np.linalg.norm(p, axis=1)
+    u = p / distance[:, None]
+    radial, lateral = np.vectorize(tracker_noise_mm)(distance)
+    along = u[:, :, None] * u[:, None, :]
+    return (radial**2)[:, None, None] * along + \
+        (lateral**2)[:, None, None] * (np.eye(3) - along)
+
+
+def radial_lateral_rms_mm(residuals_mm: np.ndarray, points_mm: np.ndarray, n_params: int = 0
+                          ) -> tuple[float, float]:
+    """The measuring noise per component, from a fit's residuals (N, 3) at points (N, 3) seen
+    from a tracker at the origin: the RMS along the beam and across it (per direction), each
+    corrected for the `n_params` parameters the fit took out of the 3 N rows."""
+    e = np.asarray(residuals_mm, dtype=float)
+    p = np.asarray(points_mm, dtype=float)
+    u = p / np.linalg.norm(p, axis=1, keepdims=True)
+    radial = np.sum(e * u, axis=1)
+    lateral_sq = np.sum(e * e, axis=1) - radial**2
+    dof = max(1.0, 1.0 - n_params / (3.0 * len(e)))
+    return (float(np.sqrt(np.mean(radial**2) / dof)),
+            float(np.sqrt(np.mean(lateral_sq) / 2.0 / dof)))

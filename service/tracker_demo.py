@@ -41,9 +41,8 @@ from protocol.errors import (
 from protocol.tracker import TrackerClient, TrackerPoint
 from screwcal.calibration.correction import compensate
 from screwcal.calibration.identify import CalibrationResult, identify
-from screwcal.calibration.line_of_sight import visible
+from screwcal.calibration.line_of_sight import visible, visible_configurations
 from screwcal.calibration.measurements import MeasurementSet
-from screwcal.calibration.posesets import random_configurations
 from screwcal.instrument import TRACKER_STAND_MM
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
@@ -77,17 +76,12 @@ def calibration_poses(model: SerialModel, n: int, stand_mm: Sequence[float], see
                       ) -> Array:
     """n configurations (deg) of the working region whose SMR the tracker at `stand_mm` (robot
     frame) sees on the nominal robot, with margins."""
-    rng = np.random.default_rng(seed)
-    kept: list[Array] = []
-    for _ in range(200):
-        q = random_configurations(4 * n, rng)
-        q = q[model.within_limits(q, margin=np.radians(5.0))]
-        kept += list(q[visible(model, q, np.asarray(stand_mm, dtype=float))])
-        if len(kept) >= n:
-            out: Array = np.round(np.degrees(np.array(kept[:n], dtype=float)), 4)
-            return out
-    raise ServiceError(f"fewer than {n} poses of the working region face the tracker at "
-                       f"{list(stand_mm)} mm: stand it elsewhere")
+    try:
+        q = visible_configurations(model, n, np.asarray(stand_mm, dtype=float),
+                                   np.random.default_rng(seed))
+    except ValueError as err:
+        raise ServiceError(str(err)) from None
+    return np.asarray(np.round(np.degrees(q), 4), dtype=float)
 
 
 def performance_poses(model: SerialModel, cycles: int, stand_mm: Sequence[float]
@@ -160,14 +154,17 @@ class Cell:
             last = pose.joints_deg
 
 
-def measurement_set(run: TrackerRun) -> MeasurementSet:
-    """The measured poses (the skipped ones left out) as the identification reads them."""
+def measurement_set(run: TrackerRun, weighted: bool = True) -> MeasurementSet:
+    """The measured poses (the skipped ones left out) as the identification reads them: each
+    point with the covariance the tracker reported (`weighted`), else one isotropic level."""
     keep = [k for k, p in enumerate(run.points) if p is not None]
     points = [p for p in run.points if p is not None]
     return MeasurementSet(np.radians([run.joints_deg[k] for k in keep]),
                           np.array([p.xyz_mm for p in points]), None,
                           tuple(str(k) for k in keep),
-                          q_previous=np.radians([run.previous_deg[k] for k in keep]))
+                          q_previous=np.radians([run.previous_deg[k] for k in keep]),
+                          position_cov_mm2=np.array([p.covariance for p in points])
+                          if weighted else None)
 
 
 def ap_mean_mm(run: TrackerRun, plans: Sequence[PosePlan], nominal: SerialModel,
@@ -282,12 +279,20 @@ def summary_lines(done: TrackerDemo, stand_mm: Sequence[float]) -> list[str]:
         TRACKER_MPE_CONSTANT_MM,
         TRACKER_MPE_PER_M_MM,
         TRACKER_RADIAL_NOISE_MM,
+        radial_lateral_rms_mm,
     )
+    from screwcal.kinematics.forward import forward_kinematics
 
     points = [p for r in done.runs.values() for p in r.points if p is not None]
     weather = np.array([(p.temperature_c, p.pressure_mbar, p.humidity_pct) for p in points])
     ratio = done.ap_after_geometric_mm / done.ap_after_mm
-    noise = done.calibration.noise
+    data = measurement_set(done.runs["calibration"])
+    lag = done.calibration.reading_lag
+    moved = np.nan_to_num(data.q - data.q_previous) if data.q_previous is not None else 0.0
+    q = data.q if lag is None else data.q + np.asarray(lag) * moved  # the readings' lag undone
+    fitted = forward_kinematics(done.calibration.model, q)[:, :3, 3]
+    radial, lateral = radial_lateral_rms_mm(fitted - data.positions_mm, data.positions_mm,
+                                            len(done.calibration.params))
     lines = [
         f"  instrument: laser tracker (emScon TPI), one SMR, standing at {list(stand_mm)} mm; "
         f"U = {TRACKER_MPE_CONSTANT_MM * 1000:g} um + {TRACKER_MPE_PER_M_MM * 1000:g} um/m "
@@ -299,9 +304,9 @@ def summary_lines(done: TrackerDemo, stand_mm: Sequence[float]) -> list[str]:
         f"  {'geometric only (compliance none, lag none)':<44}{done.ap_after_geometric_mm:8.3f}"
         f" mm  ({ratio:.2f}x ours)",
     ]
-    if noise is not None:
-        lines.append(f"  position noise estimated {noise.position_mm * 1000:.1f} um (per "
-                     "coordinate, isotropic)")
+    lines.append(f"  each point weighted by the covariance the tracker reported; residual along "
+                 f"the beam {radial * 1000:.1f} um, across it {lateral * 1000:.1f} um per "
+                 "direction (RMS, the model's misfit included)")
     for name, run in done.runs.items():
         if run.skipped or run.faults:
             lines.append(f"  {name}: {len(run.points) - run.skipped} poses measured, "

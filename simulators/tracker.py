@@ -36,7 +36,7 @@ from screwcal.calibration.line_of_sight import (
     beam_blocked,
     view_from,
 )
-from screwcal.instrument import TRACKER_STAND_MM, tracker_noise_mm
+from screwcal.instrument import TRACKER_STAND_MM, tracker_covariance_mm2, tracker_noise_mm
 from screwcal.kinematics.se3 import Array, transform_points
 from simulators.world import World
 
@@ -195,7 +195,7 @@ class TrackerEmulator:
         noise = self.rng.normal(0.0, 1.0, 3) * (radial, lateral, lateral)
         reported = u * (distance * scale + noise[0]) + e1 * noise[1] + e2 * noise[2]
         self.state.measured.append((line.copy(), reported))
-        C = radial ** 2 * np.outer(u, u) + lateral ** 2 * (np.eye(3) - np.outer(u, u))
+        C = tracker_covariance_mm2(line[None])[0]
         k = _LENGTH_PER_MM[self.state.units[0]]
         std = np.sqrt(np.diag(C)) * k
         covar = (C[0, 1] * k * k, C[0, 2] * k * k, C[1, 2] * k * k)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from screwcal.calibration.posesets import random_configurations
 from screwcal.instrument import SMR_ACCEPTANCE_DEG, TRACKER_RANGE_MM
 from screwcal.kinematics.forward import forward_kinematics, joint_positions
 from screwcal.kinematics.model import SerialModel
@@ -114,3 +115,19 @@ def visible(model: SerialModel, q: Array, station_mm: Array, *, acceptance_margi
                                   acceptance_deg=SMR_ACCEPTANCE_DEG - acceptance_margin_deg,
                                   link_radius_mm=radius) is None
                      for v in model_views(model, q, smr_mm, smr_axis)], dtype=bool)
+
+
+def visible_configurations(model: SerialModel, n: int, station_mm: Array,
+                           rng: np.random.Generator) -> Array:
+    """n configurations (rad) uniform in the working region, inside the limits less 5 deg,
+    whose SMR a tracker at `station_mm` (the model's world frame) sees (`visible`).
+    ValueError when the region has too few."""
+    kept: list[Array] = []
+    for _ in range(200):
+        q = random_configurations(4 * n, rng)
+        q = q[model.within_limits(q, margin=np.radians(5.0))]
+        kept += list(q[visible(model, q, station_mm)])
+        if len(kept) >= n:
+            return np.array(kept[:n], dtype=float)
+    raise ValueError(f"fewer than {n} poses of the working region face a tracker at "
+                     f"{np.round(station_mm, 1).tolist()} mm: stand it elsewhere")

@@ -21,6 +21,21 @@ from screwcal.kinematics.se3 import Array, transform_points
 from screwcal.tables import direction_columns, joint_columns, read_numeric_csv
 
 
+def check_covariances(cov: Array, n: int) -> None:
+    """Refuses what cannot be a point's covariance: not (n, 3, 3), not finite, not symmetric,
+    not positive definite (InputError naming the first such point)."""
+    if cov.shape != (n, 3, 3):
+        raise InputError(f"position covariances must be ({n}, 3, 3); got {cov.shape}")
+    bad = ~np.isfinite(cov).all(axis=(1, 2)) | \
+        ~np.isclose(cov, np.swapaxes(cov, 1, 2), rtol=1e-6, atol=1e-12).all(axis=(1, 2))
+    if not bad.any():
+        bad = np.linalg.eigvalsh(cov)[:, 0] <= 0.0
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise InputError(f"the covariance of point {k + 1} is not a covariance (finite, "
+                         f"symmetric, positive definite): {cov[k].tolist()}")
+
+
 @dataclass(frozen=True)
 class MeasurementSet:
     q: Array  # (N, n) joint readings, numeric units (rad / mm)
@@ -34,6 +49,11 @@ class MeasurementSet:
     # (N, n) the sign of each joint's last move before the pose (+1 from below, -1 from above,
     # 0 unknown), the file's optional dir1..dirn (`backlash.direction_pairs`); None: not given
     directions: Array | None = None
+    # (N, 3, 3) each measured position's covariance (mm^2), as an instrument reports it (a
+    # laser tracker's: tight along the beam, wide across it, growing with the range); the
+    # statistical weighting then whitens each point by its own (`residual_problem`), the
+    # measuring noise level scaling them all. None: every point alike, isotropic
+    position_cov_mm2: Array | None = None
 
     def __post_init__(self) -> None:
         N = len(self.q)
@@ -47,6 +67,8 @@ class MeasurementSet:
         if self.directions is not None and self.directions.shape != self.q.shape:
             raise InputError(f"approach directions must be {self.q.shape}; got "
                              f"{self.directions.shape}")
+        if self.position_cov_mm2 is not None:
+            check_covariances(self.position_cov_mm2, N)
         if not self.ids:
             object.__setattr__(self, "ids", tuple(str(k + 1) for k in range(N)))
 
@@ -68,12 +90,17 @@ class MeasurementSet:
                               tuple(int(v) for v in np.asarray(self.lines, dtype=int)[idx])
                               if self.lines else (),  # Python ints: they go into JSON
                               None if self.q_previous is None else self.q_previous[idx],
-                              None if self.directions is None else self.directions[idx])
+                              None if self.directions is None else self.directions[idx],
+                              None if self.position_cov_mm2 is None
+                              else self.position_cov_mm2[idx])
 
     def transformed(self, T: Array) -> MeasurementSet:
         """The same measurements seen from another frame: T (4, 4) maps this frame into it."""
+        R = T[:3, :3]
         return replace(self, positions_mm=transform_points(T, self.positions_mm),
-                       rotations=None if self.rotations is None else T[:3, :3] @ self.rotations)
+                       rotations=None if self.rotations is None else R @ self.rotations,
+                       position_cov_mm2=None if self.position_cov_mm2 is None
+                       else R @ self.position_cov_mm2 @ R.T)
 
     def with_q(self, q: Array) -> MeasurementSet:
         """The same measurements with other joint readings (e.g. corrected for lag)."""

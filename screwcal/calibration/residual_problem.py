@@ -70,13 +70,19 @@ def residual_rows(residual: Residual) -> int:
     return 6 if residual == "pose" else 3
 
 
-def covariance_components(Jq: Array) -> Array:
+def covariance_components(Jq: Array, position_cov: Array | None = None) -> Array:
     """The unit covariance components V_k (3, N, k, k) of residuals whose joint Jacobian is Jq
     (N, k, n): position rows (mm^2), orientation rows (rad^2), and the joints' through the
-    joint Jacobian (per rad^2)."""
+    joint Jacobian (per rad^2). With each point's own covariance (N, 3, 3) (the data's
+    `position_cov_mm2`) the position component is those, scaled to a mean variance of 1 per
+    coordinate: the measuring level keeps its meaning (mm^2 per coordinate) and each point
+    weighs by its own shape and size."""
     k = Jq.shape[1]
     V = np.zeros((3, len(Jq), k, k))
-    V[0, :, range(3), range(3)] = 1.0
+    if position_cov is None:
+        V[0, :, range(3), range(3)] = 1.0
+    else:
+        V[0, :, :3, :3] = position_cov / (np.trace(position_cov, axis1=1, axis2=2).mean() / 3.0)
     if k == 6:
         V[1, :, range(3, 6), range(3, 6)] = 1.0
     V[2] = Jq @ np.swapaxes(Jq, 1, 2)
@@ -95,7 +101,7 @@ def _weights(problem: ResidualProblem, settings: IdentifySettings, at: Array) ->
         return W if residual != "distance" else np.full(len(pairs(N)[0]), w[0])
     Jq = problem.joint_jacobian(at)
     cov = np.einsum("k,knij->nij", variance_from_levels(settings.noise.filled()),
-                    covariance_components(Jq))
+                    covariance_components(Jq, data.position_cov_mm2))
     if residual == "distance":
         i, j = pairs(N)
         u = data.positions_mm[i] - data.positions_mm[j]
@@ -170,7 +176,7 @@ class ResidualProblem:
 
     def components(self, at: Array) -> Array:
         """The unit covariance components V_k (3, N, k, k) at x = `at`."""
-        return covariance_components(self.joint_jacobian(at))
+        return covariance_components(self.joint_jacobian(at), self.data.position_cov_mm2)
 
     def raw(self, x: Array) -> tuple[Array, Array]:
         """Unweighted residuals (N, k) or (P,) and their Jacobian (N, k, p) or (P, p); the

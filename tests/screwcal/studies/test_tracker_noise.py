@@ -1,0 +1,51 @@
+"""Identification with a tracker's noise: weighted by each point's covariance it reaches the
+Cramer-Rao bound and predicts better than with one isotropic level; the noise per component
+(along and across the beam) is found from the residuals."""
+
+import numpy as np
+import pytest
+
+from screwcal.calibration.measurements import MeasurementSet
+from screwcal.errors import InputError
+from screwcal.instrument import radial_lateral_rms_mm, tracker_covariance_mm2, tracker_noise_mm
+from screwcal.studies.tracker_noise import tracker_noise_study
+
+
+def test_weighting_reaches_the_bound_and_beats_one_isotropic_level():
+    s = tracker_noise_study(samples=40, seed=3, poses=40)
+    ratio = s.rms_weighted / s.bound
+    assert 0.85 < ratio.mean() < 1.1, ratio
+    assert ratio.max() < 1.3
+    assert (s.rms_isotropic / s.bound).mean() > 1.1  # the bound assumes the weights
+    assert s.held_out_weighted_mm < 0.9 * s.held_out_isotropic_mm
+    assert s.radial_mm == pytest.approx(s.radial_true_mm, rel=0.2)
+    assert s.lateral_mm == pytest.approx(s.lateral_true_mm, rel=0.1)
+
+
+def test_tracker_covariance_and_its_components():
+    p = np.array([[3000.0, 0.0, 0.0], [0.0, 0.0, 1500.0]])
+    C = tracker_covariance_mm2(p)
+    radial, lateral = tracker_noise_mm(3000.0)
+    assert C[0] == pytest.approx(np.diag([radial**2, lateral**2, lateral**2]))
+    assert C[1][2, 2] == pytest.approx(tracker_noise_mm(1500.0)[0] ** 2)
+    rng = np.random.default_rng(0)
+    points = rng.normal(0, 1000, (4000, 3)) + np.array([2500.0, 0.0, 0.0])
+    noise = np.einsum("nij,nj->ni", np.linalg.cholesky(tracker_covariance_mm2(points)),
+                      rng.normal(size=points.shape))
+    got = radial_lateral_rms_mm(noise, points)
+    assert got[0] == pytest.approx(radial, rel=0.05)
+
+
+def test_a_covariance_that_is_none_is_refused():
+    q, p = np.zeros((2, 6)), np.ones((2, 3))
+    good = np.broadcast_to(np.eye(3), (2, 3, 3)).copy()
+    assert MeasurementSet(q, p, position_cov_mm2=good).take([1]).position_cov_mm2.shape == \
+        (1, 3, 3)
+    for bad, what in ((np.ones((2, 3, 3)), "point 1"), (good[:1], r"\(2, 3, 3\)"),
+                      (good * [[[1]], [[-1]]], "point 2")):
+        with pytest.raises(InputError, match=what):
+            MeasurementSet(q, p, position_cov_mm2=bad)
+    rotated = MeasurementSet(q, p, position_cov_mm2=good * [[[1]], [[2]]])
+    T = np.eye(4)
+    T[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
+    assert rotated.transformed(T).position_cov_mm2[1] == pytest.approx(2 * np.eye(3))
