@@ -21,6 +21,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+from screwcal.commands.joint_convention import add_joint_convention
 from screwcal.errors import ModelError
 
 FORMATS = ("json", "screws", "dh", "mdh", "urdf")
@@ -108,15 +109,18 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
+    from screwcal.commands.joint_convention import joint_convention
     from screwcal.kinematics.describe import description_text
-    from screwcal.kinematics.modelfile import resolve_model
+    from screwcal.kinematics.modelfile import read_model_document, resolve_model
+    from screwcal.kinematics.robots import LIBRARY
     from screwcal.tables import write_text_atomic
 
     model = resolve_model(args.result)
-    text, warnings = description_text(model, args.format)
+    document = None if args.result in LIBRARY else read_model_document(args.result)
+    text, said = description_text(model, args.format, joint_convention(args, document, model))
     write_text_atomic(args.out, text.encode("utf-8"))
-    for warning in warnings:
-        print(f"warning: {warning}", file=sys.stderr)
+    for line in said:
+        print(line, file=sys.stderr if line.startswith("warning") else sys.stdout)
     print(f"exported '{model.name}' as {args.format} -> {args.out}")
     return 0
 
@@ -156,4 +160,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "parallel axes would need huge offsets), screws or json (screwcal's robot "
                    "file)")
     a.add_argument("--out", required=True, help="the file to write")
+    add_joint_convention(a, "how the robot's controller reports J3 (fanuc: the URDF carries "
+                         "the J2/J3 coupling so that its joint values are the controller's)")
     a.set_defaults(func=run_export)

@@ -10,6 +10,7 @@ from typing import Literal
 
 from screwcal.errors import ModelError
 from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.readings import JointConvention
 
 ImportFormat = Literal["json", "dh", "mdh", "screws", "urdf"]
 ExportFormat = Literal["json", "screws", "dh", "mdh", "urdf"]
@@ -63,23 +64,37 @@ def read_description(path: str | Path, fmt: ImportFormat | None = None,
     return (replace(model, name=name) if name else model), str(form)
 
 
-def description_text(model: SerialModel, fmt: ExportFormat) -> tuple[str, list[str]]:
-    """The model written as `fmt`, and warnings about what the form cannot carry."""
+def description_text(model: SerialModel, fmt: ExportFormat,
+                     convention: JointConvention = "serial") -> tuple[str, list[str]]:
+    """The model written as `fmt`, and what the user must know about it: "warning: ..." for
+    what the form cannot carry, "note: ..." for how its joint values read. `convention`: how
+    the robot's controller reports its joints; a FANUC arm's URDF carries the J2/J3 coupling
+    (a mimic joint) so that its joint_3 takes the controller's J3."""
     from screwcal.kinematics.modelfile import model_document
 
-    warnings = []
+    said = []
     if fmt == "urdf":
         from screwcal.kinematics.urdf import urdf_from_model
 
-        text = urdf_from_model(model)
+        text = urdf_from_model(model, j23_coupling=convention == "fanuc")
+        if convention == "fanuc":
+            said.append("note: FANUC's J2/J3 coupling is in the URDF: joint_3_coupling turns "
+                        "joint 3's axis with joint_2 (a mimic joint), so joint_1 .. joint_6 "
+                        "take the controller's readings as they are; joint_3's limits are the "
+                        "model's, on the serial angle J3 + J2")
         if model.has_compliance:
-            warnings.append("URDF has no joint compliance: the calibrated compliance is not in "
-                            "the file (the json / screws export keeps it)")
+            said.append("warning: URDF has no joint compliance: the calibrated compliance is "
+                        "not in the file (the json / screws export keeps it)")
         if len({m.link for m in model.masses}) < len(model.masses):
-            warnings.append("URDF has one inertial per link: masses on the same link merged")
+            said.append("warning: URDF has one inertial per link: masses on the same link "
+                        "merged")
     elif fmt in ("json", "screws", "dh", "mdh"):
         doc = model_document(model, "screws" if fmt == "json" else fmt)
         text = json.dumps(doc, indent=2) + "\n"
+        if convention == "fanuc":
+            said.append("note: the table is serial (joint 3's angle is the controller's J3 + "
+                        "J2): calibrate, predict and compensate read FANUC readings with "
+                        "--joint-convention fanuc")
     else:
         raise ModelError(f"export format must be urdf, mdh, dh, screws or json, not {fmt!r}")
-    return text, warnings
+    return text, said

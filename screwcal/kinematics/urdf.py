@@ -30,7 +30,7 @@ from screwcal.kinematics.compliance import LumpedMass
 from screwcal.kinematics.model import PRISMATIC, SerialModel
 from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, pose_from_transform
 from screwcal.kinematics.se3 import Array, exp_twist, invert_transform
-from screwcal.kinematics.urdf_tree import Joint, UrdfTree, read_tree
+from screwcal.kinematics.urdf_tree import Joint, Origin, UrdfTree, read_tree
 
 _RY90 = np.array([[0.0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1]])  # flange -> tool0
 
@@ -63,8 +63,14 @@ def link_frames(model: SerialModel) -> tuple[list[Array], Array]:
     return frames, A @ model.home_flange
 
 
-def urdf_from_model(model: SerialModel) -> str:
-    """The URDF document of a model (see the module docstring)."""
+def urdf_from_model(model: SerialModel, j23_coupling: bool = False) -> str:
+    """The URDF document of a model (see the module docstring). `j23_coupling`: FANUC's J2/J3
+    coupling written in, so that joint_3 takes the controller's J3 reading (J3 = q3 - q2): a
+    joint `joint_3_coupling` on joint 3's axis that mimics joint_2, then joint_3 on the same
+    axis."""
+    if j23_coupling and (model.n_joints < 3 or model.joint_types[1:3] != ("R", "R")):
+        raise ModelError(f"model '{model.name}': FANUC's J2/J3 coupling needs revolute joints 2 "
+                         "and 3")
     frames, tool0 = link_frames(model)
     n = model.n_joints
     masses: dict[int, list[tuple[float, Array]]] = {}
@@ -97,8 +103,17 @@ def urdf_from_model(model: SerialModel) -> str:
         kind = "prismatic" if model.joint_types[i] == PRISMATIC else "revolute"
         lo, hi = (model.limits[i] / (1000.0 if kind == "prismatic" else 1.0)).tolist()
         axis = " ".join(repr(float(v)) for v in model.axis_dirs[i])
+        origin = _origin(invert_transform(F_parent) @ frames[i])
+        if j23_coupling and i == 2:  # turned by J2 first, then by the controller's J3
+            lo2, hi2 = model.limits[1].tolist()
+            lines.append('  <link name="link_3_coupling"/>')
+            lines.append(f'  <joint name="joint_3_coupling" type="revolute"><parent link='
+                         f'"{parent}"/><child link="link_3_coupling"/>{origin}<axis xyz="{axis}"/>'
+                         f'<limit lower="{lo2!r}" upper="{hi2!r}" effort="0" velocity="0"/>'
+                         '<mimic joint="joint_2" multiplier="1" offset="0"/></joint>')
+            parent, origin = "link_3_coupling", _origin(np.eye(4))
         lines.append(f'  <joint name="joint_{i + 1}" type="{kind}"><parent link="{parent}"/>'
-                     f'<child link="{link}"/>{_origin(invert_transform(F_parent) @ frames[i])}'
+                     f'<child link="{link}"/>{origin}'
                      f'<axis xyz="{axis}"/><limit lower="{lo!r}" upper="{hi!r}" effort="0" '
                      'velocity="0"/></joint>')
         parent, F_parent = link, frames[i]
@@ -136,13 +151,17 @@ def model_from_urdf(data: str | bytes, source: str = "URDF", name: str | None = 
     for j in climbed:
         T = invert_transform(j.origin.T) @ T
     dirs, points, types, limits, masses = [], [], [], [], []
-    for j in chain:
-        if j.mimic:
-            raise ModelError(f"{tree.where(j)} mimics another joint: not a serial arm")
+    moving: list[Joint] = []
+    for k, j in enumerate(chain):
+        if j.mimic is not None:
+            _coupling(tree, j, moving, chain[k + 1:], notes)
+            T = T @ j.origin.T
+            continue
         if j.kind in ("floating", "planar"):
             raise ModelError(f"{tree.where(j)} of type '{j.kind}': not a serial arm")
         T = T @ j.origin.T
         if j.kind != "fixed":
+            moving.append(j)
             dirs.append(T[:3, :3] @ j.axis)
             points.append(T[:3, 3].copy())
             types.append(PRISMATIC if j.kind == "prismatic" else "R")
@@ -154,10 +173,10 @@ def model_from_urdf(data: str | bytes, source: str = "URDF", name: str | None = 
     if not types:
         raise ModelError(f"{source}: no moving joint between '{start}' and '{tip}'")
     home = T @ (_RY90 if tip == "flange" else np.eye(4))
-    moving = ", ".join(j.name for j in chain if j.kind != "fixed")
+    names = ", ".join(j.name for j in moving)
     notes[:0] = [f"chain from '{start}'{' (default; --base-link)' if not base_link else ''} to "
                  f"'{tip}'{' (default; --tip-link)' if not tip_link else ''}: "
-                 f"{len(types)} moving joints ({moving})"]
+                 f"{len(types)} moving joints ({names})"]
     notes += _other_bases(tree, start) + _placeholder_masses(tree, chain)
     base, tool = _measuring_frames(tree, start, tip)
     try:
@@ -169,6 +188,27 @@ def model_from_urdf(data: str | bytes, source: str = "URDF", name: str | None = 
     except ModelError as err:
         raise ModelError(f"{source}: {err}") from None
     return model, notes
+
+
+def _coupling(tree: UrdfTree, j: Joint, before: list[Joint], after: list[Joint],
+              notes: list[str]) -> None:
+    """A mimic joint is read only as FANUC's J2/J3 coupling (what `robot export` writes for a
+    FANUC arm): it follows the moving joint before it one to one, and the next joint turns
+    about the same axis through the same point; the two read as one serial joint."""
+    assert j.mimic is not None
+    target, multiplier, offset = j.mimic
+    nxt = after[0] if after else None
+    if not (before and before[-1].name == target and multiplier == 1.0 and offset == 0.0
+            and j.kind in ("revolute", "continuous") and nxt is not None
+            and nxt.kind in ("revolute", "continuous") and nxt.origin == Origin()
+            and np.allclose(nxt.axis, j.axis)):
+        raise ModelError(f"{tree.where(j)} mimics joint '{target}': not a serial arm (a mimic "
+                         "joint is read only as FANUC's J2/J3 coupling: following the joint "
+                         "before it one to one, on the next joint's axis)")
+    notes.append(f"joints '{j.name}' (mimics '{target}') and '{nxt.name}': FANUC's J2/J3 "
+                 f"coupling, read as one serial joint (its angle {nxt.name} + {target}); give "
+                 "calibrate, predict and compensate the controller's readings with "
+                 "--joint-convention fanuc")
 
 
 def _chosen(tree: UrdfTree, link: str, option: str) -> str:

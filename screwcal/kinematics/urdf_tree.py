@@ -79,7 +79,7 @@ class Joint:
     limit: tuple[float, float] | None  # lower, upper: rad or m as the file gives them
     effort: float | None
     velocity: float | None
-    mimic: bool
+    mimic: tuple[str, float, float] | None  # the joint followed, multiplier, offset
 
 
 @dataclass(frozen=True)
@@ -276,10 +276,14 @@ class _Reader:
                 effort = self.number(limit_e, "effort", "effort", owner)
             if limit_e.get("velocity") is not None:
                 velocity = self.number(limit_e, "velocity", "velocity", owner)
+        mimic_e = e.find("mimic")
+        mimic = None if mimic_e is None else (
+            mimic_e.get("joint", ""),
+            self.number(mimic_e, "multiplier", "axis", owner, "1"),
+            self.number(mimic_e, "offset", "angle_rad", owner, "0"))
         return Joint(name, kind, ends[0], ends[1], self.lines.get(id(e), 0),
                      self.origin(e.find("origin"), owner),
-                     axis / norm if norm else axis, limit, effort, velocity,
-                     e.find("mimic") is not None)
+                     axis / norm if norm else axis, limit, effort, velocity, mimic)
 
 
 def read_tree(data: str | bytes, source: str = "URDF") -> UrdfTree:

@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 
 from screwcal.commands.main import main
 from screwcal.kinematics.forward import forward_kinematics
@@ -181,3 +182,48 @@ def test_urdf_import_in_the_controller_frame_by_link_name(tmp_path, capsys):
                                atol=1e-9)
     assert main(["robot", "import", str(path), "--tip-link", "link_5", "--out", str(out)]) == 0
     assert load_model(out).n_joints == 5
+
+
+def test_fanuc_urdf_takes_the_controller_readings_as_they_are(tmp_path, rng, capsys):
+    """The LR Mate's exported joint_3 was the serial angle: fed the controller's J3 it was
+    2091 mm off predict. Now a mimic joint carries the J2/J3 coupling, said on export; a URDF
+    library (yourdfpy) given the readings puts tool0 where the model does, and the file reads
+    back to the same serial robot."""
+    yourdfpy = pytest.importorskip("yourdfpy")
+    from screwcal.kinematics.forward import flange_kinematics
+    from screwcal.kinematics.readings import readings_from_serial
+
+    path = tmp_path / "lrmate.urdf"
+    assert main(["robot", "export", "lrmate200id", "--format", "urdf", "--out", str(path)]) == 0
+    assert "FANUC's J2/J3 coupling is in the URDF" in capsys.readouterr().out
+    model = LIBRARY["lrmate200id"].model()
+    q = random_q(model, rng, 30)
+    readings = readings_from_serial(q, "fanuc")
+    urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False,
+                              load_collision_meshes=False)
+    assert urdf.actuated_joint_names == [f"joint_{i}" for i in range(1, 7)]
+    expected = flange_kinematics(model, q)
+    for k in range(len(q)):
+        urdf.update_cfg(readings[k])
+        T = urdf.get_transform("tool0", "base_link")
+        assert np.abs(T[:3, 3] * 1000.0 - expected[k, :3, 3]).max() < 1e-6
+    out = tmp_path / "back.json"
+    assert main(["robot", "import", str(path), "--out", str(out)]) == 0
+    assert "FANUC's J2/J3 coupling, read as one serial joint" in capsys.readouterr().out
+    np.testing.assert_allclose(forward_kinematics(load_model(out), q),
+                               forward_kinematics(model, q), atol=1e-9)
+    assert main(["robot", "export", "lrmate200id", "--format", "urdf", "--joint-convention",
+                 "serial", "--out", str(path)]) == 0
+    assert "coupling" not in path.read_text()
+
+
+def test_a_mimic_joint_other_than_the_coupling_is_refused(tmp_path, capsys):
+    from screwcal.kinematics.urdf import urdf_from_model
+
+    text = urdf_from_model(LIBRARY["m20ia"].model(), j23_coupling=True).replace(
+        'multiplier="1"', 'multiplier="2"')
+    path = tmp_path / "m.urdf"
+    path.write_text(text)
+    assert main(["robot", "import", str(path), "--out", str(tmp_path / "o.json")]) == 2
+    assert "joint 'joint_3_coupling' mimics joint 'joint_2': not a serial arm" in \
+        capsys.readouterr().err

@@ -166,7 +166,7 @@ CASES = [
             r"several root links \('base_link' \(line 3\), 'stray' \(line \d+\)"),
     _refuse("mimic.urdf", arm(swap=(('<axis xyz="0 1 0"/>', '<axis xyz="0 1 0"/>'
                                      '<mimic joint="joint_1"/>'),)),
-            r"line \d+: joint 'joint_2' mimics another joint"),
+            r"line \d+: joint 'joint_2' mimics joint 'joint_1': not a serial arm"),
     _refuse("floating.urdf", arm(swap=(('name="joint_6" type="revolute"',
                                         'name="joint_6" type="floating"'),)),
             r"line \d+: joint 'joint_6' of type 'floating': not a serial arm"),
