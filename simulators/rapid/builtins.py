@@ -65,6 +65,9 @@ def predefined() -> dict[str, Any]:
         "pi": 3.1415927410125732,
         "socket_created": 1.0, "socket_connected": 2.0, "socket_bound": 3.0,
         "socket_listening": 4.0, "socket_closed": 5.0,
+        # PackRawBytes/UnpackRawBytes \IntX: the integer's size in bytes, negative signed
+        "usint": 1.0, "uint": 2.0, "udint": 4.0, "ulint": 8.0,
+        "sint": -1.0, "int": -2.0, "dint": -4.0, "lint": -8.0,
     }
     for v in (5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300, 400, 500, 600, 800, 1000,
               1500, 2000, 2500, 3000, 4000, 5000, 6000, 7000):

@@ -22,6 +22,7 @@ from typing import Any
 
 from screwcal.rapid import RapidSyntaxError, parse_expression, parse_module
 from screwcal.rapid import ast as A  # noqa: N812 - the node classes, as A.If, A.Call
+from simulators.rapid import worldzones
 from simulators.rapid.builtins import BUILTINS, predefined
 from simulators.rapid.control import (
     ExitCycle,
@@ -40,6 +41,7 @@ from simulators.rapid.operator import EventLog, Pendant
 from simulators.rapid.program import RapidText
 from simulators.rapid.storage import LiveVar, Var
 from simulators.rapid.values import (
+    WORLD_ZONE_TYPES,
     convert,
     copy,
     default,
@@ -73,7 +75,12 @@ class Task(Evaluator):
                  pendant: Pendant | None = None, services: dict[str, Any] | None = None,
                  overrides: dict[str, Any] | None = None,
                  modules: Sequence[tuple[str, str]] = ()):
-        from simulators.rapid import library, motion, sockets  # noqa: F401 - register built-ins
+        from simulators.rapid import (  # noqa: F401 - register built-ins
+            library,
+            motion,
+            rawbytes,
+            sockets,
+        )
 
         super().__init__()
         sources = [(text, path), *modules]
@@ -113,6 +120,9 @@ class Task(Evaluator):
         }
         self.data: dict[str, Any] = {}
         self.reset_data()
+        if any(d.type.lower() in WORLD_ZONE_TYPES for m, _ in self.modules
+               for d in (*m.data, *(x for r in m.routines for x in r.data))):
+            worldzones.note_once(self)
 
     def path_of(self, routine: A.Routine) -> str:
         """The file of the module a routine is declared in."""

@@ -370,6 +370,29 @@ def _clkstop(task: Any, pos: list, opt: dict) -> None:
         c.since = None
 
 
+@builtin("CDate", "func")
+def _cdate(task: Any, pos: list, opt: dict) -> str:
+    """The controller's date, "YYYY-MM-DD"."""
+    return time.strftime("%Y-%m-%d")
+
+
+@builtin("CTime", "func")
+def _ctime(task: Any, pos: list, opt: dict) -> str:
+    """The controller's time of day, "HH:MM:SS"."""
+    return time.strftime("%H:%M:%S")
+
+
+@builtin("GetTime", "func")
+def _gettime(task: Any, pos: list, opt: dict) -> float:
+    """One part of the time now: \\WDay (1 Monday .. 7 Sunday), \\Hour, \\Min, \\Sec."""
+    now = time.localtime()
+    for key, v in (("wday", now.tm_wday + 1), ("hour", now.tm_hour), ("min", now.tm_min),
+                   ("sec", now.tm_sec)):
+        if opt.get(key):
+            return float(v)
+    raise RapidError("ERR_ARGVALERR", "GetTime needs \\WDay, \\Hour, \\Min or \\Sec")
+
+
 @builtin("ClkRead", "func")
 def _clkread(task: Any, pos: list, opt: dict) -> float:
     c = pos[0]

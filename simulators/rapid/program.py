@@ -1,9 +1,7 @@
-"""What a task loads: the module files of `--program` (files, or folders such as a backup's
-TASK folder), and the values `--set NAME=VALUE` gives the modules' data.
-
-A folder holding a program file (`*.pgf`, the controller's list of a program's modules) loads
-the modules it names; any other folder loads every module file under it (`.mod`, `.modx`,
-`.sys`, `.sysx`: a backup's TASKn/PROGMOD and TASKn/SYSMOD), in name order.
+"""What a task loads: the module files of `--program` (files, or a folder such as a backup's
+TASK folder or a saved program's: `screwcal.rapid.tasks`), and the values `--set NAME=VALUE`
+gives the modules' data. The emulated controller runs one task: a folder holding several
+(a whole backup) is refused, naming them.
 """
 
 from __future__ import annotations
@@ -12,10 +10,8 @@ import re
 from collections.abc import Iterable
 from pathlib import Path
 
+from screwcal.rapid.tasks import tasks_in
 from simulators.rapid.errors import LoadError
-
-MODULE_SUFFIXES = (".mod", ".modx", ".sys", ".sysx")
-_PGF_MODULE = re.compile(r"<Module>\s*([^<]+?)\s*</Module>", re.IGNORECASE)
 
 
 def module_files(paths: Iterable[Path]) -> list[Path]:
@@ -24,32 +20,20 @@ def module_files(paths: Iterable[Path]) -> list[Path]:
     for p in paths:
         p = Path(p)
         if p.is_dir():
-            found = _folder_modules(p)
-            if not found:
-                raise LoadError(str(p), 0, "no RAPID module in this folder (looked for "
-                                f"{', '.join(MODULE_SUFFIXES)} files and a .pgf program file)")
-            out.extend(f for f in found if f not in out)
+            tasks = tasks_in(p)
+            if not tasks:
+                raise LoadError(str(p), 0, "no RAPID module in this folder")
+            if len(tasks) > 1:
+                raise LoadError(str(p), 0, f"{len(tasks)} tasks in this folder ("
+                                f"{', '.join(t.name for t in tasks)}): the emulated controller "
+                                "runs one; give its folder")
+            out.extend(f for f in tasks[0].modules if f not in out)
         elif p.is_file():
             if p not in out:
                 out.append(p)
         else:
             raise LoadError(str(p), 0, "no such file or folder")
     return out
-
-
-def _folder_modules(folder: Path) -> list[Path]:
-    programs = sorted(folder.glob("*.pgf"))
-    if programs:
-        listed: list[Path] = []
-        for pgf in programs:
-            for name in _PGF_MODULE.findall(pgf.read_text(encoding="utf-8", errors="replace")):
-                f = pgf.parent / name.replace("\\", "/")
-                if not f.is_file():
-                    raise LoadError(str(pgf), 0, f"the program file names {name}: not found")
-                listed.append(f)
-        return listed
-    return sorted((f for f in folder.rglob("*") if f.is_file()
-                   and f.suffix.lower() in MODULE_SUFFIXES), key=lambda f: str(f).lower())
 
 
 class RapidText(str):

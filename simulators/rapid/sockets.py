@@ -35,7 +35,7 @@ from simulators.rapid.builtins import builtin
 from simulators.rapid.control import Stopped
 from simulators.rapid.errors import RapidError
 from simulators.rapid.library import wait
-from simulators.rapid.values import SocketDev, string
+from simulators.rapid.values import MAX_STRING, RawBytes, SocketDev, is_integer, string
 
 DEFAULT_TIME_S = 60.0
 WAIT_MAX = 8388608.0
@@ -218,22 +218,28 @@ def _peek(task: Any, pos: list, opt: dict) -> float:
     return float(n)
 
 
-@builtin("SocketReceive", "proc", optrefs=("Str", "RawData", "NoRecBytes"))
+@builtin("SocketReceive", "proc", optrefs=("Str", "RawData", "Data", "NoRecBytes"))
 def _receive(task: Any, pos: list, opt: dict) -> None:
+    """Into \\Str (at most 80 bytes), \\RawData (1024) or \\Data (a byte array's length):
+    what has arrived, or exactly \\ReadNoOfBytes of it."""
     dev = pos[0]
     s = _connected(dev, "SocketReceive")
-    if "str" not in opt:
-        raise RapidError("ERR_ARGVALERR", "only SocketReceive \\Str is supported")
-    want = int(opt.get("readnoofbytes", 80))
-    if not 1 <= want <= 80:
-        raise RapidError("ERR_ARGVALERR", "\\Str receives 1..80 bytes")
+    into = [k for k in ("str", "rawdata", "data") if k in opt]
+    if len(into) != 1:
+        raise RapidError("ERR_ARGVALERR", "SocketReceive takes one of \\Str, \\RawData, "
+                         "\\Data")
+    room = {"str": MAX_STRING, "rawdata": RawBytes.MAX}.get(into[0]) or \
+        len(opt["data"].value.items)
+    want = int(opt.get("readnoofbytes", room))
+    if not 1 <= want <= room:
+        raise RapidError("ERR_ARGVALERR", f"\\{into[0]} receives 1..{room} bytes")
     seconds = _time(opt)
     end = time.monotonic() + seconds
     data = b""
     while True:
         _wait_readable(task, s, max(1e-3, end - time.monotonic()), "SocketReceive")
         try:
-            chunk = s.recv(want - len(data)) if "readnoofbytes" in opt else s.recv(want)
+            chunk = s.recv(want - len(data))
         except OSError as err:
             raise _closed(f"SocketReceive: {err}") from None
         if not chunk:
@@ -242,18 +248,45 @@ def _receive(task: Any, pos: list, opt: dict) -> None:
         data += chunk
         if "readnoofbytes" not in opt or len(data) >= want:
             break
-    opt["str"].value = data.decode("latin-1")
+    if into[0] == "str":
+        opt["str"].value = data.decode("latin-1")
+    elif into[0] == "rawdata":
+        opt["rawdata"].value = RawBytes(data)
+    else:
+        items = opt["data"].value.items
+        items[:len(data)] = [float(b) for b in data]
     if "norecbytes" in opt:
         opt["norecbytes"].value = float(len(data))
+
+
+def _outgoing(opt: dict) -> bytes:
+    """What SocketSend sends: \\Str, \\RawData or \\Data (bytes 0..255), the first
+    \\NoOfBytes of it when given."""
+    given = [k for k in ("str", "rawdata", "data") if k in opt]
+    if len(given) != 1:
+        raise RapidError("ERR_ARGVALERR", "SocketSend takes one of \\Str, \\RawData, \\Data")
+    if given[0] == "str":
+        data = opt["str"].encode("latin-1")
+    elif given[0] == "rawdata":
+        data = opt["rawdata"].data
+    else:
+        values = opt["data"].items
+        if any(not (is_integer(v) and 0 <= v <= 255) for v in values):
+            raise RapidError("ERR_ARGVALERR", "\\Data holds a value that is no byte (0..255)")
+        data = bytes(int(v) for v in values)
+    if "noofbytes" in opt:
+        n = int(opt["noofbytes"])
+        if not 1 <= n <= len(data):
+            raise RapidError("ERR_ARGVALERR", f"\\NoOfBytes {n}: 1..{len(data)}")
+        data = data[:n]
+    return data
 
 
 @builtin("SocketSend", "proc")
 def _send(task: Any, pos: list, opt: dict) -> None:
     dev = pos[0]
     s = _connected(dev, "SocketSend")
-    if "str" not in opt:
-        raise RapidError("ERR_ARGVALERR", "only SocketSend \\Str is supported")
-    data = opt["str"].encode("latin-1")
+    data = _outgoing(opt)
     net = _net(task)
     if data.startswith(b"0 ERR 16 "):
         net.refusals += 1

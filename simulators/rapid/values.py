@@ -61,9 +61,12 @@ RECORDS: dict[str, tuple[tuple[str, str], ...]] = {
 }
 # Aliases of num (RAPID: errnum, btnres, ...) and of string.
 ALIASES = {"errnum": "num", "btnres": "num", "socketstatus": "num", "stoppoint": "num",
-           "intnum": "num", "dnum": "num"}
+           "intnum": "num", "dnum": "num", "byte": "num", "errdomain": "num",
+           "errtype": "num"}
 ATOMIC = {"num", "string", "bool"}
-OPAQUE = {"socketdev", "clock"}
+# World Zones' data (option World Zones): accepted, not supervised (`worldzones`).
+WORLD_ZONE_TYPES = {"wzstationary", "wztemporary", "shapedata"}
+OPAQUE = {"socketdev", "clock", "rawbytes"} | WORLD_ZONE_TYPES
 
 
 def base_type(t: str) -> str:
@@ -144,8 +147,34 @@ class Clock:
         return self
 
 
+class RawBytes:
+    """A rawbytes: up to 1024 bytes, its valid length the length of `data` (a value: copied
+    on assignment)."""
+
+    MAX = 1024
+    __slots__ = ("data",)
+
+    def __init__(self, data: bytes = b"") -> None:
+        self.data = data
+
+    def copy(self) -> RawBytes:
+        return RawBytes(self.data)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, RawBytes) and self.data == other.data
+
+
+class WorldZone:
+    """A world zone's data (wzstationary, wztemporary, shapedata): held, never supervised."""
+
+    __slots__ = ("type",)
+
+    def __init__(self, type_: str) -> None:
+        self.type = type_
+
+
 def copy(v: Any) -> Any:
-    return v.copy() if isinstance(v, Record | RArray) else v
+    return v.copy() if isinstance(v, Record | RArray | RawBytes) else v
 
 
 def default(type_: str, dims: tuple[int, ...] = ()) -> Any:
@@ -163,6 +192,10 @@ def default(type_: str, dims: tuple[int, ...] = ()) -> Any:
         return SocketDev()
     if t == "clock":
         return Clock()
+    if t == "rawbytes":
+        return RawBytes()
+    if t in WORLD_ZONE_TYPES:
+        return WorldZone(t)
     if t in RECORDS:
         template = _RECORD_DEFAULTS.get(t)
         if template is None:
@@ -205,6 +238,10 @@ def convert(type_: str, value: Any, dims: tuple[int, ...] = ()) -> Any:
         if not isinstance(value, list) or len(value) != len(fields):
             raise RapidError("ERR_ARGVALERR", f"{t} has {len(fields)} components")
         return Record(t, {n: convert(ft, v) for (n, ft), v in zip(fields, value, strict=True)})
+    if t == "rawbytes":
+        if not isinstance(value, RawBytes):
+            raise RapidError("ERR_ARGVALERR", f"rawbytes expected, got {value!r}")
+        return value.copy()
     if t in OPAQUE:
         return value
     raise RapidError("ERR_ARGVALERR", f"unknown data type {type_}")

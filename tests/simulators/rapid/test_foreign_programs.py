@@ -391,19 +391,24 @@ def test_a_task_folder_loads_its_modules_together(tmp_path):
     assert value(t, "total") == 44 and t.path.endswith("Main.mod")
 
 
-def test_a_program_file_names_the_modules_and_a_name_declared_twice_is_refused(tmp_path):
+def test_a_name_declared_twice_is_refused_and_a_backup_of_several_tasks_named(tmp_path):
     write(tmp_path, "A.mod", "MODULE A\nPROC main()\n Helper;\nENDPROC\nENDMODULE\n")
     write(tmp_path, "B.mod", "MODULE B\nPROC Helper()\nENDPROC\nENDMODULE\n")
     write(tmp_path, "Unused.mod", "MODULE Unused\nPROC Helper()\nENDPROC\nENDMODULE\n")
-    write(tmp_path, "cell.pgf", "<?xml version=\"1.0\"?>\n<Program>\n <Module>A.mod</Module>\n"
-          " <Module>B.mod</Module>\n</Program>\n")
-    assert [f.name for f in module_files([tmp_path])] == ["A.mod", "B.mod"]
     with pytest.raises(LoadError, match=r"Unused.mod:2: Helper is declared again \(first in "
                        r".*B.mod\)"):
         Task((tmp_path / "A.mod").read_text(), "A.mod", modules=[
             ((tmp_path / n).read_text(), str(tmp_path / n)) for n in ("B.mod", "Unused.mod")])
+    for task_name in ("T_ROB1", "T_ROB2"):
+        write(tmp_path / "backup" / "RAPID" / task_name / "PROGMOD", "M.mod",
+              "MODULE M\nENDMODULE\n")
+    with pytest.raises(LoadError, match="2 tasks in this folder \\(T_ROB1, T_ROB2\\)"):
+        module_files([tmp_path / "backup"])
+    assert [f.name for f in module_files([tmp_path / "backup" / "RAPID" / "T_ROB2"])] == \
+        ["M.mod"]
+    (tmp_path / "empty").mkdir()
     with pytest.raises(LoadError, match="no RAPID module in this folder"):
-        module_files([tmp_path / "empty"] if (tmp_path / "empty").mkdir() is None else [])
+        module_files([tmp_path / "empty"])
 
 
 async def test_the_emulator_takes_several_modules_and_names_their_errors_with_their_file(
@@ -466,3 +471,62 @@ async def test_open_abbs_server_and_its_python_client_when_fetched(tmp_path):
             assert w[0] == pytest.approx([t[0][0] - 100, t[0][1], t[0][2]], abs=0.01)
     finally:
         await emu.stop()
+
+
+# ------------------------------------------------------------------ rawbytes, \Data, dates, zones
+def test_raw_bytes_and_byte_arrays_go_over_the_socket_packed_as_the_program_says():
+    port = free_port()
+    t = task(f"SocketCreate srv; SocketBind srv, \"127.0.0.1\", {port}; SocketListen srv;"
+             " SocketAccept srv, cli \\Time:=5;"
+             " SocketReceive cli \\RawData:=raw \\ReadNoOfBytes:=11 \\Time:=5;"
+             " UnpackRawBytes raw \\Network, 1, n \\IntX:=UINT;"
+             " UnpackRawBytes raw, 3, f \\Float4; UnpackRawBytes raw, 7, s \\ASCII:=3;"
+             " UnpackRawBytes raw, 10, h \\Hex1; UnpackRawBytes raw, 11, i \\IntX:=SINT;"
+             " ClearRawBytes out; PackRawBytes n + 1, out \\Network, 1, \\IntX:=UDINT;"
+             " PackRawBytes f * 2, out, RawBytesLen(out) + 1, \\Float4;"
+             " PackRawBytes \"ok\", out, RawBytesLen(out) + 1, \\ASCII;"
+             " CopyRawBytes raw, 10, out, RawBytesLen(out) + 1 \\NoOfBytes:=2;"
+             " SocketSend cli \\RawData:=out; len := RawBytesLen(out);"
+             " SocketReceive cli \\Data:=bytes \\ReadNoOfBytes:=3 \\Time:=5;"
+             " bytes{4} := 255; SocketSend cli \\Data:=bytes \\NoOfBytes:=4;",
+             "VAR socketdev srv; VAR socketdev cli; VAR rawbytes raw; VAR rawbytes out;"
+             " VAR num n; VAR num f; VAR string s; VAR string h; VAR num i; VAR num len;"
+             " VAR byte bytes{6};")
+    import struct
+    import threading
+
+    thread = threading.Thread(target=t.run)
+    thread.start()
+    try:
+        assert t.services["network"].listen_event.wait(5)
+        with socket.create_connection(("127.0.0.1", port), timeout=5) as c:
+            c.sendall(struct.pack(">H", 513) + struct.pack("<f", 1.5) + b"abc" + b"\x7f\xfe")
+            got = b""
+            while len(got) < 12:
+                got += c.recv(64)
+            c.sendall(bytes([1, 2, 3]))
+            back = c.recv(64)
+    finally:
+        thread.join(10)
+        t.services["network"].shutdown()
+    assert t.stop_reason.startswith("program ended"), t.stop_reason
+    assert (value(t, "n"), value(t, "f"), value(t, "s"), value(t, "h"), value(t, "i")) == \
+        (513, 1.5, "abc", "7F", -2)
+    assert got == struct.pack(">I", 514) + struct.pack("<f", 3.0) + b"ok" + b"\x7f\xfe"
+    assert value(t, "len") == 12 and back == bytes([1, 2, 3, 255])
+
+
+def test_dates_clocks_and_world_zones():
+    t = task("d := CDate(); c := CTime(); h := GetTime(\\Hour); ClkStart k; WaitTime 0.05;"
+             " e := ClkRead(k \\HighRes); WZBoxDef \\Inside, box, [0, 0, 0], [100, 100, 100];"
+             " WZLimSup \\Temp, zone, box; WZBoxDef \\Inside, box, [0, 0, 0], [10, 10, 10];",
+             "VAR string d; VAR string c; VAR num h; VAR clock k; VAR num e;"
+             " VAR shapedata box; VAR wztemporary zone;")
+    assert t.log.count(containing="World Zones") == 1  # the declarations, once
+    t.run()
+    import re
+
+    assert re.fullmatch(r"\d{4}-\d\d-\d\d", value(t, "d"))
+    assert re.fullmatch(r"\d\d:\d\d:\d\d", value(t, "c")) and 0 <= value(t, "h") < 24
+    assert 0.04 < value(t, "e") < 1
+    assert t.log.count(containing="World Zones") == 1  # and not again when they run
