@@ -133,7 +133,7 @@ def _frame_matrix(frames: dict[str, Frame], key: str | None, conv: Convention,
         return np.eye(4)
     f = frames.get(key)
     if f is None:
-        return f"{what} {key}: not given"
+        return f"{what} {key}: not given (KUKA: --config $config.dat; FANUC: --frames)"
     if f.values is None:
         return f"{what} {key}: {f.problem}"
     return matrices(np.array(f.values), conv)[0]
@@ -157,7 +157,7 @@ def filter_program(program: Program, calibrated: SerialModel, nominal: SerialMod
             continue
         assert isinstance(W, np.ndarray) and isinstance(tool, np.ndarray)
         usable.append(t)
-        frames.append((W, tool @ invert_transform(conv.flange_to_tool0)))
+        frames.append((W, invert_transform(conv.flange_to_tool0) @ tool))  # tool0 -> TCP
     texts = dict(program.texts)
     if not usable:
         return texts, report
@@ -172,7 +172,7 @@ def _compensate(language: str, targets: list[Target], frames: list[tuple[Array, 
                 report: ProgramReport, start: Array) -> list[tuple[str, tuple[int, int], str]]:
     """The replacements (path, span, text) of every target compensated."""
     W = np.array([f[0] for f in frames])
-    tool = np.array([f[1] for f in frames])  # tool0 -> TCP
+    tool = np.array([f[1] for f in frames])
     values = np.array([t.values for t in targets])
     T_target = matrices(values, conv)
     T_flange = W @ T_target @ invert_transform(tool)

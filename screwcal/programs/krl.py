@@ -30,6 +30,8 @@ _MOTION_DATA = {"FDAT"}
 
 _DECL = re.compile(r"^[ \t]*(?:DECL[ \t]+)?(?:GLOBAL[ \t]+)?(?:DECL[ \t]+)?([A-Za-z_]\w*)"
                    r"[ \t]+([$A-Za-z_]\w*)(\[[^\]]*\])?[ \t]*=[ \t]*\{", re.I | re.M)
+_ARRAY = re.compile(r"^[ \t]*(?:DECL[ \t]+)?(?:GLOBAL[ \t]+)?(E6POS|POS|FRAME)[ \t]+"
+                    r"([A-Za-z_]\w*)[ \t]*\[", re.I | re.M)
 _ELEMENT = re.compile(r"^[ \t]*([A-Za-z_]\w*)\[([\d, ]+)\][ \t]*=[ \t]*\{", re.I | re.M)
 _MOTION = re.compile(r"^[ \t]*(PTP|LIN|CIRC|SPTP|SLIN|SCIRC|SPL|PTP_REL|LIN_REL|"
                      r"CIRC_REL|SPTP_REL|SLIN_REL|SCIRC_REL)[ \t]+([^;\n]*)", re.I | re.M)
@@ -139,19 +141,21 @@ def read_krl(files: dict[str, str], program: Program) -> None:
     declared: dict[str, Target] = {}  # by upper-case name (array elements with their index)
     fdat: dict[str, dict[str, _Item]] = {}
     arrays: set[str] = set()
+    axes: set[str] = set()  # E6AXIS / AXIS names: joints, nothing to compensate
     for path, text in files.items():
-        _declarations(path, text, program, declared, fdat, arrays)
+        _declarations(path, text, program, declared, fdat, arrays, axes)
     for path, text in files.items():
-        _motions(path, text, program, declared, fdat)
+        _motions(path, text, program, declared, fdat, axes)
     program.targets.sort(key=lambda t: (t.path, t.line))
 
 
 def _declarations(path: str, text: str, program: Program, declared: dict[str, Target],
-                  fdat: dict[str, dict[str, _Item]], arrays: set[str]) -> None:
+                  fdat: dict[str, dict[str, _Item]], arrays: set[str], axes: set[str]) -> None:
     for m in _DECL.finditer(text):
         kind, name = m.group(1).upper(), m.group(2).upper()
         if kind in _AXIS_TYPES:
             program.joint_targets += 1
+            axes.add(name)
         elif kind in _MOTION_DATA:
             fdat[name] = _aggregate(path, text, m.end() - 1)[0]
         elif kind in _POSE_TYPES:
@@ -160,6 +164,7 @@ def _declarations(path: str, text: str, program: Program, declared: dict[str, Ta
             t, _ = _target(path, text, m.group(2), m.end() - 1, kind)
             declared[name] = t
             program.targets.append(t)
+    arrays.update(m.group(2).upper() for m in _ARRAY.finditer(text))
     for m in _ELEMENT.finditer(text):
         name = m.group(1).upper()
         if name not in arrays:
@@ -177,7 +182,7 @@ class _State:
 
 
 def _motions(path: str, text: str, program: Program, declared: dict[str, Target],
-             fdat: dict[str, dict[str, _Item]]) -> None:
+             fdat: dict[str, dict[str, _Item]], axes: set[str]) -> None:
     """Bind each target a motion names to the tool and base in effect there; note what a
     static filter cannot compensate."""
     events = sorted([(m.start(), "tool", m) for m in _TOOL_SET.finditer(text)] +
@@ -203,7 +208,7 @@ def _motions(path: str, text: str, program: Program, declared: dict[str, Target]
                 fold = _State()
         else:
             binding = _binding(state, fold, fdat.get(active_fdat), program, path, line)
-            _motion(path, text, line, m, binding, program, declared, uses)
+            _motion(path, text, line, m, binding, program, declared, uses, axes)
             fold, active_fdat = _State(), ""
     _runtime_assignments(path, text, program, declared)
     for name, combos in uses.items():
@@ -260,8 +265,8 @@ def _binding(state: _State, fold: _State, fd: dict[str, _Item] | None, program: 
 
 def _motion(path: str, text: str, line: int, m: re.Match[str],
             binding: tuple[str | None, str | None], program: Program,
-            declared: dict[str, Target], uses: dict[str, set[tuple[str | None, str | None]]]
-            ) -> None:
+            declared: dict[str, Target], uses: dict[str, set[tuple[str | None, str | None]]],
+            axes: set[str]) -> None:
     verb, args = m.group(1).upper(), m.group(2)
     if verb.endswith("_REL"):
         program.notes.append(Note(path, line, verb, "a relative motion: an offset from where "
@@ -279,6 +284,8 @@ def _motion(path: str, text: str, line: int, m: re.Match[str],
             name = arg.upper().replace(" ", "")
             if name in declared:
                 uses.setdefault(name, set()).add(binding)
+            elif name in axes or name.split("[")[0] in axes:
+                continue
             elif name not in ("$POS_ACT", "$AXIS_ACT") and re.fullmatch(r"[$\w\[\],]+", name):
                 program.notes.append(Note(path, line, arg[:40], "not declared in the files "
                                           "given (give its .dat too), or computed at run time"))
@@ -297,7 +304,7 @@ def _arguments(args: str, offset: int, count: int) -> list[tuple[str, int]]:
             raw = args[start:i]
             stripped = raw.strip()
             if stripped:
-                out.append((stripped.split()[0] if not stripped.startswith("{") else stripped,
+                out.append((stripped if "{" in stripped else stripped.split()[0],
                             offset + start + len(raw) - len(raw.lstrip())))
             start = i + 1
             if len(out) == count:
