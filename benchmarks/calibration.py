@@ -29,6 +29,7 @@ from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.posesets import random_configurations
 from screwcal.kinematics.pose import euler_zyx_deg_from_rotation
 from screwcal.kinematics.robots import irb1600
+from screwcal.runtime.policy import for_worker
 from screwcal.studies.simulated_measurements import simulate_measurements
 
 
@@ -42,6 +43,7 @@ def write_csv(path: Path, data: MeasurementSet) -> None:
 
 
 def main() -> None:
+    for_worker()  # one BLAS thread, the heap kept: a one-threaded program's door
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--poses", type=int, default=1000, help="the large data set's size")

@@ -29,11 +29,13 @@ from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.posesets import random_configurations
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.robots import irb1600
+from screwcal.runtime.policy import for_worker
 from screwcal.studies.position_only import random_truth
 from screwcal.studies.simulated_measurements import simulate_measurements
 
 
 def main() -> None:
+    for_worker()  # one BLAS thread, the heap kept: a one-threaded program's door
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--poses", type=int, default=5000)

@@ -2,7 +2,7 @@
 
 BLAS threads are left as a user gets them (the benchmarks once pinned them to one core, which
 hid that numpy's and scipy's two thread pools made identification 3.5x slower on 2 cores:
-`screwcal.calibration.blas_threads`). Set OPENBLAS_NUM_THREADS yourself to compare.
+`screwcal.runtime.blas_threads`). Set OPENBLAS_NUM_THREADS yourself to compare.
 """
 
 from __future__ import annotations

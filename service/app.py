@@ -19,7 +19,7 @@ from fastapi.responses import HTMLResponse
 from fastapi.staticfiles import StaticFiles
 from swagger_ui_bundle import swagger_ui_path
 
-from screwcal.calibration.blas_threads import hold_one_blas_thread
+from screwcal.runtime.policy import held_for_service
 from service.api import events, history, jobs, robots
 from service.api.errors import install_error_handlers
 from service.manager import JobManager
@@ -41,10 +41,9 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
         app.state.planning = set()  # robots whose job is being planned by a request now
         app.state.plans = asyncio.Semaphore(settings.max_concurrent_plans)
         await manager.resume_unfinished()
-        # one BLAS thread for the service's whole life: jobs call BLAS in many worker threads
-        # at once, a limit set and restored around each identification left the others the
-        # spinning default pools (screwcal/calibration/blas_threads.py)
-        with hold_one_blas_thread():
+        # one BLAS thread for the service's whole life (jobs call BLAS in many worker threads
+        # at once), the heap kept: the process's policy, at its door (screwcal/runtime/policy.py)
+        with held_for_service():
             yield
             await manager.stop()
         await asyncio.to_thread(own.close)

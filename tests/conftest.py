@@ -3,15 +3,19 @@ real laser-tracker data set is (it is not part of the repository)."""
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
+from screwcal.runtime.policy import for_command_line
 
-import numpy as np
-import pytest
+for_command_line()  # the session runs the commands in-process: their policy, before numpy loads
 
-from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.se3 import exp_twist, rotvec_from_rotation
-from screwcal.studies.tracker_dataset import DATA_DIR_ENV, DATASET_NAME, WHERE_TO_GET
+import os  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from screwcal.kinematics.model import SerialModel  # noqa: E402
+from screwcal.kinematics.se3 import exp_twist, rotvec_from_rotation  # noqa: E402
+from screwcal.studies.tracker_dataset import DATA_DIR_ENV, DATASET_NAME, WHERE_TO_GET  # noqa: E402
 
 
 def _tracker_data() -> Path:

@@ -22,17 +22,19 @@ ALLOWED = {
 # Inside screwcal: what each layer may import of ours (its __init__ docstring says the same).
 # The root modules (errors, tables, _lazy) are the ground floor; commands/ is the top and the
 # only module of screwcal that may import service or simulators. rapid/ (the RAPID parser) is a
-# floor of its own: it imports nothing of ours, so that the simulators' interpreter can use it.
+# floor of its own: it imports nothing of ours, so that the simulators' interpreter can use it;
+# so is runtime/ (the process's settings, applied by the doors before anything else loads).
 _BASE = {"screwcal", "screwcal.errors", "screwcal.tables", "screwcal._lazy", "screwcal.instrument"}
 LAYERS = {
     "rapid": {"screwcal.rapid"},
     "programs": {"screwcal.programs"},
+    "runtime": {"screwcal.runtime"},
     "kinematics": {*_BASE - {"screwcal.tables"}, "screwcal.kinematics"},
     "calibration": {*_BASE, "screwcal.kinematics", "screwcal.rapid", "screwcal.programs",
                     "screwcal.calibration"},
     "performance": {*_BASE, "screwcal.kinematics", "screwcal.performance"},
     "studies": {*_BASE, "screwcal.kinematics", "screwcal.rapid", "screwcal.calibration",
-                "screwcal.performance", "screwcal.studies"},
+                "screwcal.performance", "screwcal.runtime", "screwcal.studies"},
 }
 
 

@@ -14,8 +14,9 @@ Evolution on an error model, with an honest account of what the data can tell.
 
 This module orchestrates them: the outliers rejected and the fit repeated, the joint compliance
 chosen by the data (`compliance="auto"`), the readings' lag estimated and corrected
-(`lag="auto"`), all with one BLAS thread (`blas_threads`: set for the call, restored after)
-and the C heap keeping freed temporaries (`heap`: set once per process).
+(`lag="auto"`). It leaves the process as it finds it: the BLAS threads, the C heap's thresholds
+and the garbage collector are the program's to set, at its door (`screwcal.runtime.policy`: a
+program that identifies often in one thread calls `runtime.policy.for_worker()` once).
 """
 
 from __future__ import annotations
@@ -29,7 +30,6 @@ import numpy as np
 from scipy.special import fdtrc
 
 from screwcal.calibration import empirical_prior
-from screwcal.calibration.blas_threads import one_blas_thread
 from screwcal.calibration.diagnostics import (
     MAX_OUTLIER_FRACTION,
     acquisition_order,
@@ -37,7 +37,6 @@ from screwcal.calibration.diagnostics import (
     pose_tests,
 )
 from screwcal.calibration.error_parameters import ModelKind
-from screwcal.calibration.heap import keep_freed_memory
 from screwcal.calibration.identifiability import Index, Residual
 from screwcal.calibration.identify_result import CalibrationResult, NoiseEstimate, Outlier
 from screwcal.calibration.identify_settings import (
@@ -113,11 +112,9 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         weight_mm=weight_mm, noise=noise or NoiseModel(), de_link_bounds_mm=de_link_bounds_mm,
         seed=seed, base_guess=base_guess, link_offsets=link_offsets, outliers=outliers,
         de_polish=de_polish, compliance=compliance, ranges=plausible)
-    keep_freed_memory()  # its temporaries reuse the heap instead of page-faulting (heap)
-    with one_blas_thread():  # small dense problems: threads only compete (blas_threads)
-        if prior_scale == "plausible":
-            return _with_lag(nominal, data, settings, lag)
-        return _with_learned_prior(nominal, data, settings, lag)
+    if prior_scale == "plausible":
+        return _with_lag(nominal, data, settings, lag)
+    return _with_learned_prior(nominal, data, settings, lag)
 
 
 def _with_learned_prior(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,

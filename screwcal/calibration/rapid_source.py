@@ -153,8 +153,8 @@ def _motion(call: rapid.ProcCall, text: str, line: int) -> Motion:
 
 def read_rapid_module(path: str, text: str) -> RapidModule:
     """The module's data declarations, motion instructions and run-time targets (a large
-    module's caller pauses the cyclic collector around this and the filter:
-    `screwcal.rapid.acyclic`)."""
+    module's single-threaded caller pauses the cyclic collector around this and the filter:
+    `screwcal.runtime.policy.collection_paused`)."""
     try:
         parsed = parse_module(text, path)
     except RapidSyntaxError as err:

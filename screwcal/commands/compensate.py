@@ -149,7 +149,7 @@ def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
     from screwcal.calibration.rapid_filter import filter_rapid
     from screwcal.calibration.rapid_source import read_rapid_module
     from screwcal.errors import DataFileError
-    from screwcal.rapid.acyclic import cycle_collection_paused
+    from screwcal.runtime.policy import collection_paused
     from screwcal.tables import write_text_atomic
 
     path = Path(args.rapid)
@@ -158,7 +158,7 @@ def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
     except OSError as err:
         raise DataFileError(str(path), f"cannot read the RAPID module ({err.strerror})") from None
     text = raw.decode("latin-1")  # RAPID files are 8-bit; every byte round-trips
-    with cycle_collection_paused():  # the module's tree lives through the filter: no cycle
+    with collection_paused():  # the module's tree lives through the filter: no cycle
         module = read_rapid_module(str(path), text)  # in it, nothing for passes over it
         out_text, report = filter_rapid(module, calibrated, nominal, tool=args.tool,
                                         wobj=args.wobj, residual=residual)

@@ -13,8 +13,8 @@ import sys
 from collections.abc import Sequence
 
 from screwcal import __version__
-from screwcal.calibration.blas_threads import one_blas_thread_for_this_program
 from screwcal.errors import ScrewcalError
+from screwcal.runtime.policy import for_command_line
 
 # Each subcommand and the module that registers it (`add_parser`) and runs it. A command named
 # on the line imports its module alone (`screwcal calibrate` need not import the service, the
@@ -59,7 +59,7 @@ def _command_named(argv: Sequence[str]) -> str | None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    one_blas_thread_for_this_program()  # small batched products: threads only compete
+    for_command_line()  # BLAS threads, heap, collector: the process's (screwcal.runtime.policy)
     parser = build_parser(_command_named(argv))
     from screwcal.commands.options import old_vector_words, vector_options
 

@@ -20,7 +20,6 @@ from __future__ import annotations
 import re
 from bisect import bisect_right
 
-from screwcal.rapid.acyclic import cycle_collection_paused
 from screwcal.rapid.ast import (
     AliasDecl,
     Argument,
@@ -70,8 +69,7 @@ def parse_module(text: str, path: str = "<module>") -> Module:
     allowed; after a byte-order mark and the header a controller writes, `%%%` ... `%%%`, kept
     in `Module.header`). Raises RapidSyntaxError naming `path`, the line and the column
     (RapidEncryptedError for a text that is not RAPID source: an encrypted module)."""
-    with cycle_collection_paused():  # the tree holds no cycle (acyclic.py)
-        return _Parser(text, path).module()
+    return _Parser(text, path).module()
 
 
 def parse_expression(text: str, path: str = "<expression>") -> Expr:

@@ -14,12 +14,14 @@ from __future__ import annotations
 
 import csv
 import fnmatch
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
-from screwcal.calibration.blas_threads import pin_one_blas_thread
+from screwcal.runtime.policy import for_worker
 from screwcal.studies.markdown import markdown_table
 from screwcal.studies.registry import STUDIES, Study
 from screwcal.studies.thesis_metrics import Row
@@ -39,13 +41,21 @@ def run_samples(name: str, seed: int, samples: int, workers: int,
         from distributed import Client
 
         with Client(scheduler) as client:
-            chunks = client.gather(client.map(fn, seeds, pure=False))
+            chunks = client.gather(client.map(partial(_in_worker, fn), seeds, pure=False))
     elif workers <= 1:
         chunks = [fn(s) for s in seeds]
     else:
-        with ProcessPoolExecutor(workers, initializer=pin_one_blas_thread) as pool:
+        with ProcessPoolExecutor(workers, initializer=for_worker) as pool:
             chunks = list(pool.map(fn, seeds))
     return [{"sample": k, **row} for k, rows in enumerate(chunks) for row in rows]
+
+
+def _in_worker(fn: Callable[[int], list[Row]], seed: int) -> list[Row]:
+    """A sample on a Dask worker, under the worker processes' policy (`screwcal.runtime.policy`: a
+    cluster's workers start without the pool's initialiser; applied again, it changes
+    nothing)."""
+    for_worker()
+    return fn(seed)
 
 
 def _why(study: Study, key: str) -> str:

@@ -9,7 +9,8 @@ cores the two spinning pools and the caller compete for the cores: measured on 2
 identification of 40 poses 85 ms instead of 24 ms (`benchmarks/calibration.py`).
 
 The limit is process-wide (OpenBLAS keeps one thread count per library, not per thread), so
-it is held by whoever owns the process's threads:
+it is held by whoever owns the process's threads, at the process's door
+(`screwcal.runtime.policy` decides which door holds which; no library call sets it):
 
 - `hold_one_blas_thread()`: for a process that runs screwcal in several threads (the job
   service, for its whole lifespan). Every BLAS is at one thread from its start to its end.
@@ -18,8 +19,8 @@ it is held by whoever owns the process's threads:
   identification happened to run: twenty jobs at once beside two CPU-bound processes took
   7-26 s instead of 4 s (issue 29).
 - `pin_one_blas_thread()`: the same for the rest of a worker process's life (study workers).
-- `one_blas_thread()`: around one identification in a program that did not start with one
-  BLAS thread; within a hold it changes nothing.
+- `one_blas_thread()`: around a piece of work, by a program that owns its process and did not
+  start with one BLAS thread; within a hold it changes nothing.
 - `one_blas_thread_for_this_program()`: the `screwcal` command line, before numpy loads. The
   command's batched small products (10,000 robtargets' chains of 4x4 screws) ran 4-6x slower
   on 2 busy cores with OpenBLAS's default pool, and a limit through threadpoolctl would cover

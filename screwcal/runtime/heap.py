@@ -9,18 +9,18 @@ arrays page-fault their memory in again: 62,000 minor faults in six identificati
 poses, against 19,000 with the heap kept, and a sixth of the identification's CPU time
 (120 -> 100 ms each).
 
-`keep_freed_memory()` raises the two thresholds once per process (blocks under
-`MMAP_THRESHOLD` from the heap, its free top handed back beyond `TRIM_THRESHOLD`): the process
-then keeps at most that much freed memory (its peak is unchanged: the memory was in use a
-moment before). A threshold the user has set (glibc's MALLOC_*_ environment variables) is left
-as it is, and other C libraries (musl, macOS) are not touched.
+`keep_freed_memory()` raises the two thresholds once per process (blocks under `MMAP_THRESHOLD`
+from the heap, its free top handed back beyond `TRIM_THRESHOLD`), called by the process's door
+(the command line, the service, a worker: `screwcal.runtime.policy`; an identification leaves
+the heap as it finds it). The process then keeps at most that much freed memory (its peak is
+unchanged: the memory was in use a moment before). A threshold the user has set (glibc's
+MALLOC_*_ environment variables) is left as it is, and other C libraries (musl, macOS) are not
+touched.
 """
 
 from __future__ import annotations
 
-import ctypes
 import os
-import platform
 import threading
 
 __all__ = ["MMAP_THRESHOLD", "TRIM_THRESHOLD", "keep_freed_memory"]
@@ -47,9 +47,10 @@ def keep_freed_memory() -> bool:
 
 
 def _raise_thresholds() -> bool:
-    if platform.system() != "Linux" or platform.libc_ver()[0] != "glibc" or \
-            any(v in os.environ for v in _USER_SETTINGS):
+    if not _on_glibc() or any(v in os.environ for v in _USER_SETTINGS):
         return False
+    import ctypes  # (here: the command line applies this at its start, ctypes costs there)
+
     try:
         libc = ctypes.CDLL(None)
         mallopt = libc.mallopt
@@ -59,3 +60,12 @@ def _raise_thresholds() -> bool:
     # (the mapping threshold first: setting either fixes both, glibc's own adjustment stops)
     return bool(mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
                 and mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD))
+
+
+def _on_glibc() -> bool:
+    """Whether this process's C library is glibc (asked of the library, not by reading the
+    interpreter's executable as `platform.libc_ver` does)."""
+    try:
+        return (os.confstr("CS_GNU_LIBC_VERSION") or "").startswith("glibc")
+    except (AttributeError, ValueError, OSError):  # not a glibc system
+        return False

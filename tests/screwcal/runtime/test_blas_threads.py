@@ -1,4 +1,5 @@
-"""Identification runs with one BLAS thread, and gives back what was there."""
+"""One BLAS thread where the process's doors ask for it (screwcal/runtime/policy.py), and what was
+there given back; an identification itself leaves the threads to its caller."""
 
 import os
 import subprocess
@@ -9,15 +10,12 @@ import pytest
 from threadpoolctl import ThreadpoolController
 
 import screwcal.calibration.solvers as solvers_module
-from screwcal.calibration.blas_threads import (
-    hold_one_blas_thread,
-    one_blas_thread,
-    pin_one_blas_thread,
-)
 from screwcal.calibration.identify import identify
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.robots import irb1600
+from screwcal.runtime.blas_threads import hold_one_blas_thread, one_blas_thread
+from screwcal.runtime.policy import for_worker
 from screwcal.studies.simulated_measurements import simulate_measurements
 
 
@@ -58,9 +56,9 @@ def test_concurrent_users_restore_when_the_last_leaves(two_threads):
     assert blas_threads() == [2]
 
 
-def test_identify_solves_with_one_thread(two_threads, monkeypatch, rng):
-    """The least-squares solve inside identify sees one BLAS thread (scipy's and numpy's pools
-    spin against each other on small problems: blas_threads.py)."""
+def test_identify_solves_with_the_callers_threads(two_threads, monkeypatch, rng):
+    """identify sets no BLAS limit of its own: the least-squares solve inside it runs with the
+    threads its caller chose (the process's door chooses one: screwcal/runtime/policy.py)."""
     truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
     data = simulate_measurements(truth, random_configurations(30, rng), rng)
     seen = []
@@ -72,7 +70,7 @@ def test_identify_solves_with_one_thread(two_threads, monkeypatch, rng):
 
     monkeypatch.setattr(solvers_module, "levenberg_marquardt", watched)
     result = identify(irb1600(), data, kind="thesis", frames="known")
-    assert seen and all(s == [1] for s in seen)
+    assert seen and all(s == [2] for s in seen)
     assert blas_threads() == [2]
     assert np.isfinite(result.residuals_after).all()
 
@@ -92,16 +90,17 @@ def _worker_blas_threads():
 
 
 def test_study_workers_run_one_thread(two_threads):
-    """A study's worker processes (studies/study.py) pin one BLAS thread for their life."""
+    """A study's worker processes (studies/study.py: runtime.policy.for_worker as their
+    initialiser) pin one BLAS thread for their life."""
     from concurrent.futures import ProcessPoolExecutor
 
-    with ProcessPoolExecutor(1, initializer=pin_one_blas_thread) as pool:
+    with ProcessPoolExecutor(1, initializer=for_worker) as pool:
         assert pool.submit(_worker_blas_threads).result() == [1]
 
 
 def _blas_threads_of_a_command_line(env: dict[str, str]) -> int:
     """The BLAS threads numpy runs with in a fresh process that starts as `screwcal` does."""
-    code = ("from screwcal.calibration.blas_threads import one_blas_thread_for_this_program as f\n"
+    code = ("from screwcal.runtime.blas_threads import one_blas_thread_for_this_program as f\n"
             "f()\nimport numpy\nfrom threadpoolctl import threadpool_info\n"
             "print(max(i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'))")
     clean = {k: v for k, v in os.environ.items() if k not in
@@ -120,7 +119,7 @@ def test_the_command_line_runs_one_blas_thread_unless_the_user_set_one():
 
 
 def test_the_command_line_limit_comes_too_late_once_numpy_is_loaded():
-    from screwcal.calibration.blas_threads import one_blas_thread_for_this_program
+    from screwcal.runtime.blas_threads import one_blas_thread_for_this_program
 
     assert "numpy" in sys.modules  # this module imported it
     before = os.environ.get("OPENBLAS_NUM_THREADS")
