@@ -23,7 +23,7 @@ from pydantic import BaseModel, Field
 
 from service.document import JobRecord
 from service.job_state import JobState
-from service.phases import PERF_PHASES
+from service.phases import PERF_PHASES, is_correction
 from service.store import IDENTITY, Store
 
 
@@ -91,7 +91,7 @@ def _entry(job: JobRecord, extra: dict[str, Any], version: int | None,
         software=extra["software"] or "unknown (made before provenance was kept)",
         service=extra["service"], robot_identity=extra["robot_identity"],
         poses=extra["poses"], route=route, model_version=version, ap_before_mm=before,
-        confirmed=[c for c in confirmations if c["phase"].startswith("correction")],
+        confirmed=[c for c in confirmations if is_correction(c["phase"])],
         go_aheads=len(confirmations),
         ap_mm=ap, rp_mm=rp)
 

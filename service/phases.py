@@ -3,6 +3,8 @@ them, and the names people read for the performance lists."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from enum import StrEnum
 from typing import Final, Literal
 
 Round = Literal["", "_2"]  # the suffix of the first and the second calibration round
@@ -35,6 +37,58 @@ ESTIMATION_FOR: Final[dict[str, Round]] = {"perf_after": "", "perf_after_2": "_2
 ROUND_SUFFIXES: Final[tuple[Round, Round]] = ("", "_2")  # the first and the second round
 
 
+class Action(StrEnum):
+    """What a step does."""
+
+    SETUP = "setup"  # open the links
+    WARMUP = "warmup"  # run the performance cycle unmeasured
+    MEASURE = "measure"  # a measured list
+    ESTIMATE = "estimate"  # the identification
+    CORRECT = "correct"  # the correction route (ZERO, or compensation of the later lists)
+    EVALUATE = "evaluate"  # ISO 9283's figures, the home check, the warnings
+
+
+@dataclass(frozen=True)
+class Step:
+    """A step of a job: its name (as stored in the job's phases), what it does, its
+    calibration round, and for a measured list, which planned list it runs."""
+
+    name: str
+    action: Action
+    round: Round = ""
+    list: ListKind | None = None
+
+
+SETUP: Final = "setup"
+STEP_OF: Final[dict[str, Step]] = {s.name: s for s in (
+    Step(SETUP, Action.SETUP), Step(WARMUP, Action.WARMUP),
+    *(Step(name, Action.MEASURE, list="perf") for name in (*HOME_PHASES, *PERF_PHASES[:2],
+                                                            PERF_PHASES[3])),
+    Step("perf_after_2", Action.MEASURE, "_2", "perf"),
+    Step("cal", Action.MEASURE, "", "cal"), Step("cal_2", Action.MEASURE, "_2", "cal"),
+    Step("estimation", Action.ESTIMATE), Step("estimation_2", Action.ESTIMATE, "_2"),
+    Step("correction", Action.CORRECT), Step("correction_2", Action.CORRECT, "_2"),
+    Step("evaluation", Action.EVALUATE))}
+
+
+def calibration_list(round: Round) -> str:
+    """The measured calibration list of a calibration round: "cal", "cal_2"."""
+    return next(s.name for s in STEP_OF.values()
+                if s.action is Action.MEASURE and s.list == "cal" and s.round == round)
+
+
+def correction_step(round: Round) -> str:
+    """The correction step of a calibration round: "correction", "correction_2"."""
+    return next(s.name for s in STEP_OF.values()
+                if s.action is Action.CORRECT and s.round == round)
+
+
+def is_correction(phase: str) -> bool:
+    """True for a correction step's name (a ZERO's go-ahead is confirmed in it)."""
+    step = STEP_OF.get(phase)
+    return step is not None and step.action is Action.CORRECT
+
+
 def job_steps(kind: str, rounds: int = 1, warmup: bool = False) -> tuple[str, ...]:
     """The steps of a job of `kind`; a procedure of 2 rounds adds the second round before its
     evaluation; `warmup` puts ISO 9283's warm-up (the test cycle run unmeasured, "warmup")
@@ -56,10 +110,7 @@ def compensated_list(suffix: Round) -> str:
 
 def list_kind(phase: str) -> ListKind:
     """The planned list a measured phase runs, whose poses and payload it has: "cal" for a
-    calibration list (cal, cal_2), "perf" for the others (performance and home lists)."""
-    return "cal" if phase.startswith("cal") else "perf"
-
-
-def round_suffix(step: str) -> Round:
-    """'_2' for a step of the second calibration round, '' otherwise."""
-    return "_2" if step.endswith("_2") else ""
+    calibration list (cal, cal_2), "perf" for the others (performance and home lists, and the
+    drift checks interleaved with them, service/drift.py, which are no step of their own)."""
+    step = STEP_OF.get(phase)
+    return step.list if step is not None and step.list is not None else "perf"

@@ -60,12 +60,16 @@ from service.phases import (
     ESTIMATION_FOR,
     HOME_PHASES,
     PERF_PHASES,
-    WARMUP,
+    SETUP,
+    STEP_OF,
+    Action,
     Round,
+    calibration_list,
     compensated_list,
+    correction_step,
+    is_correction,
     job_steps,
     list_kind,
-    round_suffix,
 )
 from service.plans import LISTS_OF_KIND, PlannedPose, plan_for
 from service.settings import ServiceSettings
@@ -168,15 +172,15 @@ class JobRunner:
             await self._set(JobState.RUNNING, "")
             t0 = time.perf_counter()
             await self._build_plans()
-            await self._with_links("setup")
-            if "setup" not in self.job.phases:
-                await asyncio.to_thread(self.store.finish_step, self.job_id, "setup",
+            await self._with_links(SETUP)
+            if SETUP not in self.job.phases:
+                await asyncio.to_thread(self.store.finish_step, self.job_id, SETUP,
                                         time.perf_counter() - t0)
             for step in self.steps():
                 phase = await asyncio.to_thread(self._claim, step)
                 if phase.done:
                     continue
-                if step.startswith("correction") and phase.started \
+                if is_correction(step) and phase.started \
                         and self.route.startswith("zero"):
                     raise SafetyError("the job stopped during the correction: whether ZERO took "
                                       "effect is unknown; check the controller, then start anew")
@@ -258,22 +262,22 @@ class JobRunner:
                 await self.events.publish("resumed", phase=step)
 
     async def _step(self, step: str) -> None:
-        suffix = round_suffix(step)
-        if step == "setup":
+        action, suffix = STEP_OF[step].action, STEP_OF[step].round
+        if action is Action.SETUP:
             await self.acquisition.connect()
-        elif step == WARMUP:
+        elif action is Action.WARMUP:
             await self.acquisition.move_through(step, self.warmup_plan())
-        elif step.startswith(("perf", "cal", "home")):
+        elif action is Action.MEASURE:
             if self.options.drift_poses and self.acquisition.drift is None:
                 # the test cube's search: in a thread, never in the loop (nor at start-up)
                 self.acquisition.drift = await asyncio.to_thread(self.drift_schedule)
             # compensated targets: CPU and a store read, in a thread
             await self.acquisition.measure(step, await asyncio.to_thread(self.targets, step))
-        elif step.startswith("estimation"):
+        elif action is Action.ESTIMATE:
             await asyncio.to_thread(self.estimate, suffix)
-        elif step.startswith("correction"):
+        elif action is Action.CORRECT:
             await self.correct(suffix)
-        elif step == "evaluation":
+        elif action is Action.EVALUATE:
             await asyncio.to_thread(self.evaluate)
             for warning in self.job.result.warnings or []:
                 await self.events.publish("warning", message=warning)
@@ -282,7 +286,7 @@ class JobRunner:
     def estimate(self, suffix: Round = "") -> None:
         kind = self.options.model
         by_phase = self._rows_by_phase()
-        rows = by_phase.get("cal" + suffix, [])
+        rows = by_phase.get(calibration_list(suffix), [])
         data = analysis.measurement_set(rows, by_phase.get(DRIFT_PHASE, []))
         nominal = replace(self.model, payload=analysis.list_payload(self.options, "cal"))
         result = identify(nominal, data, kind=kind, frames="base",
@@ -291,7 +295,7 @@ class JobRunner:
             suffix, estimation=analysis.estimation_summary(result),
             calibration=result_document(
                 result, self.model.name, {"model": kind, "frames": "base", "poses": len(data),
-                                          "job": self.job_id, "phase": "cal" + suffix,
+                                          "job": self.job_id, "phase": calibration_list(suffix),
                                           "compliance": self.options.compliance,
                                           "lag": self.options.lag}))
         doc.base = result.model.base.tolist()
@@ -322,7 +326,7 @@ class JobRunner:
             raise SafetyError("no correction to send")
         if not self.model.within_limits(np.radians(zero)):
             raise SafetyError(f"correction target {zero.round(4).tolist()} outside the limits")
-        await self.acquisition.zero("correction" + suffix, zero.tolist())
+        await self.acquisition.zero(correction_step(suffix), zero.tolist())
         doc = dict(self.job.result.calibration_of(suffix) or {})
         doc["model"] = model_document(after_zero(parse_model(doc["model"]), zero))
         doc["model_note"] = ("the robot once ZERO made the identified offsets the new zero: "
@@ -400,7 +404,7 @@ class JobRunner:
         suffix = doc.latest_round()
         est = doc.estimation_of(suffix)
         if est is not None:
-            cal_phases = ["cal" + suffix]
+            cal_phases = [calibration_list(suffix)]
             sigma = (est.noise or {}).get("position", {}).get("value") or \
                 est.residual_after_mm / np.sqrt(3.0)
             promised = float(sigma)
@@ -413,6 +417,6 @@ class JobRunner:
         zeros, so the same commanded joints put the arm elsewhere: no drift)."""
         label = analysis.payload_label(self.options, phase)
         steps = self.steps()
-        zeros = sum(1 for step in steps[:steps.index(phase)] if step.startswith("correction")) \
+        zeros = sum(1 for step in steps[:steps.index(phase)] if is_correction(step)) \
             if self.route.startswith("zero") and phase in steps else 0
         return f"{label}, after {zeros} ZERO" if zeros else label
