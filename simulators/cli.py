@@ -77,7 +77,11 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
                                                program=args.program,
                                                assignments=assignments(args.set)),
                        printer=printer)
-    host, port = await emu.start(args.host, args.port)
+    asked = 4012 if args.port is None else args.port
+    host, port = await emu.start(args.host, asked)
+    if args.port is not None and not emu.own_program:
+        print(f"note: --port {args.port} is ScrewcalServer's; this program listens where its own "
+              "data say (--set NAME=VALUE changes them)", file=sys.stderr, flush=True)
     line = f"irc5 emulator on {host}:{port}"
     arm = None
     if args.arm_port is not None:
@@ -198,7 +202,8 @@ def run(args: argparse.Namespace) -> int:
         if err.errno != errno.EADDRINUSE:
             raise
         print(f"screwcal emulator {args.which}: a port asked for is in use (another emulator or "
-              "program): choose others with --port/--arm-port, or 0 for free ones",
+              "program): choose others with --port/--arm-port (a program's own port with --set "
+              "NAME=VALUE), or 0 for free ones",
               file=sys.stderr)
         return 2
     return 0
@@ -212,7 +217,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                             description=__doc__,
                             formatter_class=argparse.RawDescriptionHelpFormatter)
     irc5.add_argument("--host", default="127.0.0.1", help="bind address (default 127.0.0.1)")
-    irc5.add_argument("--port", type=int, default=4012,
+    irc5.add_argument("--port", type=int, default=None,
                       help="TCP port of the wire protocol (default 4012; 0: a free one)")
     errors = irc5.add_mutually_exclusive_group()
     errors.add_argument("--errors", help="JSON of virtual-joint errors, or a true model file")

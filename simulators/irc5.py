@@ -134,7 +134,8 @@ class IRC5Emulator:
                                           f"{self.task.stop_reason}")
             if self.network.host_port_in_use:  # another program holds it: not the module's wait
                 await self.stop()
-                raise OSError(errno.EADDRINUSE, f"{host}:{port} is in use on this host")
+                where = f"{host}:{port}" if self._own_program else "the address the program binds"
+                raise OSError(errno.EADDRINUSE, f"{where} is in use on this host")
             await asyncio.sleep(0.002)
         self.address = self.network.listening[-1]
         return self.address
@@ -158,6 +159,11 @@ class IRC5Emulator:
         await asyncio.to_thread(self._thread.join, 10.0)
         self.task.pp_to_main()
         return await self.start(*self.address)
+
+    @property
+    def own_program(self) -> bool:
+        """Whether the task runs ScrewcalServer (the emulator's --host/--port set its data)."""
+        return self._own_program
 
     @property
     def running(self) -> bool:

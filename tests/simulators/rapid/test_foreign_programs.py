@@ -530,3 +530,33 @@ def test_dates_clocks_and_world_zones():
     assert re.fullmatch(r"\d\d:\d\d:\d\d", value(t, "c")) and 0 <= value(t, "h") < 24
     assert 0.04 < value(t, "e") < 1
     assert t.log.count(containing="World Zones") == 1  # and not again when they run
+
+
+def test_the_command_runs_a_foreign_program_where_its_data_say(tmp_path):
+    import signal
+
+    from tests.simulators.test_emulator_cli import start
+
+    port = free_port()
+    proc, line = start(["irc5", "--time-scale", "0", "--port", "0", "--program", str(LINK),
+                        "--set", f"linkPort={port}", "--verbose"])
+    try:
+        assert line.strip() == f"irc5 emulator on 127.0.0.1:{port}", line
+        with socket.create_connection(("127.0.0.1", port), timeout=5) as c:
+            c.sendall(b"04 #")
+            assert c.recv(64).decode().split()[:2] == ["4", "1"]
+    finally:
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    assert "note: --port 0 is ScrewcalServer's" in err
+    bad = subprocess_run(["irc5", "--port", "0", "--program", str(LINK), "--set", "linkPort"])
+    assert bad.returncode == 2 and "expected NAME=VALUE" in bad.stderr
+
+
+def subprocess_run(args: list[str]):
+    import subprocess
+
+    from tests.simulators.test_emulator_cli import EXE
+
+    return subprocess.run([*EXE, *args], capture_output=True, text=True, timeout=60)
