@@ -128,6 +128,45 @@ def _walk(name: str, node: object, index: list[int], line_of: Callable[[int], in
             _walk(name, child, [*index, k], line_of, out)
 
 
+def _record_targets(label: str, node: object, type_: str, records: dict[str, list[tuple[str, str]]],
+                    line: int, line_of: Callable[[int], int], found: list[_Target],
+                    computed: list[Note]) -> None:
+    """The robtargets in a value of `type_` (a robtarget, or a record holding some), labelled
+    with their components (`weld{2}.p`): those written as literals in `found`, the others
+    (an expression, or a value of another shape) noted in `computed`."""
+    if type_ == "robtarget":
+        if _is_robtarget(node):
+            tokens = [*node[0], *node[1], *node[2]]
+            found.append(_Target(label, label.split("{")[0].split(".")[0], line_of(
+                tokens[0].start), tokens))
+        else:
+            computed.append(Note(line_of(node.start) if isinstance(node, Token) else line,
+                                 label, "its value is an expression, computed when the "
+                                 "program runs"))
+        return
+    fields = records.get(type_)
+    if fields is None:
+        return
+    if not isinstance(node, list) or len(node) != len(fields):
+        computed.append(Note(line, label, f"its {type_} value is not a literal of its "
+                             f"{len(fields)} components"))
+        return
+    for (name, ftype), child in zip(fields, node, strict=True):
+        _record_targets(f"{label}.{name}", child, ftype, records, line, line_of, found,
+                        computed)
+
+
+def _array_elements(name: str, value: object, dims: int, index: tuple[int, ...] = ()
+                    ) -> list[tuple[str, object]]:
+    """(label, value) of each element of an array value of `dims` dimensions."""
+    if dims == 0:
+        return [(name + (f"{{{','.join(map(str, index))}}}" if index else ""), value)]
+    if not isinstance(value, list):
+        return [(name, value)]
+    return [e for k, child in enumerate(value)
+            for e in _array_elements(name, child, dims - 1, (*index, k + 1))]
+
+
 def _frame(trans: list[Token], rot: list[Token]) -> Array:
     T = np.eye(4)
     T[:3, :3] = rotation_from_quaternion_wxyz(np.array([t.number for t in rot]))
@@ -184,40 +223,65 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
     targets: list[_Target] = []
     frames: list[tuple[Array, Array]] = []  # (work object, tool) per target
     for d in module.declarations:
-        if d.kind != "robtarget":
+        if d.kind not in ("robtarget", "record"):
             continue
-        found = _static_targets(module, d, report)
-        combos = uses.get(d.name.lower(), {default})
-        if len(combos) > 1:
-            pairs = "; ".join(f"{t} with {w}" for t, w in sorted(combos))
-            report.refused += [Note(t.line, t.name, f"used with several tools or work objects "
-                                    f"({pairs}): one static value cannot serve them all")
-                               for t in found]
-            continue
-        (tname, wname), = combos
-        tframe, wframe = tools.get(tname), wobjs.get(wname)
-        if not isinstance(tframe, np.ndarray) or not isinstance(wframe, np.ndarray):
-            problem = _frame_problem(tname, tframe, wname, wframe)
-            report.refused += [Note(t.line, t.name, problem) for t in found]
-            continue
-        targets += found
-        frames += [(wframe, tframe)] * len(found)
+        for t in _static_targets(module, d, report):
+            if t.name == d.name:  # a robtarget declared alone: most of every module
+                combos = uses.get(t.name.lower()) or {default}
+            else:
+                combos = set().union(*(uses.get(k, ()) for k in _use_keys(t.name))) or \
+                    {default}
+            if len(combos) > 1:
+                pairs = "; ".join(f"{t} with {w}" for t, w in sorted(combos))
+                report.refused.append(Note(t.line, t.name, "used with several tools or work "
+                                           f"objects ({pairs}): one static value cannot serve "
+                                           "them all"))
+                continue
+            (tname, wname), = combos
+            tframe, wframe = tools.get(tname), wobjs.get(wname)
+            if not isinstance(tframe, np.ndarray) or not isinstance(wframe, np.ndarray):
+                report.refused.append(Note(t.line, t.name,
+                                           _frame_problem(tname, tframe, wname, wframe)))
+                continue
+            targets.append(t)
+            frames.append((wframe, tframe))
     if not targets:
         return module.text, report
     return _compensated_text(module.text, targets, frames, calibrated, nominal, report,
                              residual), report
 
 
+_REFERENCE = re.compile(r"([A-Za-z]\w*)(\{[^{}]*\})?((?:\.[A-Za-z]\w*)*)")
+_LITERAL_INDEX = re.compile(r"\{\d+(?:,\d+)*\}")
+
+
+def _use_keys(name: str) -> tuple[str, ...]:
+    """The keys under which motions to target `name` (`p`, `pArr{2}`, `weld{2}.p`) are
+    recorded: the target itself, and its declaration's with any index (`weld{*}.p`, `pArr`)."""
+    key = name.lower()
+    base, index, components = _REFERENCE.fullmatch(key).groups()  # type: ignore[union-attr]
+    return (key, f"{base}{{*}}{components}") if index else (key,)
+
+
 def _uses(module: RapidModule, report: FilterReport) -> dict[str, set[tuple[str, str]]]:
-    """The (tool, work object) pairs each declared robtarget is moved to with; the targets
-    only the program knows are noted in the report."""
-    declared = {d.name.lower() for d in module.declarations if d.kind == "robtarget"}
+    """The (tool, work object) pairs each declared robtarget is moved to with, by the keys of
+    `_use_keys` (an index that is not a literal counts for every element); the targets only the
+    program knows are noted in the report."""
+    declared = {d.name.lower() for d in module.declarations if d.kind in ("robtarget", "record")}
     uses: dict[str, set[tuple[str, str]]] = {}
     for m in module.motions:
         for target in m.targets:
-            base = target.split("{")[0].strip()
-            if base.lower() in declared and base.replace("_", "").isalnum():
-                uses.setdefault(base.lower(), set()).add((m.tool.lower(), m.wobj.lower()))
+            key = target.lower()
+            if key in declared:  # a declared name alone: most motions
+                uses.setdefault(key, set()).add((m.tool.lower(), m.wobj.lower()))
+                continue
+            ref = _REFERENCE.fullmatch(re.sub(r"\s+", "", key))
+            if ref and ref.group(1) in declared:
+                base, index, components = ref.groups()
+                if index and not _LITERAL_INDEX.fullmatch(index):
+                    index = "{*}"
+                uses.setdefault(f"{base}{index or ''}{components}", set()).add(
+                    (m.tool.lower(), m.wobj.lower()))
             elif "(" not in target:  # calls: the run-time list below
                 report.not_static.append(Note(m.line, target[:40], "an inline or undeclared "
                                               "target: declare it in the module to filter it"))
@@ -239,11 +303,23 @@ def _static_targets(module: RapidModule, d: Declaration, report: FilterReport
         report.refused.append(Note(d.line, d.name, "its value is an expression, computed "
                                    "when the program runs"))
         return []
-    found = _targets(d.name, d.value, module.line_of)
+    if d.kind == "record":
+        found: list[_Target] = []
+        notes: list[Note] = []
+        for label, element in _array_elements(d.name, d.value, d.dims):
+            _record_targets(label, element, d.type, module.records, d.line, module.line_of,
+                            found, notes)
+        report.refused += notes
+    else:
+        found = _targets(d.name, d.value, module.line_of)
     computed = [t for t in found if not _LITERALS.fullmatch(",".join(map(_text, t.tokens)))]
     report.refused += [Note(t.line, t.name, "a number of its value is an expression, "
                             "computed when the program runs") for t in computed]
-    return [t for t in found if t not in computed]
+    unset = [t for t in found if t not in computed and
+             not any(float(tok.text) for tok in t.tokens[3:7])]
+    report.refused += [Note(t.line, t.name, "its orientation is [0,0,0,0], a placeholder: "
+                            "the target was never taught") for t in unset]
+    return [t for t in found if t not in computed and t not in unset]
 
 
 def _frame_problem(tname: str, tframe: Array | str | None, wname: str,

@@ -24,11 +24,23 @@ from screwcal.rapid import ast as rapid
 
 # A number as RAPID writes it (with its sign): where the filter's numbers are in a text.
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
-# Motion instructions whose first positional argument (two for the circular ones) is a
-# robtarget; the tool follows the speed and zone (Move*) or is the last positional (Trigg*).
-MOTIONS = frozenset(f"{kind}{axis}{suffix}".lower() for kind, suffixes in (
-    ("Move", ("", "DO", "AO", "GO", "Sync")), ("Trigg", ("",))) for axis in "JLC"
-    for suffix in suffixes)
+# Instructions that move to robtargets (the base system's and the process options'): which
+# positional arguments are targets, and where the tool is (None: the last positional). The
+# Move family has its tool after the speed and the zone (a signal and its value may follow).
+_MOVE_SUFFIXES = ("", "DO", "AO", "GO", "Sync")
+MOTIONS: dict[str, tuple[tuple[int, ...], int | None]] = {
+    **{f"move{a}{s}".lower(): ((0, 1), 4) if a == "C" else ((0,), 3)
+       for a in "JLC" for s in _MOVE_SUFFIXES},
+    **{f"trigg{a}".lower(): ((0, 1) if a == "C" else (0,), None) for a in "JLC"},
+    "triggjios": ((0,), None), "trigglios": ((0,), None),
+    "searchl": ((2,), None), "searchj": ((2,), None), "searchc": ((2, 3), None),
+    **{f"arc{a}{s}".lower(): ((0, 1) if a == "C" else (0,), None)
+       for a in "LC" for s in ("", "1", "2", "Start", "End")},
+    "arcrepl": ((0,), None), "capl": ((0,), None), "capc": ((0, 1), None),
+    "spotl": ((0,), None), "spotj": ((0,), None), "spotml": ((0,), None),
+    "paintl": ((0,), None), "paintc": ((0, 1), None), "displ": ((0,), None),
+    "dispc": ((0, 1), None), "cssdeactmovel": ((0,), None),
+}
 RUNTIME_FUNCTIONS = frozenset(("offs", "reltool", "crobt", "calcrobt", "mirpos"))
 DECLARED_KINDS = ("robtarget", "tooldata", "wobjdata")
 
@@ -54,10 +66,12 @@ _token = partial(tuple.__new__, Token)
 
 @dataclass
 class Declaration:
-    kind: str  # robtarget, tooldata, wobjdata (lower case)
+    kind: str  # robtarget, tooldata, wobjdata, record (one holding robtargets; lower case)
     name: str
     line: int
     value: Aggregate | Token | None  # None: declared without a value; a Token: not a literal
+    type: str = ""  # the declared type (lower case): a record's name for kind "record"
+    dims: int = 0  # array dimensions
 
 
 @dataclass
@@ -78,6 +92,9 @@ class RapidModule:
     declarations: list[Declaration] = field(default_factory=list)
     motions: list[Motion] = field(default_factory=list)
     runtime: list[tuple[int, str]] = field(default_factory=list)  # (line, what)
+    # RECORD types that hold robtargets (in a component, or a component's record):
+    # lower-case name -> (component name, lower-case type) in order
+    records: dict[str, list[tuple[str, str]]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self._lines = _Lines(self.text)
@@ -144,11 +161,26 @@ def _motion(call: rapid.ProcCall, text: str, line: int) -> Motion:
     wobj = next((text[a.value.start:a.value.end].strip() for a in call.args
                  if a.optional and a.name and a.name.lower() == "wobj" and a.value is not None),
                 "wobj0")
-    key = call.key
-    n_targets = 2 if key.endswith(("c", "cdo", "cao", "cgo", "csync")) else 1
-    at = len(positional) - 1 if key.startswith("trigg") else n_targets + 2
-    tool = positional[at] if n_targets <= at < len(positional) else "tool0"
-    return Motion(line, call.name, positional[:n_targets], tool, wobj)
+    places, tool_at = MOTIONS[call.key]
+    at = len(positional) - 1 if tool_at is None else tool_at
+    tool = positional[at] if max(places) < at < len(positional) else "tool0"
+    return Motion(line, call.name, [positional[k] for k in places if k < len(positional)],
+                  tool, wobj)
+
+
+def _target_records(parsed: rapid.Module) -> dict[str, list[tuple[str, str]]]:
+    """The module's RECORD types that hold a robtarget, directly or in a component's record."""
+    records = {r.name.lower(): [(f.name, f.type.lower()) for f in r.fields]
+               for r in parsed.records}
+    holding: set[str] = set()
+    changed = True
+    while changed:
+        changed = False
+        for name, fields in records.items():
+            if name not in holding and any(t == "robtarget" or t in holding for _, t in fields):
+                holding.add(name)
+                changed = True
+    return {name: fields for name, fields in records.items() if name in holding}
 
 
 def read_rapid_module(path: str, text: str) -> RapidModule:
@@ -159,14 +191,16 @@ def read_rapid_module(path: str, text: str) -> RapidModule:
         parsed = parse_module(text, path)
     except RapidSyntaxError as err:
         raise DataFileError(path, f"{err.reason} (column {err.col})", line=err.line) from None
-    module = RapidModule(path, text)
+    module = RapidModule(path, text, records=_target_records(parsed))
     line_of = module._lines.of
     data = [*parsed.data, *(d for r in parsed.routines for d in r.data)]
     for d in sorted(data, key=lambda d: d.start):
         kind = d.type.lower()
-        if kind in DECLARED_KINDS:
+        if kind in DECLARED_KINDS or kind in module.records:
             value = None if d.value is None else _value(d.value, text)
-            module.declarations.append(Declaration(kind, d.name, d.line, value))
+            module.declarations.append(Declaration(
+                kind if kind in DECLARED_KINDS else "record", d.name, d.line, value, kind,
+                len(d.dims)))
     # calls in data values (`:= Offs(...)`): only where the value's text holds a parenthesis
     values = tuple(d.value for d in data if d.value is not None
                    and text.find("(", d.value.start, d.value.end) >= 0)

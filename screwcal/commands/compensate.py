@@ -25,17 +25,22 @@ COMPENSATE_DOC = """`screwcal compensate`: make the calibrated robot reach what 
     screwcal compensate --result result.json --measuring-targets meas.csv \
         --out compensated.csv
 
---rapid rewrites every robtarget so that the nominal controller drives the joints to where the
+--rapid rewrites every robtarget (declared alone, in arrays, in RECORD data and arrays of
+records) so that the nominal controller drives the joints to where the
 calibrated robot reaches the original target (confdata recomputed), keeps the rest of the file
-byte for byte, and lists what a static filter cannot compensate (Offs, RelTool, CRobT, inline
-targets, stationary tools, moving work objects) with its line. --targets takes tool0 poses in
+byte for byte (a controller's %%% header too), and lists what a static filter cannot compensate
+(Offs, RelTool, CRobT, inline targets, stationary tools, moving work objects, a [0,0,0,0]
+placeholder orientation) with its line. Each target is solved in the tool and work object of the
+instructions that move to it: the Move, Trigg, Search, Arc, Cap, Spot, Paint and Disp families
+(MoveC's and the circular ones' two points). --targets takes tool0 poses in
 the robot base frame (what a program commands); --measuring-targets poses of the measured point
 in the measuring system's frame (what the measuring system will see).
 
-Exit status: 0 every target compensated; 3 some refused (each listed on stderr with its line
-and why; the others are written); 2 nothing written: no target could be compensated, the
-input is not a RAPID module, --out names an input, or the model is position-only (calibrated
-from positions of a point on joint 6's axis: it does not know the orientation).
+Exit status: 0 every target compensated; 3 some refused or not compensated statically (each
+listed with its line and why; the others are written); 2 nothing written: no target could be
+compensated, the input is not a RAPID module, --out names an input, or the model is
+position-only (calibrated from positions of a point on joint 6's axis: it does not know the
+orientation).
 A target at the wrist singularity is solved with joints 4 and 6 kept nearest the nominal
 solution.
 
@@ -168,7 +173,7 @@ def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
         raise DataFileError(str(path), f"no robtarget compensated; {args.out} not written")
     write_text_atomic(args.out, out_text.encode("latin-1"))
     print(report.summary().replace(f"{path}:", f"{path} -> {args.out}:", 1))
-    return PARTIAL_EXIT if report.refused else 0
+    return PARTIAL_EXIT if report.refused or report.not_static else 0
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -1,0 +1,181 @@
+"""`compensate --rapid` on a cell's program, never silent: robtargets in RECORD data, arrays of
+records and nested records, moved to by SearchL, ArcLStart, ArcL, MoveC (both points) and
+TriggL, each with its own tool and work object; the true robot reaches every original target
+(the golden round trip of test_rapid_filter: the nominal controller solves the compensated
+target with its confdata, the true robot moves there), or the target is listed and the exit
+status says so. The controller's saved-module header is kept byte for byte."""
+
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+
+from screwcal.calibration.posesets import random_configurations
+from screwcal.calibration.rapid_filter import FilterReport, _frame, _static_targets, filter_rapid
+from screwcal.calibration.rapid_source import read_rapid_module
+from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.kinematics.confdata import confdata, solution_for_confdata
+from screwcal.kinematics.forward import flange_kinematics
+from screwcal.kinematics.modelfile import save_model
+from screwcal.kinematics.pose import quaternion_wxyz_from_rotation
+from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import invert_transform
+
+HEADER = "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\n"
+TOOLS = {"tGun": "[TRUE,[[10,-5,180],[0.991444861,0,0.130526192,0]],[2,[0,0,80],[1,0,0,0],0,0,0]]",
+         "tProbe": "[TRUE,[[0,30,120],[1,0,0,0]],[1,[0,0,50],[1,0,0,0],0,0,0]]"}
+WOBJS = {"wTable": '[FALSE,TRUE,"",[[700,-100,400],[1,0,0,0]],[[0,0,0],[1,0,0,0]]]',
+         "wFixture": '[FALSE,TRUE,"",[[600,200,300],[0.965925826,0,0,0.258819045]],'
+                     '[[10,0,5],[1,0,0,0]]]'}
+# target name (as the filter labels it) -> (tool, work object) of the instruction using it
+USES = {"wpSearch.p": ("tProbe", "wTable"), "weld{1}.p": ("tGun", "wFixture"),
+        "weld{2}.p": ("tGun", "wFixture"), "s1.start.p": ("tGun", "wTable"),
+        "s1.finish": ("tGun", "wTable"), "pCir": ("tGun", "wTable"),
+        "pTo": ("tGun", "wTable"), "pTrigg": ("tProbe", "wFixture")}
+
+
+def _frame_of(value: str) -> np.ndarray:
+    """The frame of a tooldata's tframe or a wobjdata's uframe @ oframe, from its text."""
+    numbers = [float(v) for v in value.replace("[", ",").replace("]", ",").split(",")
+               if v.strip() and v.strip() not in ("TRUE", "FALSE", '""')]
+    if len(numbers) == 14:  # wobjdata: uframe, oframe
+        u, o = numbers[:7], numbers[7:14]
+        return _pose(u) @ _pose(o)
+    return _pose(numbers[:7])
+
+
+def _pose(n) -> np.ndarray:
+    from screwcal.kinematics.pose import rotation_from_quaternion_wxyz
+
+    T = np.eye(4)
+    T[:3, :3] = rotation_from_quaternion_wxyz(np.array(n[3:7]))
+    T[:3, 3] = n[:3]
+    return T
+
+
+def _cell(rng) -> tuple[str, dict[str, np.ndarray]]:
+    """The cell's module (targets of reachable random configurations, each in its tool and
+    work object) and the flange pose each target asks for."""
+    nominal = irb1600()
+    q = random_configurations(len(USES), rng)
+    flange = flange_kinematics(nominal, q)
+    conf = confdata(nominal, q)
+    text, wanted = {}, {}
+    for k, (name, (tool, wobj)) in enumerate(USES.items()):
+        T = invert_transform(_frame_of(WOBJS[wobj])) @ flange[k] @ _frame_of(TOOLS[tool])
+        quat = quaternion_wxyz_from_rotation(T[:3, :3])
+        text[name] = (f"[[{T[0, 3]:.4f},{T[1, 3]:.4f},{T[2, 3]:.4f}],[{quat[0]:.9f},"
+                      f"{quat[1]:.9f},{quat[2]:.9f},{quat[3]:.9f}],[{conf[k, 0]},{conf[k, 1]},"
+                      f"{conf[k, 2]},{conf[k, 3]}],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]")
+        wanted[name] = flange[k]
+    module = (
+        f"{HEADER}MODULE Cell\r\n"
+        "  RECORD waypoint\r\n    robtarget p;\r\n    num speed;\r\n  ENDRECORD\r\n"
+        "  RECORD seam\r\n    waypoint start;\r\n    robtarget finish;\r\n  ENDRECORD\r\n"
+        + "".join(f"  PERS tooldata {n}:={v};\r\n" for n, v in TOOLS.items())
+        + "".join(f"  TASK PERS wobjdata {n}:={v};\r\n" for n, v in WOBJS.items())
+        + f"  PERS waypoint wpSearch:=[{text['wpSearch.p']},100];\r\n"
+        f"  PERS waypoint weld{{2}}:=[[{text['weld{1}.p']},50],\r\n"
+        f"    [{text['weld{2}.p']},50]];\r\n"
+        f"  CONST seam s1:=[[{text['s1.start.p']},20],{text['s1.finish']}];\r\n"
+        + "".join(f"  CONST robtarget {n}:={text[n]};\r\n" for n in ("pCir", "pTo", "pTrigg"))
+        + "  VAR robtarget pFound;\r\n  VAR triggdata trigg1;\r\n"
+        "  PROC main()\r\n"
+        "    SearchL \\Stop, diProbe \\PosFlank, pFound, wpSearch.p, v100, tProbe "
+        "\\WObj:=wTable;\r\n"
+        "    ArcLStart weld{1}.p, v100, seam1, weld1, fine, tGun \\WObj:=wFixture;\r\n"
+        "    ArcL weld{2}.p, v100, seam1, weld1 \\Weave:=weave1, z1, tGun \\WObj:=wFixture;\r\n"
+        "    ArcLEnd s1.start.p, v100, seam1, weld1, fine, tGun \\WObj:=wTable;\r\n"
+        "    MoveL s1.finish, v100, fine, tGun \\WObj:=wTable;\r\n"
+        "    MoveC pCir, pTo, v100, z10, tGun \\WObj:=wTable;\r\n"
+        "    TriggL pTrigg, v100, trigg1, z10, tProbe \\WObj:=wFixture;\r\n"
+        "  ENDPROC\r\nENDMODULE\r\n")
+    return module, wanted
+
+
+def _reached(text: str, truth, nominal) -> dict[str, float]:
+    """Position error (mm) of the true robot at each target of `text`, solved by the nominal
+    controller in the target's own tool and work object."""
+    module = read_rapid_module("cell.mod", text)
+    scratch = FilterReport("cell.mod")
+    out = {}
+    for d in module.declarations:
+        for t in _static_targets(module, d, scratch):
+            tool, wobj = USES[t.name]
+            T = _frame(t.tokens[:3], t.tokens[3:7])
+            flange = _frame_of(WOBJS[wobj]) @ T @ invert_transform(_frame_of(TOOLS[tool]))
+            conf = np.array([[int(tok.text) for tok in t.tokens[7:11]]])
+            q, found = solution_for_confdata(nominal, flange[None], conf)
+            assert found.all(), t.name
+            out[t.name] = flange_kinematics(truth, q)[0]
+    return out
+
+
+def test_every_target_of_a_cell_reaches_its_original_in_its_own_tool_and_work_object(rng):
+    nominal, truth = irb1600(), apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    text, wanted = _cell(rng)
+    out, report = filter_rapid(read_rapid_module("cell.mod", text), truth, nominal)
+    listed = {n.name for n in report.refused}
+    assert listed == {"pFound"}  # the search's result: declared without a value
+    assert report.compensated == len(USES)
+    assert out.startswith(HEADER)  # the header byte for byte
+    reached = _reached(out, truth, nominal)
+    assert set(reached) == set(USES)
+    errors = {n: float(np.linalg.norm(reached[n][:3, 3] - wanted[n][:3, 3])) for n in USES}
+    assert max(errors.values()) < 0.02, errors
+    before = _reached(text, truth, nominal)
+    assert min(float(np.linalg.norm(before[n][:3, 3] - wanted[n][:3, 3])) for n in USES) > 1
+
+
+def test_a_target_in_the_wrong_frame_would_miss(rng):
+    """The check has teeth: the same targets solved as if each were moved with tool0 and
+    wobj0 (what the filter did for SearchL and ArcLStart) miss by far more than 0.02 mm."""
+    nominal, truth = irb1600(), apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    text, wanted = _cell(rng)
+    plain = text.replace("\\WObj:=wFixture", "").replace("\\WObj:=wTable", "")
+    for tool in TOOLS:
+        plain = plain.replace(f", {tool} ", ", tool0 ").replace(f", {tool};", ", tool0;")
+    out, _ = filter_rapid(read_rapid_module("cell.mod", plain), truth, nominal)
+    reached = _reached(out, truth, nominal)
+    worst = max(float(np.linalg.norm(reached[n][:3, 3] - wanted[n][:3, 3])) for n in USES)
+    assert worst > 0.1
+
+
+def test_the_command_lists_what_it_did_not_compensate_and_exits_3(tmp_path, rng):
+    """Inline targets of SearchL and ArcL and a [0,0,0,0] placeholder are listed with their
+    lines; the exit status is 3 (not every target compensated), 0 once none is left; no
+    numpy warning escapes."""
+    model = tmp_path / "model.json"
+    save_model(apply_virtual_joints(irb1600(), THESIS_TABLE11), model)
+    text, _ = _cell(rng)
+    inline = "[[900,0,900],[0,0,1,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]"
+    unset = text.replace("  VAR robtarget pFound;\r\n", "  CONST robtarget pUnset:=[[0,0,0],"
+                         "[0,0,0,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\r\n"
+                         "  VAR robtarget pFound;\r\n")
+    unset = unset.replace("  ENDPROC", f"    ArcL {inline}, v100, seam1, weld1, z1, tGun;\r\n"
+                          "  ENDPROC")
+    src = tmp_path / "cell.mod"
+    src.write_bytes(unset.encode("latin-1"))
+    out = tmp_path / "out.mod"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        run = subprocess.run([sys.executable, "-W", "error::RuntimeWarning", "-m", "screwcal",
+                              "compensate", "--result", str(model), "--robot", "irb1600",
+                              "--rapid", str(src), "--out", str(out)],
+                             capture_output=True, text=True)
+    assert run.returncode == 3, run.stderr
+    assert "RuntimeWarning" not in run.stderr
+    assert "pUnset: its orientation is [0,0,0,0], a placeholder" in run.stdout
+    assert f"{len(USES)} robtargets compensated" in run.stdout
+    arc_line = unset.split("\r\n").index(f"    ArcL {inline}, v100, seam1, weld1, z1, tGun;") + 1
+    assert f":{arc_line}: [[900,0,900]" in run.stdout  # the inline target, listed
+    assert out.read_bytes().startswith(HEADER.encode())
+    # every target declared with a value and moved to statically: exit 0
+    clean = tmp_path / "clean.mod"
+    clean.write_bytes(text.replace("  VAR robtarget pFound;\r\n", "").replace(
+        "pFound", "wpSearch.p").encode("latin-1"))
+    done = subprocess.run([sys.executable, "-m", "screwcal", "compensate", "--result",
+                           str(model), "--robot", "irb1600", "--rapid", str(clean), "--out",
+                           str(tmp_path / "clean_out.mod")], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
