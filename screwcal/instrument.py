@@ -58,17 +58,3 @@ def tracker_covariance_mm2(points_mm: np.ndarray) -> np.ndarray:
     return (radial**2)[:, None, None] * along + \
         (lateral**2)[:, None, None] * (np.eye(3) - along)
 
-
-def radial_lateral_rms_mm(residuals_mm: np.ndarray, points_mm: np.ndarray, n_params: int = 0
-                          ) -> tuple[float, float]:
-    """The measuring noise per component, from a fit's residuals (N, 3) at points (N, 3) seen
-    from a tracker at the origin: the RMS along the beam and across it (per direction), each
-    corrected for the `n_params` parameters the fit took out of the 3 N rows."""
-    e = np.asarray(residuals_mm, dtype=float)
-    p = np.asarray(points_mm, dtype=float)
-    u = p / np.linalg.norm(p, axis=1, keepdims=True)
-    radial = np.sum(e * u, axis=1)
-    lateral_sq = np.sum(e * e, axis=1) - radial**2
-    dof = max(1.0, 1.0 - n_params / (3.0 * len(e)))
-    return (float(np.sqrt(np.mean(radial**2) / dof)),
-            float(np.sqrt(np.mean(lateral_sq) / 2.0 / dof)))

@@ -39,6 +39,7 @@ from protocol.errors import (
     TrackerWarmingUpError,
 )
 from protocol.tracker import TrackerClient, TrackerPoint
+from screwcal.calibration.beam_weighting import BeamLevels, identify_beam_weighted
 from screwcal.calibration.correction import compensate
 from screwcal.calibration.identify import CalibrationResult, identify
 from screwcal.calibration.line_of_sight import visible, visible_configurations
@@ -222,6 +223,8 @@ class TrackerDemo:
     calibration: CalibrationResult
     geometric: CalibrationResult
     runs: dict[str, TrackerRun]
+    levels: BeamLevels  # the noise along and across the beam, from the first fit
+    excess: BeamLevels  # what of it the tracker's reported covariances did not explain
 
 
 async def procedure(host: str, port: int, tracker_url: str, *, poses: int, cycles: int,
@@ -237,8 +240,9 @@ async def procedure(host: str, port: int, tracker_url: str, *, poses: int, cycle
             await cell.visit([p.q_deg for p in perf], targets, runs["before"])
             await cell.visit(cal_q.tolist(), [True] * len(cal_q), runs["calibration"])
             data = measurement_set(runs["calibration"])
-            ours = await asyncio.to_thread(identify, nominal, data, kind="full",
+            beam = await asyncio.to_thread(identify_beam_weighted, nominal, data, kind="full",
                                            compliance="auto", lag="auto")
+            ours = beam.result
             geo = await asyncio.to_thread(identify, nominal, data, kind="full")
             for name, result in (("after", ours), ("geometric", geo)):
                 await cell.visit(compensated(perf, result.model, nominal), targets, runs[name])
@@ -246,7 +250,8 @@ async def procedure(host: str, port: int, tracker_url: str, *, poses: int, cycle
             cell.close()
     return TrackerDemo(ap_mean_mm(runs["before"], perf, nominal, ours),
                        ap_mean_mm(runs["after"], perf, nominal, ours),
-                       ap_mean_mm(runs["geometric"], perf, nominal, geo), ours, geo, runs)
+                       ap_mean_mm(runs["geometric"], perf, nominal, geo), ours, geo, runs,
+                       beam.levels, beam.excess)
 
 
 def run_demo(*, seed: int | None, poses: int, cycles: int, time_scale: float, realism: str,
@@ -279,20 +284,11 @@ def summary_lines(done: TrackerDemo, stand_mm: Sequence[float]) -> list[str]:
         TRACKER_MPE_CONSTANT_MM,
         TRACKER_MPE_PER_M_MM,
         TRACKER_RADIAL_NOISE_MM,
-        radial_lateral_rms_mm,
     )
-    from screwcal.kinematics.forward import forward_kinematics
 
     points = [p for r in done.runs.values() for p in r.points if p is not None]
     weather = np.array([(p.temperature_c, p.pressure_mbar, p.humidity_pct) for p in points])
     ratio = done.ap_after_geometric_mm / done.ap_after_mm
-    data = measurement_set(done.runs["calibration"])
-    lag = done.calibration.reading_lag
-    moved = np.nan_to_num(data.q - data.q_previous) if data.q_previous is not None else 0.0
-    q = data.q if lag is None else data.q + np.asarray(lag) * moved  # the readings' lag undone
-    fitted = forward_kinematics(done.calibration.model, q)[:, :3, 3]
-    radial, lateral = radial_lateral_rms_mm(fitted - data.positions_mm, data.positions_mm,
-                                            len(done.calibration.params))
     lines = [
         f"  instrument: laser tracker (emScon TPI), one SMR, standing at {list(stand_mm)} mm; "
         f"U = {TRACKER_MPE_CONSTANT_MM * 1000:g} um + {TRACKER_MPE_PER_M_MM * 1000:g} um/m "
@@ -304,9 +300,12 @@ def summary_lines(done: TrackerDemo, stand_mm: Sequence[float]) -> list[str]:
         f"  {'geometric only (compliance none, lag none)':<44}{done.ap_after_geometric_mm:8.3f}"
         f" mm  ({ratio:.2f}x ours)",
     ]
-    lines.append(f"  each point weighted by the covariance the tracker reported; residual along "
-                 f"the beam {radial * 1000:.1f} um, across it {lateral * 1000:.1f} um per "
-                 "direction (RMS, the model's misfit included)")
+    lv, ex = done.levels, done.excess
+    lines.append(f"  noise along the beam {lv.radial_mm * 1000:.1f} um, across it "
+                 f"{lv.lateral_mm * 1000:.1f} um per direction (the fit's residuals, the robot's "
+                 f"misfit included); beyond the tracker's reported covariances "
+                 f"{ex.radial_mm * 1000:.1f} um and {ex.lateral_mm * 1000:.1f} um, added to each "
+                 "point's weight")
     for name, run in done.runs.items():
         if run.skipped or run.faults:
             lines.append(f"  {name}: {len(run.points) - run.skipped} poses measured, "
