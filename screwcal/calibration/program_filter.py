@@ -18,7 +18,7 @@ has z out: FLANGE = tool0 Ry(-90 deg), as ROS-Industrial's KUKA descriptions hav
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -43,6 +43,9 @@ from screwcal.kinematics.se3 import (
     rotvec_from_rotation,
 )
 from screwcal.programs.program import Frame, Note, Program, Target
+
+if TYPE_CHECKING:
+    from screwcal.calibration.residual_model import ResidualModel
 
 _RY90 = np.array([[0.0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1]])
 
@@ -104,6 +107,8 @@ class ProgramReport:
     not_static: list[Note] = field(default_factory=list)  # what only the run knows
     joint_targets: int = 0
     chosen_nearest: int = 0  # targets without flags: the branch nearest the previous one
+    residual: str = ""  # the residual model's corrections, when one was given
+    uncorrected: list[Note] = field(default_factory=list)  # beyond the residual model's reach
 
     @property
     def complete(self) -> bool:
@@ -119,7 +124,11 @@ class ProgramReport:
             lines.append(f"  {self.chosen_nearest} targets carry no configuration: each on the "
                          "branch nearest the previous target's, as the controller moving "
                          "through the program in order takes it")
-        for title, notes in (("refused (left unchanged)", self.refused),
+        if self.residual:
+            lines.append(f"  {self.residual}")
+        for title, notes in (("compensated without the residual's correction",
+                              self.uncorrected),
+                             ("refused (left unchanged)", self.refused),
                              ("not compensated statically", self.not_static)):
             if notes:
                 lines.append(f"  {len(notes)} {title}:")
@@ -140,8 +149,12 @@ def _frame_matrix(frames: dict[str, Frame], key: str | None, conv: Convention,
 
 
 def filter_program(program: Program, calibrated: SerialModel, nominal: SerialModel, *,
-                   start_deg: Array | None = None) -> tuple[dict[str, str], ProgramReport]:
-    """Each file's text (by path) with every target compensated, and the report."""
+                   start_deg: Array | None = None, residual: ResidualModel | None = None
+                   ) -> tuple[dict[str, str], ProgramReport]:
+    """Each file's text (by path) with every target compensated, and the report.
+    `start_deg`: the joints the robot stands at when the program starts (the first flagless
+    target's nearest solution; default all zeros); `residual`: the calibrated robot's residual
+    model (`correction.compensate`)."""
     conv = CONVENTIONS[program.language]
     report = ProgramReport(joint_targets=program.joint_targets,
                            not_static=list(program.notes))
@@ -162,15 +175,17 @@ def filter_program(program: Program, calibrated: SerialModel, nominal: SerialMod
     if not usable:
         return texts, report
     start = np.zeros(6) if start_deg is None else np.radians(start_deg)
-    replaced = _compensate(program.language, usable, frames, conv, calibrated, nominal,
-                           report, start)
+    replaced = _compensate(program.language, usable, frames, conv, (calibrated, nominal),
+                           report, start, residual)
     return _spliced(texts, replaced), report
 
 
 def _compensate(language: str, targets: list[Target], frames: list[tuple[Array, Array]],
-                conv: Convention, calibrated: SerialModel, nominal: SerialModel,
-                report: ProgramReport, start: Array) -> list[tuple[str, tuple[int, int], str]]:
+                conv: Convention, robots: tuple[SerialModel, SerialModel],
+                report: ProgramReport, start: Array, residual: ResidualModel | None
+                ) -> list[tuple[str, tuple[int, int], str]]:
     """The replacements (path, span, text) of every target compensated."""
+    calibrated, nominal = robots
     W = np.array([f[0] for f in frames])
     tool = np.array([f[1] for f in frames])
     values = np.array([t.values for t in targets])
@@ -186,11 +201,17 @@ def _compensate(language: str, targets: list[Target], frames: list[tuple[Array, 
     if idx.size == 0:
         return []
     comp = compensate(calibrated, nominal, T_flange[idx], q_nominal[idx], frame="base",
-                      strict=False)
+                      strict=False, residual=residual)
     for row, why in comp.refused:
         t = targets[idx[row]]
         report.refused.append(Note(t.path, t.line, t.name, why))
     keep = comp.ok
+    if comp.residual is not None:  # what the residual model corrected, and where it could not
+        report.residual = comp.residual.summary()
+        report.uncorrected += [Note(targets[idx[k]].path, targets[idx[k]].line,
+                                    targets[idx[k]].name, comp.residual.note(k))
+                               for k in np.flatnonzero(np.logical_and(
+                                   ~comp.residual.within_reach, keep)).tolist()]
     idx, q, tool0 = idx[keep], comp.q_rad[keep], comp.nominal_tool0[keep]
     if idx.size == 0:
         return []

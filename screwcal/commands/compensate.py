@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
 from screwcal.commands.calibrate import add_payload_arguments, with_payload
+from screwcal.commands.compensate_program import add_program_arguments
 from screwcal.commands.joint_convention import add_joint_convention, joint_convention
 from screwcal.commands.options import add_option, check_outputs
 
@@ -21,6 +22,10 @@ PARTIAL_EXIT = 3  # some targets refused (listed), the others written
 COMPENSATE_DOC = """`screwcal compensate`: make the calibrated robot reach what is asked of it.
 
     screwcal compensate --result result.json --rapid IN.mod --out OUT.mod [--tool T] [--wobj W]
+    screwcal compensate --result result.json --program prog.src prog.dat \
+        --config '$config.dat' --out compensated/
+    screwcal compensate --result result.json --program cell.ls --frames frames.csv --out out.ls
+    screwcal compensate --result result.json --program cell.script --out out.script
     screwcal compensate --result result.json --targets base.csv --out compensated.csv
     screwcal compensate --result result.json --measuring-targets meas.csv \
         --out compensated.csv
@@ -32,13 +37,14 @@ byte for byte (a controller's %%% header too), and lists what a static filter ca
 (Offs, RelTool, CRobT, inline targets, stationary tools, moving work objects, a [0,0,0,0]
 placeholder orientation) with its line. Each target is solved in the tool and work object of the
 instructions that move to it: the Move, Trigg, Search, Arc, Cap, Spot, Paint and Disp families
-(MoveC's and the circular ones' two points). --targets takes tool0 poses in
+(MoveC's and the circular ones' two points). --program does the same for KUKA KRL, FANUC LS
+and URScript programs (docs/formats.md: each maker's conventions). --targets takes tool0 poses in
 the robot base frame (what a program commands); --measuring-targets poses of the measured point
 in the measuring system's frame (what the measuring system will see).
 
 Exit status: 0 every target compensated; 3 some refused or not compensated statically (each
 listed with its line and why; the others are written); 2 nothing written: no target could be
-compensated, the input is not a RAPID module, --out names an input, or the model is
+compensated, the input is not a program, --out names an input, or the model is
 position-only (calibrated from positions of a point on joint 6's axis: it does not know the
 orientation).
 A target at the wrist singularity is solved with joints 4 and 6 kept nearest the nominal
@@ -55,13 +61,16 @@ reach in joint space gets no correction), and --rapid says the corrections' size
 def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.calibration.correction import compensate_each
     from screwcal.calibration.residual_model import residual_from_document
+    from screwcal.commands.compensate_program import is_rapid, run_program
     from screwcal.errors import DataFileError
     from screwcal.kinematics.modelfile import parse_model, read_model_document
     from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
+    if args.program and is_rapid(args.program):
+        args.rapid, args.program = args.program[0], None
     source = args.rapid or args.targets or args.measuring_targets
-    check_outputs([args.out], [args.result, source])
+    check_outputs([args.out], [args.result, *(args.program or [source])])
     document = read_model_document(args.result)
     calibrated = with_payload(parse_model(document, args.result), args)  # a payload other than
     # the result's
@@ -70,6 +79,8 @@ def run_compensate(args: argparse.Namespace) -> int:
     residual = residual_from_document(document, args.result)
     if args.rapid:
         return _compensate_rapid(args, calibrated, nominal, residual)
+    if args.program:
+        return run_program(args, calibrated, nominal, residual)
     frame: Literal["base", "measuring"] = "base" if args.targets else "measuring"
     table = read_numeric_csv(source, ["x", "y", "z", "rx", "ry", "rz"])
     T = transform_from_pose(table.take(["x", "y", "z", "rx", "ry", "rz"]))
@@ -186,6 +197,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     what = c.add_mutually_exclusive_group(required=True)
     what.add_argument("--rapid", metavar="IN.mod", help="a RAPID module: every robtarget "
                       "declaration rewritten (tool and work object applied)")
+    what.add_argument("--program", metavar="FILE", nargs="+", help="a robot program of any "
+                      "maker, by extension and content: RAPID (.mod/.prg/.sys, as --rapid), "
+                      "KUKA KRL (.src and .dat; --config), FANUC LS (.ls; --frames), URScript "
+                      "(.script); several files of one program: --out is a folder")
     what.add_argument("--targets", metavar="CSV", help="desired tool0 poses in the robot base "
                       "frame: id, x, y, z, rx, ry, rz (mm, deg)")
     what.add_argument("--measuring-targets", metavar="CSV", help="desired poses of the "
@@ -198,6 +213,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "(default wobj0)")
     c.add_argument("--robot", help="the nominal robot (library name or robot file); default: "
                    "the one the result holds")
+    add_program_arguments(c)
     add_joint_convention(c, "how the written joint targets count joint 3")
     add_payload_arguments(c)
     c.set_defaults(func=run_compensate)

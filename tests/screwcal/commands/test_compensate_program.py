@@ -1,0 +1,88 @@
+"""`screwcal compensate --program` as a user runs it: each language's files in, the compensated
+files out, the exit status saying whether every target was compensated."""
+
+import subprocess
+import sys
+
+import numpy as np
+
+from screwcal.kinematics.modelfile import save_model
+from tests.screwcal.calibration.program_cells import true_robot
+from tests.screwcal.calibration.test_program_filter_fanuc import FRAMES, fanuc_cell
+from tests.screwcal.calibration.test_program_filter_krl import CONFIG, krl_cell
+from tests.screwcal.calibration.test_program_filter_urscript import ur_cell
+
+
+def _run(*args):
+    return subprocess.run([sys.executable, "-m", "screwcal", "compensate", *map(str, args)],
+                          capture_output=True, text=True)
+
+
+def _cell(tmp_path, rng, cell):
+    nominal, files, q = cell(rng)
+    model = tmp_path / "model.json"
+    save_model(true_robot(nominal, rng), model)
+    paths = []
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+        paths.append(tmp_path / name)
+    return nominal, model, paths, q
+
+
+def test_a_kuka_program_of_two_files_goes_to_a_folder(tmp_path, rng):
+    nominal, model, paths, _ = _cell(tmp_path, rng, krl_cell)
+    (tmp_path / "config.dat").write_text(CONFIG)
+    run = _run("--result", model, "--robot", nominal.name, "--program", *paths,
+               "--config", tmp_path / "config.dat", "--out", tmp_path / "out")
+    assert run.returncode == 0, run.stderr + run.stdout
+    assert "10 targets compensated" in run.stdout
+    for p in paths:
+        out = (tmp_path / "out" / p.name).read_text()
+        assert out != p.read_text() and out.count("\n") == p.read_text().count("\n")
+
+
+def test_a_fanuc_program_without_its_frames_says_so_and_writes_nothing(tmp_path, rng):
+    nominal, model, (path,), _ = _cell(tmp_path, rng, fanuc_cell)
+    run = _run("--result", model, "--robot", nominal.name, "--program", path, "--out",
+               tmp_path / "out.ls")
+    assert run.returncode == 2, run.stderr
+    assert "UF 1 is not in the frames file given (--frames)" in run.stderr
+    assert "no target compensated; nothing written" in run.stderr
+    assert not (tmp_path / "out.ls").exists()
+    (tmp_path / "frames.csv").write_text(FRAMES)
+    run = _run("--result", model, "--robot", nominal.name, "--program", path, "--frames",
+               tmp_path / "frames.csv", "--out", tmp_path / "out.ls")
+    assert run.returncode == 0 and "10 targets compensated" in run.stdout, run.stderr
+
+
+def test_a_program_with_targets_only_the_run_knows_exits_3(tmp_path, rng):
+    nominal, model, (path,), q = _cell(tmp_path, rng, ur_cell)
+    path.write_text(path.read_text().replace("end\n", "  movel(pose_add(approach, p[0, 0, "
+                                             "0.01, 0, 0, 0]))\nend\n"))
+    run = _run("--result", model, "--robot", nominal.name, "--program", path, "--out",
+               tmp_path / "out.script", "--start-joints",
+               ",".join(f"{v:.4f}" for v in np.degrees(q[0])))
+    assert run.returncode == 3, run.stderr + run.stdout
+    assert "1 not compensated statically" in run.stdout and ":18: pose_add(" in run.stdout
+
+
+def test_a_urscript_program_from_its_start_joints(tmp_path, rng):
+    nominal, model, (path,), q = _cell(tmp_path, rng, ur_cell)
+    start = ",".join(f"{v:.4f}" for v in np.degrees(q[0]))
+    run = _run("--result", model, "--robot", nominal.name, "--program", path,
+               "--start-joints", start, "--out", tmp_path / "out.script")
+    assert run.returncode == 0, run.stderr + run.stdout
+    assert "10 targets compensated" in run.stdout and "1 joint targets left" in run.stdout
+
+
+def test_files_that_are_no_program_are_refused_in_one_sentence(tmp_path, rng):
+    nominal, model, _, _ = _cell(tmp_path, rng, ur_cell)
+    other = tmp_path / "notes.txt"
+    other.write_text("hello\n")
+    run = _run("--result", model, "--robot", nominal.name, "--program", other, "--out",
+               tmp_path / "o.txt")
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert "not a KRL (.src/.dat), FANUC LS (.ls) or URScript (.script) program" in run.stderr
+    run = _run("--result", model, "--robot", nominal.name, "--program", tmp_path, "--out",
+               tmp_path / "o.txt")
+    assert run.returncode == 2 and "Traceback" not in run.stderr and "folder" in run.stderr
