@@ -33,7 +33,8 @@ from screwcal.kinematics.se3 import Array
 
 LENGTH_BOUNDS = (0.05, 20.0)  # feature-space length scales searched (6 joints: distances <= 4.9)
 RATIO_BOUNDS = (1e-6, 1e4)  # noise variance / signal variance searched
-LOG_TOL = 0.03  # the searches stop within 3 % of the best length scale and ratio
+LENGTH_TOL = 0.08  # the length scale's search stops within 8 % of the best (a flat maximum)
+RATIO_TOL = 0.03  # the noise-to-signal ratio's within 3 %
 
 
 @dataclass(frozen=True)
@@ -69,7 +70,7 @@ def _profile(eigenvalues: Array, z2: Array, outputs: int) -> tuple[float, float,
         return 0.5 * count * (1.0 + np.log(signal2)) + 0.5 * outputs * float(np.sum(np.log(d)))
 
     best = minimize_scalar(nll, bounds=np.log(RATIO_BOUNDS), method="bounded",
-                           options={"xatol": LOG_TOL})
+                           options={"xatol": RATIO_TOL})
     ratio = float(np.exp(best.x))
     signal2 = float(np.sum(z2 / (eigenvalues + ratio))) / count
     return float(best.fun), signal2, ratio * signal2
@@ -92,7 +93,7 @@ def fit_hyperparameters(X: Array, Y: Array) -> Hyperparameters:
         return value
 
     best = minimize_scalar(nll, bounds=np.log(LENGTH_BOUNDS), method="bounded",
-                           options={"xatol": LOG_TOL})
+                           options={"xatol": LENGTH_TOL})
     signal2, noise2 = found[float(best.x)]
     return Hyperparameters(float(np.exp(best.x)), float(np.sqrt(signal2)),
                            float(np.sqrt(noise2)))
@@ -109,14 +110,14 @@ def _inverse(Ky: Array) -> Array:
     return Linv.T @ Linv
 
 
-def fold_predictions(X: Array, Y: Array, h: Hyperparameters, folds: NDArray[np.integer]
+def fold_predictions(posterior: Posterior, Y: Array, folds: NDArray[np.integer]
                      ) -> tuple[Array, Array]:
     """k-fold cross-validated predictions: for each pose, the predictive mean (N, m) and
     variance (N,) (noise included, per component) of a process trained on the other folds,
-    `folds` (N,) the fold of each pose. Exact, from the inverse of the full kernel matrix."""
-    Kinv = _inverse(kernel(X, X, h) + h.noise_mm ** 2 * np.eye(len(X)))
-    alpha = Kinv @ Y
-    mean, var = np.empty_like(Y), np.empty(len(X))
+    `folds` (N,) the fold of each pose; `posterior`: the process trained on all the poses, Y
+    its outputs. Exact, from the inverse of the full kernel matrix."""
+    Kinv, alpha = posterior.Kinv, posterior.alpha
+    mean, var = np.empty_like(Y), np.empty(len(Y))
     for f in np.unique(folds):
         block = folds == f
         S = np.linalg.inv(Kinv[np.ix_(block, block)])
@@ -138,6 +139,10 @@ class Posterior:
     def train(cls, X: Array, Y: Array, h: Hyperparameters) -> Posterior:
         Kinv = _inverse(kernel(X, X, h) + h.noise_mm ** 2 * np.eye(len(X)))
         return cls(X, h, Kinv @ Y, Kinv)
+
+    def mean(self, Xs: Array) -> Array:
+        """Predictive mean (M, m) at Xs (M, d)."""
+        return kernel(Xs, self.X, self.h) @ self.alpha
 
     def predict(self, Xs: Array) -> tuple[Array, Array]:
         """Predictive mean (M, m) and latent variance (M,) (noise excluded) at Xs (M, d)."""

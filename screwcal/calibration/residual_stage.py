@@ -9,6 +9,7 @@ from screwcal.calibration.identify_result import CalibrationResult
 from screwcal.calibration.lag import correct_lag
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.residual_model import (
+    BAND_CHI2,
     MIN_POSES,
     RESIDUAL_MODES,
     ResidualMode,
@@ -19,15 +20,18 @@ from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.se3 import Array
 
 
-def training_set(result: CalibrationResult, data: MeasurementSet) -> tuple[Array, Array]:
-    """The joints (N, n) and position residuals (N, 3) of the poses the identification kept
-    (its rejected outliers out, its lag correction applied), of its calibrated model."""
-    rejected = {o.id for o in result.outliers if o.rejected}
-    kept = data.take(np.array([k for k, i in enumerate(data.ids) if i not in rejected], int))
+def training_set(result: CalibrationResult, data: MeasurementSet, rejected: bool = False
+                 ) -> tuple[Array, Array]:
+    """The joints (N, n) and position residuals (N, 3) of the calibrated model on the poses the
+    identification kept (`rejected`: on those it set aside as outliers), its lag correction
+    applied."""
+    out = {o.id for o in result.outliers if o.rejected}
+    chosen = data.take(np.array([k for k, i in enumerate(data.ids) if (i in out) == rejected],
+                                int))
     if result.reading_lag is not None:
-        kept = correct_lag(kept, result.reading_lag)
-    predicted = forward_kinematics(result.model, kept.q)[:, :3, 3]
-    return kept.q, kept.positions_mm - predicted
+        chosen = correct_lag(chosen, result.reading_lag)
+    predicted = forward_kinematics(result.model, chosen.q)[:, :3, 3]
+    return chosen.q, chosen.positions_mm - predicted
 
 
 def learn_residual(result: CalibrationResult, data: MeasurementSet,
@@ -46,7 +50,7 @@ def learn_residual(result: CalibrationResult, data: MeasurementSet,
     if why:
         note = f"no residual model: {why}"
         return ResidualOutcome(mode, None, False, note, (note,) if mode == "gp" else ())
-    model = fit_residual_model(q, residuals)
+    model = fit_residual_model(q, residuals, *training_set(result, data, rejected=True))
     cv = model.cv
     if cv.beats_physical():
         return ResidualOutcome(mode, model, True, f"kept ({mode}): {cv.describe()}")
@@ -65,3 +69,31 @@ def _not_applicable(result: CalibrationResult) -> str:
     if not np.all(result.model.is_revolute):
         return "a prismatic joint (the features are the angles of revolute joints)"
     return ""
+
+
+def held_out_figures(result: CalibrationResult, outcome: ResidualOutcome,
+                     held_out: MeasurementSet) -> dict[str, float | int | bool]:
+    """The physical model's and the residual model's position errors on measurements the
+    identification never saw (their readings corrected for the fit's lag), and the check that
+    the predictive uncertainty is honest: the share of held-out errors within their 95 % band
+    (chi-square, three components). The corrected figures are what the user gets: the
+    physical ones where `outcome` did not keep a residual model."""
+    seen = held_out if result.reading_lag is None else correct_lag(held_out, result.reading_lag)
+    error = seen.positions_mm - forward_kinematics(result.model, seen.q)[:, :3, 3]
+    physical = np.linalg.norm(error, axis=1)
+    out: dict[str, float | int | bool] = {
+        "poses": len(seen), "used": outcome.used, "physical_mean_mm": float(physical.mean()),
+        "physical_rms_mm": float(np.sqrt(np.mean(physical ** 2))),
+        "physical_max_mm": float(physical.max())}
+    if outcome.model is None or not outcome.used:
+        return out | {"corrected_mean_mm": out["physical_mean_mm"],
+                      "corrected_rms_mm": out["physical_rms_mm"],
+                      "corrected_max_mm": out["physical_max_mm"]}
+    p = outcome.model.predict(seen.q)
+    corrected = np.linalg.norm(error - p.correction_mm, axis=1)
+    return out | {"corrected_mean_mm": float(corrected.mean()),
+                  "corrected_rms_mm": float(np.sqrt(np.mean(corrected ** 2))),
+                  "corrected_max_mm": float(corrected.max()),
+                  "coverage_95": float(np.mean(corrected ** 2 <= BAND_CHI2 * p.std_mm ** 2)),
+                  "mean_std_mm": float(p.std_mm.mean()),
+                  "beyond_reach": int((~p.within_reach).sum())}

@@ -4,8 +4,9 @@ writes their reports; `registry` lists them with the thesis's figures; the 6R an
 `thesis_metrics`; Appendix D's distance-only calibration in `distance_only` and Chapter 5's
 experiment in `chapter5`), the Cramer-Rao efficiency study (`montecarlo`), the simulated
 calibration behind `screwcal simulate` (`simulated_calibration`), simulated measurements
-(`simulated_measurements`) and the real laser-tracker data set (`tracker_dataset`,
-`tracker_study`).
+(`simulated_measurements`), the real laser-tracker data set (`tracker_dataset`,
+`tracker_study`) and the residual model over joint space against the physical model
+(`residual_model`).
 
 Sits on top: may import kinematics, rapid, calibration and performance; never `protocol`,
 `service` or `simulators`.

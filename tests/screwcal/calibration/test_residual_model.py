@@ -64,7 +64,7 @@ def test_fold_predictions_are_those_of_a_process_trained_on_the_other_folds(rng)
     X, Y = joint_features(q), _smooth(q) + rng.normal(0, 0.01, (60, 3))
     h = Hyperparameters(1.3, 0.05, 0.01)
     folds = np.arange(60) % 4
-    mean, var = fold_predictions(X, Y, h, folds)
+    mean, var = fold_predictions(Posterior.train(X, Y, h), Y, folds)
     for f in range(4):
         out = folds == f
         alone = Posterior.train(X[~out], Y[~out], h)

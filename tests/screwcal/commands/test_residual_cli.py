@@ -103,18 +103,23 @@ def test_predict_adds_the_correction_and_its_uncertainty(runs, capsys):
     assert header == ["id", "x", "y", "z", "rx", "ry", "rz"]  # declined: the contract's file
 
 
-def test_predict_far_from_the_calibration_gives_the_physical_model_and_a_note(runs, capsys):
-    q_far = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [170.0, -80.0, 60.0, 150.0, -110, 170]])
-    _, with_it, rows = _predict(runs, "auto", q_far)
+def test_predict_beyond_the_reach_gives_the_physical_model_and_a_note(runs, capsys):
+    """The reach the result file states governs: here cut to one length scale, which the
+    configuration far outside the calibration's working region exceeds (1.5 of them away)."""
+    doc = {k: v for k, v in runs["auto"].items() if k != "path"}
+    doc["residual_model"]["reach_length_scales"] = 1.0
+    short = runs["folder"] / "short-reach.json"
+    short.write_text(json.dumps(doc))
+    q_far = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [180.0, 140.0, -200.0, 0.0, 115.0, 0.0]])
+    _, with_it, rows = _predict(runs | {"short": {"path": str(short)}}, "short", q_far)
     err = capsys.readouterr().err
     _, without, _ = _predict(runs, "none", q_far)
     far = [k for k, r in enumerate(rows) if r[11]]
-    assert far, "one of the two lies beyond the calibration's reach"
-    for k in far:
-        assert "beyond the residual model's reach" in rows[k][11]
-        assert [float(v) for v in rows[k][7:10]] == [0.0, 0.0, 0.0]
-    np.testing.assert_allclose(with_it[far], without[far], atol=1e-6)  # the physical model's
-    assert "beyond the residual model's reach" in err
+    assert far == [1], "the second lies far outside the calibration's working region"
+    assert "beyond the residual model's reach (1.5 length scales" in rows[1][11]
+    assert [float(v) for v in rows[1][7:10]] == [0.0, 0.0, 0.0]
+    np.testing.assert_allclose(with_it[1], without[1], atol=1e-6)  # the physical model's
+    assert "line 3: beyond the residual model's reach" in err
 
 
 def test_compensated_targets_reach_the_true_robot_better(runs):
