@@ -67,11 +67,18 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from screwcal.kinematics.readings import robot_convention
     from screwcal.tables import write_json_atomic
 
-    check_outputs([args.out], [args.data, args.base_guess, args.robot])
+    check_outputs([args.out], [args.data, args.base_guess, args.robot, args.joints])
     nominal = with_payload(resolve_model(args.robot), args)
     convention = args.joint_convention or robot_convention(nominal.name)
-    data = read_measurements_csv(args.data, nominal, joint_unit=args.joint_unit,
-                                 length_unit=args.length_unit, joint_convention=convention)
+    if args.joints:  # --data is then a point export (X, Y, Z[, U95]) of any instrument
+        from screwcal.calibration.point_export import read_points_and_joints
+
+        data = read_points_and_joints(args.data, args.joints, nominal,
+                                      joint_unit=args.joint_unit,
+                                      length_unit=args.length_unit, joint_convention=convention)
+    else:
+        data = read_measurements_csv(args.data, nominal, joint_unit=args.joint_unit,
+                                     length_unit=args.length_unit, joint_convention=convention)
     weighting = "eq2.4" if args.weight_mm is not None else "statistical"
     noise = NoiseModel(position_mm=args.noise_mm, joint_deg=args.joint_noise_deg)
     base_guess = None
@@ -237,6 +244,11 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
                    help="library robot (screwcal robot list) or robot / model "
                    "file (screwcal robot import)")
     p.add_argument("--data", required=True, help="measurement CSV (q1..q6, x, y, z[, rx, ry, rz])")
+    p.add_argument("--joints", metavar="JOINTS_CSV", default=None,
+                   help="the joints file (q1..q6[, id]) of a point export: --data is then an "
+                   "instrument software's export with X, Y, Z and optionally U95 (mm, k = 2) "
+                   "columns, positions only, each point weighted by its U95 "
+                   "(screwcal/calibration/point_export.py)")
     p.add_argument("--out", required=True, help="result JSON to write")
     p.add_argument("--joint-unit", choices=["deg", "rad"], default="deg",
                    help="unit of the file's q1..q6 (default deg; readings that look like "
