@@ -24,18 +24,34 @@ class Builtin:
     optrefs: frozenset[str] = frozenset()  # optional arguments passed by reference (lower case)
     min_args: int = 0
     max_args: int = 99
+    lazy: frozenset[int] = frozenset()  # positional arguments passed unevaluated (`Lazy`)
 
 
 BUILTINS: dict[str, Builtin] = {}
 
 
 def builtin(name: str, kind: str, refs: tuple[int, ...] = (), optrefs: tuple[str, ...] = (),
-            args: tuple[int, int] = (0, 99)) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+            args: tuple[int, int] = (0, 99),
+            lazy: tuple[int, ...] = ()) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     def register(fn: Callable[..., Any]) -> Callable[..., Any]:
         BUILTINS[name.lower()] = Builtin(kind, fn, frozenset(refs),
-                                         frozenset(o.lower() for o in optrefs), *args)
+                                         frozenset(o.lower() for o in optrefs), *args,
+                                         lazy=frozenset(lazy))
         return fn
     return register
+
+
+@dataclass(frozen=True)
+class Lazy:
+    """An argument a built-in evaluates itself (WaitUntil's condition, again and again) or
+    inspects (Present's parameter): its expression node in the caller's frame."""
+
+    node: Any
+    frame: Any
+    evaluate: Callable[[], Any]
+
+    def __call__(self) -> Any:
+        return self.evaluate()
 
 
 def _pose0() -> list:

@@ -9,11 +9,12 @@ node: a pose's round trip evaluates the same few hundred nodes again and again.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import Any
 
 from screwcal.rapid import ast as A  # noqa: N812 - the node classes, as A.Name, A.Call
-from simulators.rapid.builtins import BUILTINS
+from simulators.rapid.builtins import BUILTINS, Lazy
 from simulators.rapid.errors import RapidError
 from simulators.rapid.frame import Frame
 from simulators.rapid.operators import BINARY
@@ -50,7 +51,7 @@ class Evaluator:
     # ------------------------------------------------------------------ arguments
     # A call's plan, made once per call node (the routines and built-ins are fixed at load):
     # what it calls and, per argument, how it is passed: (how, name, expression, line).
-    _POS, _POS_REF, _SWITCH, _OPT, _OPT_REF, _CONDITIONAL = range(6)
+    _POS, _POS_REF, _SWITCH, _OPT, _OPT_REF, _CONDITIONAL, _LAZY = range(7)
 
     def _plan(self, node: A.Call | A.ProcCall, kind: str) -> tuple[Any, Any, tuple[Any, ...]]:
         """The routine of that `kind` (FUNC or PROC) named by the call, else the built-in, and
@@ -81,8 +82,9 @@ class Evaluator:
         b = BUILTINS[key]
         for a in node.args:
             if a.name is None:
-                n = sum(1 for step in plan if step[0] <= self._POS_REF)
+                n = sum(1 for step in plan if step[0] <= self._POS_REF or step[0] == self._LAZY)
                 plan.append((self._POS_REF, "", a.value, a.line) if n in b.refs else
+                            (self._LAZY, "", a.value, a.line) if n in b.lazy else
                             (self._POS, "", self.fn(a.value), a.line))
             elif a.conditional:
                 plan.append((self._CONDITIONAL, "", None, a.line))
@@ -119,6 +121,8 @@ class Evaluator:
                 opt[name] = e(frame)
             elif how == 4:  # _OPT_REF
                 opt[name] = self.ref(e, frame)
+            elif how == 6:  # _LAZY
+                pos.append(Lazy(e, frame, functools.partial(self.eval, e, frame)))
             else:
                 raise RapidError("ERR_ARGVALERR", "conditional arguments are not supported",
                                  line)

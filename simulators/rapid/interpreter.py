@@ -41,9 +41,11 @@ from simulators.rapid.operator import EventLog, Pendant
 from simulators.rapid.program import RapidText
 from simulators.rapid.storage import LiveVar, Var
 from simulators.rapid.values import (
+    SYSTEM_TYPES,
     WORLD_ZONE_TYPES,
     convert,
     copy,
+    declare_types,
     default,
     known_type,
     num,
@@ -91,6 +93,7 @@ class Task(Evaluator):
         self.services = services or {}
         self.overrides = {k.lower(): v for k, v in (overrides or {}).items()}
         self.routines, self.declared, self._paths = _task_names(self.modules)
+        self.types = _task_types(self.modules)
         main = self.routines.get("main")
         self.path = path if main is None else self._paths[id(main)]
         self.system = {k: Var("any", v, const=True) for k, v in predefined().items()}
@@ -132,15 +135,20 @@ class Task(Evaluator):
     def _check(self, module: A.Module, path: str) -> None:
         """What a controller refuses at load: unknown instructions, functions, names, types."""
         module_names = set(self.declared)
+        own = self.types
+        for rec in module.records:
+            for f in rec.fields:
+                if not known_type(f.type, own):
+                    raise LoadError(path, f.line, f"unknown data type {f.type}")
         for d in module.data:
-            if not known_type(d.type):
+            if not known_type(d.type, own):
                 raise LoadError(path, d.line, f"unknown data type {d.type}")
         for r in module.routines:
             if r.kind == "TRAP":
                 raise LoadError(path, r.line, "TRAP routines are not supported")
             local = {p.name.lower() for p in r.params} | {d.key for d in r.data}
             for d in r.data:
-                if not known_type(d.type):
+                if not known_type(d.type, own):
                     raise LoadError(path, d.line, f"unknown data type {d.type}")
             for node in _walk(r):
                 if isinstance(node, A.For):
@@ -513,6 +521,25 @@ def _task_names(modules: list[tuple[A.Module, str]]) -> tuple[
                                 f"{where[r.key]})")
             routines[r.key], where[r.key], paths[id(r)] = r, path, path
     return routines, data, paths
+
+
+def _task_types(modules: list[tuple[A.Module, str]]) -> frozenset[str]:
+    """The task's RECORD and ALIAS types (lower case), made known to its values; a system
+    type's name declared again, or one declared twice, is refused with its line."""
+    records: dict[str, tuple[tuple[str, str], ...]] = {}
+    aliases: dict[str, str] = {}
+    for module, path in modules:
+        decls: list[A.RecordDecl | A.AliasDecl] = [*module.records, *module.aliases]
+        for decl in decls:
+            key = decl.name.lower()
+            if key in SYSTEM_TYPES or key in records or key in aliases:
+                raise LoadError(path, decl.line, f"data type {decl.name} is declared again")
+            if isinstance(decl, A.RecordDecl):
+                records[key] = tuple((f.name.lower(), f.type.lower()) for f in decl.fields)
+            else:
+                aliases[key] = decl.type.lower()
+    declare_types(records, aliases)
+    return frozenset(records) | frozenset(aliases)
 
 
 def _label(st: A.Label, frame: Frame) -> None:

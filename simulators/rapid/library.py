@@ -18,7 +18,8 @@ from screwcal.kinematics.pose import (
     rotation_from_euler_zyx_deg,
     rotation_from_quaternion_wxyz,
 )
-from simulators.rapid.builtins import builtin
+from screwcal.rapid import ast as A  # noqa: N812 - the node classes
+from simulators.rapid.builtins import Lazy, builtin
 from simulators.rapid.control import ExitCycle, Stopped
 from simulators.rapid.errors import RapidError
 from simulators.rapid.frames import unit_wxyz
@@ -318,6 +319,44 @@ def wait(task: Any, seconds: float) -> None:
         if left <= 0:
             return
         time.sleep(min(left, 0.05))
+
+
+@builtin("Present", "func", lazy=(0,))
+def _present(task: Any, pos: list, opt: dict) -> bool:
+    """Whether the routine's optional parameter was given in this call."""
+    arg: Lazy = pos[0]
+    if not isinstance(arg.node, A.Name):
+        raise RapidError("ERR_ARGVALERR", "Present takes an optional parameter's name")
+    return arg.node.key in arg.frame.vars
+
+
+WAIT_UNTIL_POLL_S = 0.1  # WaitUntil's default \\PollRate
+
+
+@builtin("WaitUntil", "proc", lazy=(0,), optrefs=("TimeFlag",))
+def _waituntil(task: Any, pos: list, opt: dict) -> None:
+    """Until the condition is TRUE, evaluated every \\PollRate s (0.1; at least 0.04); past
+    \\MaxTime: TimeFlag TRUE when given, else ERR_WAIT_MAXTIME."""
+    condition: Lazy = pos[0]
+    poll = max(0.04, float(opt.get("pollrate", WAIT_UNTIL_POLL_S)))
+    end = None if "maxtime" not in opt else time.monotonic() + float(opt["maxtime"])
+    flag = opt.get("timeflag")
+    while True:
+        ok = condition()
+        if not isinstance(ok, bool):
+            raise RapidError("ERR_ARGVALERR", "WaitUntil needs a bool condition")
+        if ok:
+            break
+        if end is not None and time.monotonic() >= end:
+            if flag is None:
+                raise RapidError("ERR_WAIT_MAXTIME", "WaitUntil: the condition stayed FALSE")
+            flag.value = True
+            return
+        wait(task, poll)
+    if flag is not None:
+        flag.value = False
+    if opt.get("inpos") and "motion" in task.services:
+        task.services["motion"].wait_in_position(task)
 
 
 @builtin("WaitTime", "proc")

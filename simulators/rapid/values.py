@@ -74,9 +74,25 @@ def base_type(t: str) -> str:
     return ALIASES.get(t, t)
 
 
-def known_type(t: str) -> bool:
-    t = base_type(t)
-    return t in ATOMIC or t in RECORDS or t in OPAQUE
+SYSTEM_TYPES = frozenset(ATOMIC | set(RECORDS) | OPAQUE | set(ALIASES))
+
+
+def known_type(t: str, own: frozenset[str] = frozenset()) -> bool:
+    """A data type of the system, or one of `own` (the task's RECORDs and ALIASes)."""
+    t = t.lower()
+    return t in own or base_type(t) in SYSTEM_TYPES
+
+
+def declare_types(records: dict[str, tuple[tuple[str, str], ...]],
+                  aliases: dict[str, str]) -> None:
+    """A task's RECORD types (name -> (component, type) pairs) and ALIASes (name -> type),
+    all lower case, made known to the values of every task (the last loaded declaration of a
+    name is the one used; a system type's name is refused by the caller)."""
+    for name, base in aliases.items():
+        ALIASES[name] = base
+    for name, fields in records.items():
+        RECORDS[name] = fields
+        _RECORD_DEFAULTS.pop(name, None)
 
 
 class Record:

@@ -560,3 +560,40 @@ def subprocess_run(args: list[str]):
     from tests.simulators.test_emulator_cli import EXE
 
     return subprocess.run([*EXE, *args], capture_output=True, text=True, timeout=60)
+
+
+# ------------------------------------------------------------------ records, Present, WaitUntil
+def test_a_tasks_records_and_aliases_are_data_types_of_its_values():
+    t = Task("MODULE Types\nRECORD waypoint\n robtarget p;\n num speed;\n wobjdata where;\n"
+             "ENDRECORD\nALIAS waypoint stop;\nALIAS num counter;\n"
+             "PERS stop route{2} := [[[[1, 2, 3], [1, 0, 0, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9,"
+             " 9E9, 9E9, 9E9]], 100, [FALSE, TRUE, \"\", [[0, 0, 0], [1, 0, 0, 0]], [[0, 0, 0],"
+             " [1, 0, 0, 0]]]], [[[4, 5, 6], [1, 0, 0, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9, 9E9,"
+             " 9E9, 9E9]], 200, [FALSE, TRUE, \"\", [[0, 0, 0], [1, 0, 0, 0]], [[0, 0, 0],"
+             " [1, 0, 0, 0]]]]];\nVAR counter n;\nVAR waypoint copy;\n"
+             "PROC main()\n copy := route{2};\n copy.p.trans.x := 40;\n"
+             " n := route{1}.speed + copy.speed + copy.p.trans.x;\nENDPROC\nENDMODULE\n", "T.mod")
+    t.run()
+    assert t.stop_reason.startswith("program ended"), t.stop_reason
+    assert value(t, "n") == 340 and xyz(value(t, "route").items[1].f["p"]) == \
+        pytest.approx([4, 5, 6])  # a record is a value: the copy changed, not the array
+    with pytest.raises(LoadError, match=r"T\.mod:2: data type pose is declared again"):
+        Task("MODULE T\nRECORD pose\n num x;\nENDRECORD\nENDMODULE\n", "T.mod")
+    with pytest.raises(LoadError, match=r"T\.mod:3: unknown data type nothing"):
+        Task("MODULE T\nRECORD r\n nothing x;\nENDRECORD\nENDMODULE\n", "T.mod")
+
+
+def test_present_and_waituntil():
+    t = task("Opt; Opt \\limit:=3; WaitUntil k >= 0 \\MaxTime:=0.2 \\TimeFlag:=late;"
+             " ClkStart c; WaitUntil ClkRead(c) > 0.15 \\PollRate:=0.05 \\MaxTime:=2;"
+             " e := ClkRead(c); WaitUntil FALSE \\MaxTime:=0.1 \\TimeFlag:=never; WaitUntil FALSE"
+             " \\MaxTime:=0.1;",
+             "VAR num k; VAR bool late := TRUE; VAR bool never; VAR clock c; VAR num e;"
+             " VAR num given{2};",
+             "PROC Opt(\\num limit)\n Incr k;\n IF Present(limit) THEN\n given{k} := limit;\n"
+             " ELSE\n given{k} := -1;\n ENDIF\nENDPROC")
+    t.run()
+    assert list(value(t, "given").items) == [-1, 3]
+    assert value(t, "late") is False and value(t, "never") is True
+    assert 0.15 < value(t, "e") < 1.0
+    assert "ERR_WAIT_MAXTIME" in t.stop_reason
