@@ -100,5 +100,5 @@ def test_a_joint_row_without_its_point_is_refused(tmp_path, rng):
     q, p, u95 = _measured(rng)
     export = _write_sa_style(tmp_path / "points.csv", p[:-1], u95)
     joints = _write_joints(tmp_path / "joints.csv", q)
-    with pytest.raises(DataFileError, match="1 joint row.* no point of that name.*'P40'"):
+    with pytest.raises(DataFileError, match=r"1 joint row.* no point of that name.*'P40'"):
         read_points_and_joints(export, joints, apply_virtual_joints(irb1600(), {}))
