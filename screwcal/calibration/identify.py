@@ -30,6 +30,7 @@ import numpy as np
 from scipy.special import fdtrc
 
 from screwcal.calibration import empirical_prior
+from screwcal.calibration.compliance_floor import held_at_zero
 from screwcal.calibration.diagnostics import (
     MAX_OUTLIER_FRACTION,
     acquisition_order,
@@ -113,8 +114,9 @@ def identify(nominal: SerialModel, data: MeasurementSet, *, kind: ModelKind = "f
         seed=seed, base_guess=base_guess, link_offsets=link_offsets, outliers=outliers,
         de_polish=de_polish, compliance=compliance, ranges=plausible)
     if prior_scale == "plausible":
-        return _with_lag(nominal, data, settings, lag)
-    return _with_learned_prior(nominal, data, settings, lag)
+        return held_at_zero(_with_lag(nominal, data, settings, lag))
+    # a compliance below zero: held at 0 in the model (every reader refuses it)
+    return held_at_zero(_with_learned_prior(nominal, data, settings, lag))
 
 
 def _with_learned_prior(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
