@@ -127,6 +127,39 @@ def _numtostr(task: Any, pos: list, opt: dict) -> str:
     return string(text)
 
 
+_BYTE_BASES = (("hex", 16, "{:02X}"), ("okt", 8, "{:03o}"), ("bin", 2, "{:08b}"))
+
+
+@builtin("StrToByte", "func")
+def _strtobyte(task: Any, pos: list, opt: dict) -> float:
+    """A byte from its text: decimal, or \\Hex, \\Okt, \\Bin digits, or \\Char a character."""
+    text = pos[0]
+    if opt.get("char"):
+        if len(text) != 1:
+            raise RapidError("ERR_ARGVALERR", f"StrToByte \\Char of {text!r}: one character")
+        return float(ord(text))
+    base = next((b for key, b, _ in _BYTE_BASES if opt.get(key)), 10)
+    try:
+        value = int(text, base)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= 255:
+        raise RapidError("ERR_ARGVALERR", f"StrToByte of {text!r}: no byte in base {base}")
+    return float(value)
+
+
+@builtin("ByteToStr", "func")
+def _bytetostr(task: Any, pos: list, opt: dict) -> str:
+    """A byte's text: decimal, or \\Hex (2 digits), \\Okt (3), \\Bin (8), \\Char."""
+    b = pos[0]
+    if not (is_integer(b) and 0 <= b <= 255):
+        raise RapidError("ERR_ARGVALERR", f"ByteToStr of {b!r}: no byte (0..255)")
+    if opt.get("char"):
+        return chr(int(b))
+    fmt = next((f for key, _, f in _BYTE_BASES if opt.get(key)), "{:d}")
+    return fmt.format(int(b))
+
+
 @builtin("ValToStr", "func")
 def _valtostr(task: Any, pos: list, opt: dict) -> str:
     v = pos[0]

@@ -228,6 +228,44 @@ def _crobt(task: Any, pos: list, opt: dict) -> Record:
     return m.robtarget(m.joints(), frames)
 
 
+@builtin("CPos", "func")
+def _cpos(task: Any, pos: list, opt: dict) -> Record:
+    """CRobT's position only."""
+    rt: Record = _crobt(task, pos, opt).f["trans"]
+    return rt
+
+
+@builtin("CTool", "func")
+def _ctool(task: Any, pos: list, opt: dict) -> Record:
+    """The active tool (the last move instruction's; tool0 before any)."""
+    tool = _motion(task).tool
+    return task.system["tool0"].value.copy() if tool is None else tool.copy()
+
+
+@builtin("CWObj", "func")
+def _cwobj(task: Any, pos: list, opt: dict) -> Record:
+    """The active work object (the last move instruction's; wobj0 before any)."""
+    wobj = _motion(task).wobj
+    return task.system["wobj0"].value.copy() if wobj is None else wobj.copy()
+
+
+@builtin("StopMove", "proc")
+def _stopmove(task: Any, pos: list, opt: dict) -> None:
+    """Nothing moves while the task runs an instruction after its move (the emulated world's
+    moves end in their instruction): nothing to stop, resume or clear. Run from another task
+    (multitasking), which this controller does not emulate, they would matter."""
+
+
+@builtin("StartMove", "proc")
+def _startmove(task: Any, pos: list, opt: dict) -> None:
+    """See StopMove."""
+
+
+@builtin("ClearPath", "proc")
+def _clearpath(task: Any, pos: list, opt: dict) -> None:
+    """See StopMove."""
+
+
 @builtin("CalcJointT", "func")
 def _calcjointt(task: Any, pos: list, opt: dict) -> Record:
     """The joints of a robtarget on its confdata's branch (ConfL/ConfJ do not apply)."""

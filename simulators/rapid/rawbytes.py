@@ -3,7 +3,7 @@
 by SocketSend/SocketReceive \\RawData.
 
 - PackRawBytes Value, RawData [\\Network], StartIndex \\Hex1 | \\IntX | \\Float4 | \\ASCII: a
-  byte given as a 2-digit hex string, an integer of IntX's size (USINT 1, UINT 2, UDINT 4,
+  byte (0..255), an integer of IntX's size (USINT 1, UINT 2, UDINT 4,
   ULINT 8 bytes unsigned; SINT, INT, DINT, LINT the signed ones, given as -1, -2, -4, -8), a
   4-byte float, or a string's characters; little-endian unless \\Network (big-endian). The
   valid length grows to the last byte written; a start beyond it + 1 is ERR_OUTOFBND.
@@ -15,11 +15,12 @@ by SocketSend/SocketReceive \\RawData.
 from __future__ import annotations
 
 import struct
+from collections.abc import Callable
 from typing import Any
 
 from simulators.rapid.builtins import builtin
 from simulators.rapid.errors import RapidError
-from simulators.rapid.values import RawBytes, num, string
+from simulators.rapid.values import RawBytes, is_integer, num, string
 
 INT_KINDS = {1: "B", 2: "H", 4: "I", 8: "Q", -1: "b", -2: "h", -4: "i", -8: "q"}
 
@@ -50,11 +51,10 @@ def _int_format(opt: dict) -> str:
 
 def _encoded(value: Any, opt: dict) -> bytes:
     order = ">" if opt.get("network") else "<"
-    if "hex1" in opt:
-        try:
-            return bytes.fromhex(value if len(value) == 2 else "x")
-        except ValueError:
-            raise RapidError("ERR_ARGVALERR", f"\\Hex1 {value!r}: two hex digits") from None
+    if opt.get("hex1"):
+        if not (is_integer(value) and 0 <= value <= 255):
+            raise RapidError("ERR_ARGVALERR", f"\\Hex1 packs a byte (0..255), not {value!r}")
+        return bytes([int(value)])
     if "intx" in opt:
         try:
             return struct.pack(order + _int_format(opt), int(value))
@@ -79,8 +79,9 @@ def _pack(task: Any, pos: list, opt: dict) -> None:
 def _unpack(task: Any, pos: list, opt: dict) -> None:
     raw, index, target = pos
     order = ">" if opt.get("network") else "<"
-    if "hex1" in opt:
-        size, decode = 1, (lambda b: b.hex().upper())
+    decode: Callable[[bytes], Any]
+    if opt.get("hex1"):
+        size, decode = 1, (lambda b: float(b[0]))
     elif "intx" in opt:
         fmt = order + _int_format(opt)
         size, decode = struct.calcsize(fmt), (lambda b: num(float(struct.unpack(fmt, b)[0])))

@@ -486,12 +486,14 @@ def test_raw_bytes_and_byte_arrays_go_over_the_socket_packed_as_the_program_says
              " PackRawBytes f * 2, out, RawBytesLen(out) + 1, \\Float4;"
              " PackRawBytes \"ok\", out, RawBytesLen(out) + 1, \\ASCII;"
              " CopyRawBytes raw, 10, out, RawBytesLen(out) + 1 \\NoOfBytes:=2;"
+             " PackRawBytes StrToByte(\"A\" \\Char), out, RawBytesLen(out) + 1 \\Hex1;"
+             " a := ByteToStr(StrToByte(\"1F\" \\Hex) \\Bin) + ByteToStr(10 \\Hex);"
              " SocketSend cli \\RawData:=out; len := RawBytesLen(out);"
              " SocketReceive cli \\Data:=bytes \\ReadNoOfBytes:=3 \\Time:=5;"
              " bytes{4} := 255; SocketSend cli \\Data:=bytes \\NoOfBytes:=4;",
              "VAR socketdev srv; VAR socketdev cli; VAR rawbytes raw; VAR rawbytes out;"
-             " VAR num n; VAR num f; VAR string s; VAR string h; VAR num i; VAR num len;"
-             " VAR byte bytes{6};")
+             " VAR num n; VAR num f; VAR string s; VAR byte h; VAR num i; VAR num len;"
+             " VAR string a; VAR byte bytes{6};")
     import struct
     import threading
 
@@ -502,7 +504,7 @@ def test_raw_bytes_and_byte_arrays_go_over_the_socket_packed_as_the_program_says
         with socket.create_connection(("127.0.0.1", port), timeout=5) as c:
             c.sendall(struct.pack(">H", 513) + struct.pack("<f", 1.5) + b"abc" + b"\x7f\xfe")
             got = b""
-            while len(got) < 12:
+            while len(got) < 13:
                 got += c.recv(64)
             c.sendall(bytes([1, 2, 3]))
             back = c.recv(64)
@@ -511,9 +513,10 @@ def test_raw_bytes_and_byte_arrays_go_over_the_socket_packed_as_the_program_says
         t.services["network"].shutdown()
     assert t.stop_reason.startswith("program ended"), t.stop_reason
     assert (value(t, "n"), value(t, "f"), value(t, "s"), value(t, "h"), value(t, "i")) == \
-        (513, 1.5, "abc", "7F", -2)
-    assert got == struct.pack(">I", 514) + struct.pack("<f", 3.0) + b"ok" + b"\x7f\xfe"
-    assert value(t, "len") == 12 and back == bytes([1, 2, 3, 255])
+        (513, 1.5, "abc", 0x7F, -2)
+    assert got == struct.pack(">I", 514) + struct.pack("<f", 3.0) + b"ok" + b"\x7f\xfeA"
+    assert value(t, "len") == 13 and back == bytes([1, 2, 3, 255])
+    assert value(t, "a") == "000111110A"
 
 
 def test_dates_clocks_and_world_zones():
@@ -597,3 +600,19 @@ def test_present_and_waituntil():
     assert value(t, "late") is False and value(t, "never") is True
     assert 0.15 < value(t, "e") < 1.0
     assert "ERR_WAIT_MAXTIME" in t.stop_reason
+
+
+def test_the_issues_work_object_case_a_move_to_500_0_500_in_oframe_x_plus_100():
+    """Issue 37: with oframe x+100, CRobT read [600, 0, 500] for [500, 0, 500] and a MoveL to
+    [500, 0, 500] went to base [500, 0, 500] (the work object ignored)."""
+    world = make_world(None, None)
+    t = task("MoveL [[500, 0, 500], [0, 0, 1, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]],"
+             " v100, fine, tool0 \\WObj:=shifted; inside := CRobT(\\Tool:=tool0 \\WObj:=shifted);"
+             " base := CRobT(\\Tool:=tool0 \\WObj:=wobj0);",
+             "PERS wobjdata shifted := [FALSE, TRUE, \"\", [[0, 0, 0], [1, 0, 0, 0]], [[100, 0,"
+             " 0], [1, 0, 0, 0]]]; VAR robtarget inside; VAR robtarget base;", world=world)
+    t.run()
+    assert t.stop_reason.startswith("program ended"), t.stop_reason
+    assert flange(world)[:3, 3] == pytest.approx([600, 0, 500], abs=1e-3)
+    assert xyz(value(t, "inside")) == pytest.approx([500, 0, 500], abs=1e-3)
+    assert xyz(value(t, "base")) == pytest.approx([600, 0, 500], abs=1e-3)
