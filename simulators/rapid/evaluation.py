@@ -72,7 +72,10 @@ class Evaluator:
                                 (self._POS, "", self.fn(a.value), a.line))
                     continue
                 name, p = a.name.lower(), optional.get(a.name.lower())
-                if a.value is None:
+                if a.conditional:
+                    by_ref = p is not None and p.mode is not None
+                    plan.append(self._conditional(a, name, by_ref))
+                elif a.value is None:
                     plan.append((self._SWITCH, name, None, a.line))
                 elif p is not None and p.mode is not None:
                     plan.append((self._OPT_REF, name, a.value, a.line))
@@ -87,7 +90,8 @@ class Evaluator:
                             (self._LAZY, "", a.value, a.line) if n in b.lazy else
                             (self._POS, "", self.fn(a.value), a.line))
             elif a.conditional:
-                plan.append((self._CONDITIONAL, "", None, a.line))
+                name = a.name.lower()
+                plan.append(self._conditional(a, name, name in b.optrefs))
             elif a.value is None:
                 plan.append((self._SWITCH, a.name.lower(), None, a.line))
             else:
@@ -95,6 +99,17 @@ class Evaluator:
                 plan.append((self._OPT_REF, name, a.value, a.line) if name in b.optrefs else
                             (self._OPT, name, self.fn(a.value), a.line))
         return None, b, tuple(plan)
+
+    def _conditional(self, a: A.Argument, name: str, by_ref: bool) -> tuple[int, str, Any, int]:
+        """`\\Name?datum`: passed (by reference or value) when the datum, the caller's own
+        optional parameter, is present; left out when it is not."""
+        base = a.value
+        while isinstance(base, A.Component | A.Index):
+            base = base.base
+        if not isinstance(base, A.Name):
+            raise RapidError("ERR_ARGVALERR", f"\\{a.name}?: a datum's name expected", a.line)
+        get = (lambda frame, e=a.value: self.ref(e, frame)) if by_ref else self.fn(a.value)
+        return (self._CONDITIONAL, name, (base.key, get), a.line)
 
     def parameters(self, r: A.Routine) -> tuple[list[Parameter], list[Parameter]]:
         """A routine's required and optional parameters (lower-case name, passed by reference
@@ -110,7 +125,7 @@ class Evaluator:
         """A call's arguments, in their order: values, references, switches (True)."""
         pos: list[Any] = []
         opt: dict[str, Any] = {}
-        for how, name, e, line in plan:  # e: a closure by value, a node by reference
+        for how, name, e, _line in plan:  # e: a closure by value, a node by reference
             if how == 0:  # _POS
                 pos.append(e(frame))
             elif how == 1:  # _POS_REF
@@ -123,9 +138,10 @@ class Evaluator:
                 opt[name] = self.ref(e, frame)
             elif how == 6:  # _LAZY
                 pos.append(Lazy(e, frame, functools.partial(self.eval, e, frame)))
-            else:
-                raise RapidError("ERR_ARGVALERR", "conditional arguments are not supported",
-                                 line)
+            else:  # _CONDITIONAL: (the datum's key, its getter)
+                key, get = e
+                if key in frame.vars or key in self.data:
+                    opt[name] = get(frame)
         return pos, opt
 
     # ------------------------------------------------------------------ expressions

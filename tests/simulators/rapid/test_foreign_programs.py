@@ -616,3 +616,16 @@ def test_the_issues_work_object_case_a_move_to_500_0_500_in_oframe_x_plus_100():
     assert flange(world)[:3, 3] == pytest.approx([600, 0, 500], abs=1e-3)
     assert xyz(value(t, "inside")) == pytest.approx([500, 0, 500], abs=1e-3)
     assert xyz(value(t, "base")) == pytest.approx([600, 0, 500], abs=1e-3)
+
+
+def test_a_conditional_argument_is_passed_only_when_the_callers_own_is_present():
+    t = task("Outer; Outer \\limit:=4 \\fast;",
+             "VAR num seen{4}; VAR num k;",
+             "PROC Outer(\\num limit \\switch fast)\n Inner \\limit?limit \\fast?fast;\n"
+             " Inner \\limit?limit;\nENDPROC\n"
+             "PROC Inner(\\num limit \\switch fast)\n Incr k;\n seen{k} := -1;\n"
+             " IF Present(limit) seen{k} := limit;\n IF Present(fast) seen{k} := seen{k} + 100;\n"
+             "ENDPROC")
+    t.run()
+    assert t.stop_reason.startswith("program ended"), t.stop_reason
+    assert list(value(t, "seen").items) == [-1, -1, 104, 4]
