@@ -278,6 +278,21 @@ def fit_residual_model(q_rad: Array, residuals_mm: Array, q_outliers: Array | No
                          reach, posterior)
 
 
+def dropped_by_export(doc: object, form: str) -> str:
+    """What an export of a result's robot (URDF, DH, MDH, a screw table) leaves out: its
+    residual model, with the size of its correction over the calibration poses; "" when the
+    result uses none."""
+    member = doc.get("residual_model") if isinstance(doc, dict) else None
+    if not isinstance(member, dict) or not member.get("used"):
+        return ""
+    size = member.get("size_over_calibration_poses_mm") or {}
+    shown = ", ".join(f"{k} {float(v):.4f}" for k, v in size.items()
+                      if k in ("mean", "rms", "max"))
+    return (f"the {form} export carries the physical model only: the result's residual model "
+            f"(its correction over the calibration poses: {shown} mm) is left out; predict and "
+            "compensate with the result itself apply it")
+
+
 def residual_from_document(doc: object, source: str = "result") -> ResidualModel | None:
     """The residual model a result document carries and uses; None for a result without one
     (older results, `none`, or declined by `auto`)."""

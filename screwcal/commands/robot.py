@@ -119,7 +119,10 @@ def run_export(args: argparse.Namespace) -> int:
     document = None if args.result in LIBRARY else read_model_document(args.result)
     text, said = description_text(model, args.format, joint_convention(args, document, model))
     write_text_atomic(args.out, text.encode("utf-8"))
-    for line in said:
+    from screwcal.calibration.residual_model import dropped_by_export
+
+    dropped = dropped_by_export(document, args.format)
+    for line in [*said, *([f"note: {dropped}"] if dropped else [])]:
         print(line, file=sys.stderr if line.startswith("warning") else sys.stdout)
     print(f"exported '{model.name}' as {args.format} -> {args.out}")
     return 0

@@ -171,3 +171,18 @@ def test_rapid_compensation_carries_the_residual(runs, capsys):
         printed = capsys.readouterr().out
         assert ("residual model: correction mean" in printed) == (which == "auto")
     assert outs["auto"] != outs["none"]
+
+
+@pytest.mark.parametrize("form", ["urdf", "mdh"])
+def test_exports_carry_the_physical_model_and_say_what_they_drop(runs, capsys, form):
+    texts = {}
+    for which in ("auto", "none"):
+        out = runs["folder"] / f"export-{which}.{form}"
+        assert main(["robot", "export", runs[which]["path"], "--format", form,
+                     "--out", str(out)]) == 0
+        texts[which] = out.read_text()
+        printed = capsys.readouterr().out
+        said = f"note: the {form} export carries the physical model only: the result's " \
+               "residual model (its correction over the calibration poses: mean"
+        assert (said in printed) == (which == "auto"), printed
+    assert texts["auto"] == texts["none"]
