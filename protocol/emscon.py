@@ -11,7 +11,8 @@ system type set with SetCoordinateSystemType (this project: RHR, Cartesian right
 
 Only the packets the calibration needs are here: Initialize, SetUnits, SetCoordinateSystemType,
 SetMeasurementMode (stationary), SetStationaryModeParams, SetStatisticMode, SetEnvironmentParams,
-GetEnvironmentParams, GetTrackerStatus, FindReflector, StartMeasurement; the single-measurement
+GetEnvironmentParams, GetTrackerStatus, GoPosition, FindReflector, StartMeasurement; the
+single-measurement
 results (standard and extended statistics), the error packet and the status change. Their
 layouts follow the public emScon programmer's manual's C header; the tests hold them to the
 published `cesapi` package's layouts field by field.
@@ -51,6 +52,7 @@ C_SET_MEASUREMENT_MODE = 24
 C_SET_COORDINATE_SYSTEM_TYPE = 26
 C_SET_STATIONARY_MODE_PARAMS = 28
 C_START_MEASUREMENT = 49
+C_GO_POSITION = 55
 C_FIND_REFLECTOR = 63
 C_SET_STATISTIC_MODE = 80
 
@@ -87,6 +89,7 @@ _COMMAND_ARGS: dict[int, struct.Struct] = {
     C_SET_STATIONARY_MODE_PARAMS: struct.Struct("<ii"),  # lMeasTime (ms), bUseADM
     C_START_MEASUREMENT: struct.Struct("<"),
     C_FIND_REFLECTOR: struct.Struct("<d"),  # approximate distance
+    C_GO_POSITION: struct.Struct("<dddi"),  # x, y, z to point at, bUseADM (lock on there)
     C_SET_STATISTIC_MODE: struct.Struct("<II"),  # stationary, continuous
 }
 _ANSWER_VALUES: dict[int, struct.Struct] = {

@@ -231,6 +231,15 @@ class TrackerClient:
         self.command(es.C_SET_ENVIRONMENT_PARAMS, temperature_c, pressure_mbar, humidity_pct,
                      what="SetEnvironmentParams")
 
+    def go_position(self, xyz_mm: tuple[float, float, float] | list[float]) -> None:
+        """Point the beam at a position (mm, the tracker's frame) and lock on the reflector
+        found there (several SMRs on the flange: each measured in turn); BeamBrokenError when
+        none is there."""
+        x, y, z = (float(v) for v in xyz_mm)
+        self.command(es.C_GO_POSITION, x, y, z, 1, what=f"GoPosition ({x:.1f}, {y:.1f}, "
+                     f"{z:.1f}) mm")
+        self._last_distance_mm = float(np.linalg.norm((x, y, z)))
+
     def find_reflector(self, approx_distance_mm: float | None = None) -> None:
         distance = self._last_distance_mm if approx_distance_mm is None else approx_distance_mm
         self.command(es.C_FIND_REFLECTOR, float(distance), what="FindReflector")

@@ -35,14 +35,21 @@ from protocol.client import ControllerClient
 from protocol.errors import (
     BeamBrokenError,
     LinkError,
+    ProtocolError,
     TrackerNotInitialisedError,
     TrackerWarmingUpError,
 )
 from protocol.tracker import TrackerClient, TrackerPoint
 from screwcal.calibration.beam_weighting import BeamLevels, identify_beam_weighted
 from screwcal.calibration.correction import compensate
+from screwcal.calibration.flange import frame_from_holes
 from screwcal.calibration.identify import CalibrationResult, identify
-from screwcal.calibration.line_of_sight import visible, visible_configurations
+from screwcal.calibration.line_of_sight import (
+    DEFAULT_SMR_MM,
+    THREE_SMRS_MM,
+    visible,
+    visible_configurations,
+)
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.instrument import TRACKER_STAND_MM
 from screwcal.kinematics.forward import flange_kinematics
@@ -56,6 +63,10 @@ from service.errors import ServiceError
 FACING_TRACKER_DEG = (0.0, 90.0, 0.0)  # the cube's orientation: the flange toward +x
 CUBE_EDGE_MM = 300.0
 MAX_TRIES = 6  # a pose measured after at most this many link failures, else the run stops
+RIGIDITY_MM = 1.0  # the SMRs measured at a pose keep the nests' distances within this
+Point = tuple[float, float, float]
+SMRS: dict[int, tuple[Point, ...]] = {1: (DEFAULT_SMR_MM,), 3: THREE_SMRS_MM}
+SMR_WORDS = {1: "one SMR (positions)", 3: "three SMRs (full pose)"}
 
 
 @dataclass
@@ -66,6 +77,7 @@ class TrackerRun:
     joints_deg: list[list[float]] = field(default_factory=list)
     points: list[TrackerPoint | None] = field(default_factory=list)
     previous_deg: list[list[float]] = field(default_factory=list)  # the joints read before
+    others: list[list[TrackerPoint] | None] = field(default_factory=list)  # SMRs 2, 3
     faults: dict[str, int] = field(default_factory=dict)
 
     @property
@@ -73,37 +85,45 @@ class TrackerRun:
         return sum(p is None for p in self.points)
 
 
-def calibration_poses(model: SerialModel, n: int, stand_mm: Sequence[float], seed: int
-                      ) -> Array:
-    """n configurations (deg) of the working region whose SMR the tracker at `stand_mm` (robot
-    frame) sees on the nominal robot, with margins."""
+def calibration_poses(model: SerialModel, n: int, stand_mm: Sequence[float], seed: int,
+                      smrs_mm: tuple[Point, ...] = (DEFAULT_SMR_MM,)) -> Array:
+    """n configurations (deg) of the working region whose SMRs the tracker at `stand_mm`
+    (robot frame) sees on the nominal robot, with margins."""
     try:
         q = visible_configurations(model, n, np.asarray(stand_mm, dtype=float),
-                                   np.random.default_rng(seed))
+                                   np.random.default_rng(seed), smrs_mm)
     except ValueError as err:
         raise ServiceError(str(err)) from None
     return np.asarray(np.round(np.degrees(q), 4), dtype=float)
 
 
-def performance_poses(model: SerialModel, cycles: int, stand_mm: Sequence[float]
-                      ) -> list[PosePlan]:
+def performance_poses(model: SerialModel, cycles: int, stand_mm: Sequence[float],
+                      smrs_mm: tuple[Point, ...] = (DEFAULT_SMR_MM,)) -> list[PosePlan]:
     """The ISO 9283 cube's list (approach and target of P1-P5 per cycle), the flange facing
     the tracker; refused when the tracker would not see a target."""
     cube = find_test_cube(model, CUBE_EDGE_MM, orientation_deg=FACING_TRACKER_DEG)
     plans = performance_pose_list(model, cube, cycles)
     q = np.radians([p.q_deg for p in plans[:10]])  # one cycle: every pose of the list
-    if not visible(model, q, np.asarray(stand_mm, dtype=float)).all():
+    if not all(visible(model, q, np.asarray(stand_mm, dtype=float), smr_mm=smr).all()
+               for smr in smrs_mm):
         raise ServiceError(f"the tracker at {list(stand_mm)} mm does not see every ISO 9283 "
                            "pose: stand it in front of the cube")
     return plans
 
 
 class Cell:
-    """The robot and the tracker of one run, with the tracker's failures handled."""
+    """The robot and the tracker of one run, with the tracker's failures handled. With several
+    SMRs, the tracker stays locked on the first through the moves; at each pose the others are
+    found by pointing where the nominal robot's orientation puts them from the first
+    (GoPosition), then the beam goes back to the first."""
 
-    def __init__(self, robot: ControllerClient, tracker_url: str):
+    def __init__(self, robot: ControllerClient, tracker_url: str,
+                 smrs_mm: Sequence[Point] = (DEFAULT_SMR_MM,)):
         self.robot, self.tracker_url = robot, tracker_url
+        self.smrs = np.array(smrs_mm, dtype=float)
         self.tracker: TrackerClient | None = None
+        self.nominal = irb1600()
+        self._anchor: tuple[float, float, float] | None = None  # the first SMR at this pose
 
     async def _tracker(self, initialise: bool) -> TrackerClient:
         if self.tracker is None:
@@ -116,14 +136,41 @@ class Cell:
             self.tracker.close()
             self.tracker = None
 
-    async def measure(self, run: TrackerRun) -> TrackerPoint | None:
-        """The point of the pose just reached: None when the beam is broken even after a
-        search (the pose is skipped); link failures cured and the pose measured once."""
+    def _measure_all(self, tracker: TrackerClient, joints_deg: Sequence[float]
+                     ) -> list[TrackerPoint]:
+        """Every SMR of this pose, the first first (blocking: in a thread)."""
+        if self._anchor is not None:  # a retry: the beam may have been left on another SMR
+            tracker.go_position(self._anchor)
+        first = tracker.measure()
+        self._anchor = first.xyz_mm
+        points = [first]
+        if len(self.smrs) == 1:
+            return points
+        R = flange_kinematics(self.nominal, np.radians([joints_deg]))[0][:3, :3]
+        try:
+            for smr in self.smrs[1:]:
+                tracker.go_position(np.asarray(first.xyz_mm) + R @ (smr - self.smrs[0]))
+                points.append(tracker.measure())
+        finally:
+            with contextlib.suppress(ProtocolError):  # tracked through the next move
+                tracker.go_position(first.xyz_mm)
+        measured = np.array([p.xyz_mm for p in points])
+        mismatch = _triangle_mismatch_mm(measured, self.smrs)
+        if mismatch > RIGIDITY_MM:
+            raise BeamBrokenError(f"the reflectors measured are not the SMRs' triangle (sides "
+                                  f"off by {mismatch:.2f} mm): a wrong reflector was locked")
+        return points
+
+    async def measure(self, run: TrackerRun, joints_deg: Sequence[float]
+                      ) -> list[TrackerPoint] | None:
+        """The SMRs of the pose just reached: None when a beam is broken even after a search
+        (the pose is skipped); link failures cured and the pose measured once."""
         initialise = self.tracker is None
+        self._anchor = None
         for _ in range(MAX_TRIES):
             try:
                 tracker = await self._tracker(initialise)
-                return await asyncio.to_thread(tracker.measure)
+                return await asyncio.to_thread(self._measure_all, tracker, joints_deg)
             except BeamBrokenError:
                 run.faults["beam broken (pose skipped)"] = \
                     run.faults.get("beam broken (pose skipped)", 0) + 1
@@ -151,8 +198,19 @@ class Cell:
             if measure:
                 run.previous_deg.append(list(last) if last is not None else [np.nan] * 6)
                 run.joints_deg.append(list(pose.joints_deg))
-                run.points.append(await self.measure(run))
+                got = await self.measure(run, pose.joints_deg)
+                run.points.append(None if got is None else got[0])
+                run.others.append(None if got is None else got[1:])
             last = pose.joints_deg
+
+
+def _triangle_mismatch_mm(measured: Array, nests: Array) -> float:
+    """The largest difference between the measured SMRs' mutual distances and the nests'."""
+    k = len(nests)
+    pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
+    return max((abs(float(np.linalg.norm(measured[i] - measured[j])
+                          - np.linalg.norm(nests[i] - nests[j]))) for i, j in pairs),
+               default=0.0)
 
 
 def measurement_set(run: TrackerRun, weighted: bool = True) -> MeasurementSet:
@@ -160,8 +218,14 @@ def measurement_set(run: TrackerRun, weighted: bool = True) -> MeasurementSet:
     point with the covariance the tracker reported (`weighted`), else one isotropic level."""
     keep = [k for k, p in enumerate(run.points) if p is not None]
     points = [p for p in run.points if p is not None]
+    rotations = None
+    others = [run.others[k] or [] for k in keep]
+    if others and others[0]:  # three SMRs: the frame of their triangle (full pose)
+        triangles = np.array([[p.xyz_mm, *(o.xyz_mm for o in rest)]
+                              for p, rest in zip(points, others, strict=True)])
+        rotations = frame_from_holes(triangles)[:, :3, :3]
     return MeasurementSet(np.radians([run.joints_deg[k] for k in keep]),
-                          np.array([p.xyz_mm for p in points]), None,
+                          np.array([p.xyz_mm for p in points]), rotations,
                           tuple(str(k) for k in keep),
                           q_previous=np.radians([run.previous_deg[k] for k in keep]),
                           position_cov_mm2=np.array([p.covariance for p in points])
@@ -225,17 +289,19 @@ class TrackerDemo:
     runs: dict[str, TrackerRun]
     levels: BeamLevels  # the noise along and across the beam, from the first fit
     excess: BeamLevels  # what of it the tracker's reported covariances did not explain
+    smr_words: str = SMR_WORDS[1]
 
 
 async def procedure(host: str, port: int, tracker_url: str, *, poses: int, cycles: int,
-                    stand_mm: Sequence[float], seed: int) -> TrackerDemo:
+                    stand_mm: Sequence[float], seed: int,
+                    smrs_mm: tuple[Point, ...] = (DEFAULT_SMR_MM,)) -> TrackerDemo:
     nominal = irb1600()
-    cal_q = calibration_poses(nominal, poses, stand_mm, seed)
-    perf = performance_poses(nominal, cycles, stand_mm)
+    cal_q = calibration_poses(nominal, poses, stand_mm, seed, smrs_mm)
+    perf = performance_poses(nominal, cycles, stand_mm, smrs_mm)
     targets = [p.role == "target" for p in perf]
     runs = {name: TrackerRun() for name in ("before", "calibration", "after", "geometric")}
     async with ControllerClient(host, port) as robot:
-        cell = Cell(robot, tracker_url)
+        cell = Cell(robot, tracker_url, smrs_mm)
         try:
             await cell.visit([p.q_deg for p in perf], targets, runs["before"])
             await cell.visit(cal_q.tolist(), [True] * len(cal_q), runs["calibration"])
@@ -251,17 +317,20 @@ async def procedure(host: str, port: int, tracker_url: str, *, poses: int, cycle
     return TrackerDemo(ap_mean_mm(runs["before"], perf, nominal, ours),
                        ap_mean_mm(runs["after"], perf, nominal, ours),
                        ap_mean_mm(runs["geometric"], perf, nominal, geo), ours, geo, runs,
-                       beam.levels, beam.excess)
+                       beam.levels, beam.excess, SMR_WORDS[len(smrs_mm)])
 
 
 def run_demo(*, seed: int | None, poses: int, cycles: int, time_scale: float, realism: str,
-             stand_mm: Sequence[float] = TRACKER_STAND_MM, tracker_faults: str = ""
-             ) -> TrackerDemo:
+             stand_mm: Sequence[float] = TRACKER_STAND_MM, tracker_faults: str = "",
+             smrs: int = 1) -> TrackerDemo:
     """The emulators (a process) and the procedure; prints what it does as it goes.
-    `tracker_faults`: the emulated tracker's (`emulator irc5 --tracker-faults`)."""
+    `tracker_faults`: the emulated tracker's (`emulator irc5 --tracker-faults`); `smrs`: 1
+    (positions) or 3 (full pose)."""
+    smrs_mm = SMRS[smrs]
     noise_seed = 2018 if seed is None else seed
     args_ = ["--time-scale", str(time_scale), "--realism", realism, "--noise-seed",
-             str(noise_seed), "--stand-mm", *(f"{v:g}" for v in stand_mm)]
+             str(noise_seed), "--stand-mm", *(f"{v:g}" for v in stand_mm), "--smrs",
+             str(smrs)]
     if seed is not None:
         args_ += ["--seed", str(seed)]
     if tracker_faults:
@@ -269,11 +338,12 @@ def run_demo(*, seed: int | None, poses: int, cycles: int, time_scale: float, re
     with tempfile.TemporaryDirectory() as tmp, \
             emulators([*args_, "--world", str(Path(tmp) / "world.json")]) as (host, port, url):
         print(f"screwcal demo: emulated IRB 1600 (realism {realism}) at {host}:{port}, laser "
-              f"tracker {url} standing at {list(stand_mm)} mm (robot frame), one SMR; "
+              f"tracker {url} standing at {list(stand_mm)} mm (robot frame), "
+              f"{SMR_WORDS[smrs]}; "
               f"{poses} calibration poses, ISO 9283 {cycles} cycles", flush=True)
         started = time.perf_counter()
         done = asyncio.run(procedure(host, port, url, poses=poses, cycles=cycles,
-                                     stand_mm=stand_mm, seed=noise_seed))
+                                     stand_mm=stand_mm, seed=noise_seed, smrs_mm=smrs_mm))
         print(f"  measured in {time.perf_counter() - started:.1f} s", flush=True)
     return done
 
@@ -290,7 +360,8 @@ def summary_lines(done: TrackerDemo, stand_mm: Sequence[float]) -> list[str]:
     weather = np.array([(p.temperature_c, p.pressure_mbar, p.humidity_pct) for p in points])
     ratio = done.ap_after_geometric_mm / done.ap_after_mm
     lines = [
-        f"  instrument: laser tracker (emScon TPI), one SMR, standing at {list(stand_mm)} mm; "
+        f"  instrument: laser tracker (emScon TPI), {done.smr_words}, standing at "
+        f"{list(stand_mm)} mm; "
         f"U = {TRACKER_MPE_CONSTANT_MM * 1000:g} um + {TRACKER_MPE_PER_M_MM * 1000:g} um/m "
         f"(lateral), radial {TRACKER_RADIAL_NOISE_MM * 1000:g} um (1 sigma)",
         f"  conditions: {weather[:, 0].mean():.1f} deg C, {weather[:, 1].mean():.1f} mbar, "

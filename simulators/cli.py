@@ -93,7 +93,8 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
     if args.tracker_port is not None:
         from simulators.tracker import TrackerEmulator, WorldSource
 
-        tracker = TrackerEmulator(WorldSource(world), args.stand_mm, faults=args.tracker_faults,
+        tracker = TrackerEmulator(WorldSource(world, smrs_of(args)), args.stand_mm,
+                                  faults=args.tracker_faults,
                                   seed=args.seed if args.noise_seed is None else args.noise_seed)
         tracker_host, tracker_port = await tracker.start(args.host, args.tracker_port)
         line += f"; laser tracker on emscon://{tracker_host}:{tracker_port}"
@@ -140,7 +141,8 @@ async def _serve_tracker(args: argparse.Namespace) -> None:
         print("warning: no --world: this tracker knows no robot and finds no reflector; pass "
               "the world file the irc5 emulator printed", file=sys.stderr)
     world = args.world or str(Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "none.json")
-    tracker = TrackerEmulator(WorldFileSource(world), args.stand_mm, seed=args.seed,
+    tracker = TrackerEmulator(WorldFileSource(world, smrs_of(args)), args.stand_mm,
+                              seed=args.seed,
                               faults=args.tracker_faults)
     host, port = await tracker.start(args.host, args.port)
     stopped = stop_on_signals()
@@ -275,6 +277,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     tracker.set_defaults(func=run)
 
 
+def smrs_of(args: argparse.Namespace) -> tuple[tuple[float, float, float], ...]:
+    """The SMRs on the flange, in tool0: one (positions) or three over the holes (full pose)."""
+    from screwcal.calibration.line_of_sight import DEFAULT_SMR_MM, THREE_SMRS_MM
+
+    return THREE_SMRS_MM if args.smrs == 3 else (DEFAULT_SMR_MM,)
+
+
 def _add_tracker(p: argparse.ArgumentParser) -> None:
     from screwcal.commands.options import add_vector
     from screwcal.instrument import TRACKER_STAND_MM
@@ -282,6 +291,9 @@ def _add_tracker(p: argparse.ArgumentParser) -> None:
     add_vector(p, "--stand-mm", default=TRACKER_STAND_MM,
                help="where the tracker stands, mm in the robot's base frame (default "
                f"{' '.join(f'{v:g}' for v in TRACKER_STAND_MM)})")
+    p.add_argument("--smrs", type=int, choices=[1, 3], default=1,
+                   help="SMRs on the flange: 1 (positions; default) or 3 over the measuring "
+                   "flange's holes (full pose; GoPosition points at each)")
     p.add_argument("--tracker-faults", type=_tracker_faults, default=None, metavar="NAME=K,...",
                    help="faults at a measurement attempt K (from 0): beam (broken for beam_n "
                    "attempts, default 3), drop (the connection), uninit (initialisation lost), "

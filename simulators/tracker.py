@@ -41,6 +41,8 @@ from screwcal.kinematics.se3 import Array, transform_points
 from simulators.world import World
 
 STANDARD_AIR = (20.0, 1013.25, 50.0)  # deg C, mbar, %RH
+CAPTURE_MM = 25.0  # GoPosition locks on an SMR this close to where it points (its camera's
+# field at a few metres)
 
 _LENGTH_PER_MM = {0: 1e-3, 1: 1.0, 2: 1e3, 3: 1 / 304.8, 4: 1 / 914.4, 5: 1 / 25.4}
 _PRESSURE_PER_MBAR = {0: 1.0, 1: 1.0, 2: 0.1, 3: 0.750062, 4: 0.0145038, 6: 0.0295300}
@@ -98,19 +100,23 @@ def view_of(world: World, smr_mm: tuple[float, float, float] = DEFAULT_SMR_MM,
 
 
 class TrackerSource(Protocol):
-    def tracker_view(self) -> TrackerView | None: ...  # None: no robot known yet
+    def tracker_views(self) -> list[TrackerView] | None: ...  # per SMR; None: no robot yet
+
+
+Point = tuple[float, float, float]
 
 
 @dataclass
 class WorldSource:
-    """The shared world, in one process."""
+    """The shared world, in one process; the SMRs' centres in tool0, their openings along
+    `smr_axis`."""
 
     world: World
-    smr_mm: tuple[float, float, float] = DEFAULT_SMR_MM
-    smr_axis: tuple[float, float, float] = DEFAULT_SMR_AXIS
+    smrs_mm: tuple[Point, ...] = (DEFAULT_SMR_MM,)
+    smr_axis: Point = DEFAULT_SMR_AXIS
 
-    def tracker_view(self) -> TrackerView | None:
-        return view_of(self.world, self.smr_mm, self.smr_axis)
+    def tracker_views(self) -> list[TrackerView] | None:
+        return [view_of(self.world, smr, self.smr_axis) for smr in self.smrs_mm]
 
 
 @dataclass
@@ -118,17 +124,18 @@ class WorldFileSource:
     """The world file an `emulator irc5` process keeps (`simulators.arm.WorldFileWriter`)."""
 
     path: str
-    smr_mm: tuple[float, float, float] = DEFAULT_SMR_MM
-    smr_axis: tuple[float, float, float] = DEFAULT_SMR_AXIS
+    smrs_mm: tuple[Point, ...] = (DEFAULT_SMR_MM,)
+    smr_axis: Point = DEFAULT_SMR_AXIS
 
     def __post_init__(self) -> None:
         from simulators.arm import WorldFileSource as Reader
 
         self._reader = Reader(self.path)
 
-    def tracker_view(self) -> TrackerView | None:
+    def tracker_views(self) -> list[TrackerView] | None:
         frames = self._reader.true_frames()
-        return None if frames is None else view_from(*frames, self.smr_mm, self.smr_axis)
+        return None if frames is None else [view_from(*frames, smr, self.smr_axis)
+                                            for smr in self.smrs_mm]
 
 
 def station_in_world(world: World, stand_mm: tuple[float, float, float] = TRACKER_STAND_MM
@@ -146,6 +153,7 @@ class TrackerState:
                               es.HU_RH)
     statistic: int = es.SM_STANDARD
     environment: tuple[float, float, float] | None = None  # set by a client; None: measured
+    locked: int = 0  # the SMR the beam is locked on (GoPosition chooses among several)
     attempts: int = 0
     measured: list[tuple[Array, Array]] = field(default_factory=list)  # (true, reported) mm
     refused: dict[str, int] = field(default_factory=dict)  # why, how often
@@ -172,12 +180,37 @@ class TrackerEmulator:
         """The air the tracker computes with: what a client set, else its station's (true)."""
         return self.state.environment or self.air
 
-    def measurement(self) -> es.SingleMeasurement | str:
-        """One measurement now, in the units set, or why there is none."""
-        view = self.source.tracker_view()
-        if view is None:
+    def _view(self, index: int | None = None) -> tuple[TrackerView, Array] | str:
+        """The locked SMR's view (or SMR `index`'s) and the tracker's place, world frame."""
+        views = self.source.tracker_views()
+        if views is None:
             return "no robot known yet"
-        station = transform_points(view.base, self.stand_mm[None])[0]
+        view = views[self.state.locked if index is None else index]
+        return view, transform_points(view.base, self.stand_mm[None])[0]
+
+    def point_at(self, xyz: Array) -> bool:
+        """GoPosition: lock on the SMR within CAPTURE_MM of the pointed position (tracker
+        frame, mm) that the beam reaches; False when there is none."""
+        views = self.source.tracker_views()
+        if views is None:
+            return False
+        for k in range(len(views)):
+            seen = self._view(k)
+            if isinstance(seen, str):
+                return False
+            view, station = seen
+            if np.linalg.norm(view.smr_mm - station - xyz) <= CAPTURE_MM and \
+                    beam_blocked(view, station) is None:
+                self.state.locked = k
+                return True
+        return False
+
+    def measurement(self) -> es.SingleMeasurement | str:
+        """One measurement of the locked SMR now, in the units set, or why there is none."""
+        seen = self._view()
+        if isinstance(seen, str):
+            return seen
+        view, station = seen
         blocked = beam_blocked(view, station)
         if blocked is not None:
             return blocked
@@ -223,7 +256,7 @@ class TrackerEmulator:
         ok = es.RS_ALL_OK
         if c == es.C_INITIALIZE:
             await asyncio.sleep(self.initialise_s)
-            state.initialised = True
+            state.initialised, state.locked = True, 0  # to its home, then onto the first SMR
             writer.write(es.encode_answer(c, ok))
         elif c == es.C_SET_UNITS:
             length, _angle, temperature, pressure, humidity = (int(v) for v in args)
@@ -267,6 +300,13 @@ class TrackerEmulator:
                 writer.write(es.encode_answer(c, es.RS_MEASUREMENT_STATUS_NOT_READY))
             else:
                 writer.write(es.encode_answer(c, ok))
+        elif c == es.C_GO_POSITION:
+            x, y, z = (float(v) / _LENGTH_PER_MM[state.units[0]] for v in args[:3])
+            found = state.initialised and self.point_at(np.array([x, y, z]))
+            if not found:
+                self._refuse("go position: no reflector there")
+            writer.write(es.encode_answer(c, ok if found
+                                          else es.RS_MEASUREMENT_STATUS_NOT_READY))
         elif c == es.C_START_MEASUREMENT:
             return await self._start_measurement(writer)
         else:

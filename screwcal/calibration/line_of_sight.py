@@ -22,6 +22,9 @@ from screwcal.kinematics.se3 import Array, transform_points
 
 DEFAULT_SMR_MM = (30.0, 20.0, 40.0)  # the SMR's centre in tool0 (off the flange's axis)
 DEFAULT_SMR_AXIS = (0.0, 0.0, 1.0)  # where its opening faces, in tool0
+# three SMRs in nests over the measuring flange's holes (full pose): P1, P2, P3 of
+# flange.DEFAULT_HOLES_IN_FLANGE_MM, each centre 20 mm above its hole, all facing tool0's z
+THREE_SMRS_MM = ((0.0, -30.0, 40.0), (40.0, 0.0, 40.0), (0.0, 30.0, 40.0))
 LINK_RADIUS_MM = (120.0, 110.0, 90.0, 80.0, 60.0, 40.0)  # the capsules, base to flange
 SMR_CLEARANCE_MM = 60.0  # the beam's last part, inside the SMR's own nest, is not checked
 
@@ -118,15 +121,20 @@ def visible(model: SerialModel, q: Array, station_mm: Array, *, acceptance_margi
 
 
 def visible_configurations(model: SerialModel, n: int, station_mm: Array,
-                           rng: np.random.Generator) -> Array:
+                           rng: np.random.Generator,
+                           smrs_mm: tuple[tuple[float, float, float], ...] = (DEFAULT_SMR_MM,)
+                           ) -> Array:
     """n configurations (rad) uniform in the working region, inside the limits less 5 deg,
-    whose SMR a tracker at `station_mm` (the model's world frame) sees (`visible`).
-    ValueError when the region has too few."""
+    whose SMRs (every one) a tracker at `station_mm` (the model's world frame) sees
+    (`visible`). ValueError when the region has too few."""
     kept: list[Array] = []
     for _ in range(200):
         q = random_configurations(4 * n, rng)
         q = q[model.within_limits(q, margin=np.radians(5.0))]
-        kept += list(q[visible(model, q, station_mm)])
+        seen = np.ones(len(q), dtype=bool)
+        for smr in smrs_mm:
+            seen &= visible(model, q, station_mm, smr_mm=smr)
+        kept += list(q[seen])
         if len(kept) >= n:
             return np.array(kept[:n], dtype=float)
     raise ValueError(f"fewer than {n} poses of the working region face a tracker at "

@@ -38,7 +38,8 @@ def run(args: argparse.Namespace) -> int:
         from service.tracker_demo import run_demo, summary_lines
 
         done_t = run_demo(seed=args.seed, poses=poses, cycles=args.cycles,
-                          time_scale=args.time_scale, realism=args.realism, stand_mm=args.stand_mm)
+                          time_scale=args.time_scale, realism=args.realism,
+                          stand_mm=args.stand_mm, smrs=args.smrs)
         for line in summary_lines(done_t, args.stand_mm):
             print(line)
         print(f"  done in {time.perf_counter() - started:.1f} s")
@@ -158,7 +159,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="what the emulated robot has beyond its geometry (default typical)")
     p.add_argument("--instrument", choices=["arm", "tracker"], default="arm",
                    help="the measuring instrument: the measuring arm through the job service "
-                   "(default), or a laser tracker over emScon, one SMR (service/tracker_demo.py)")
+                   "(default), or a laser tracker over emScon (service/tracker_demo.py)")
+    p.add_argument("--smrs", type=int, choices=[1, 3], default=1,
+                   help="SMRs on the flange with --instrument tracker: 1 (positions, default) "
+                   "or 3 (full pose)")
     add_vector(p, "--stand-mm", default=TRACKER_STAND_MM,
                help="where the tracker stands, mm in the robot frame (--instrument tracker; "
                "default " + " ".join(f"{v:g}" for v in TRACKER_STAND_MM) + ")")

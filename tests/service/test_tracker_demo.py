@@ -51,3 +51,18 @@ def test_tracker_faults_mid_run_pause_and_every_pose_is_measured_once():
                           "not initialised": 1, "warming up": 1}
     assert sum(p is not None and p.searched for p in cal.points) == 1
     assert done.ap_after_mm <= 0.10
+
+
+@pytest.mark.slow
+def test_three_smrs_give_full_poses_through_faults():
+    """Three SMRs: the second and third found by pointing from the first at every pose; the
+    connection dropped in the middle of a pose's triangle and a short beam break: every pose
+    measured once, as a whole triangle."""
+    done = run_demo(seed=None, poses=40, cycles=2, time_scale=0.0, realism="ideal", smrs=3,
+                    tracker_faults="drop=46,beam=61,beam_n=1")
+    cal = done.runs["calibration"]
+    assert len(cal.points) == 40 and cal.skipped == 0
+    assert all(len(o) == 2 for o in cal.others)
+    assert cal.faults == {"LinkLostError": 1}
+    assert done.calibration.residual_kind == "pose"
+    assert done.ap_after_mm <= 0.10

@@ -222,3 +222,27 @@ def test_the_published_cesapi_client_measures_the_emulated_tracker():
     assert np.linalg.norm(measured - truth) < 4.0 * np.hypot(radial, np.sqrt(2) * lateral)
     assert (result.dTemperature, result.dPressure, result.dHumidity) == (20.0, 1013.25, 50.0)
     assert result.dStd1 > 0 and result.dStdTotal > result.dStd1
+
+
+def test_three_smrs_each_found_by_pointing_at_it():
+    from screwcal.calibration.line_of_sight import THREE_SMRS_MM
+
+    world = make_world(None, None)
+    world.q_deg = SEEN
+    source = WorldSource(world, THREE_SMRS_MM)
+    station = station_in_world(world)
+    truth = [v.smr_mm - station for v in source.tracker_views()]
+    loop_world = running(world, seed=7)
+    with loop_world as emu:
+        emu.source = source
+        with TrackerClient.open(emu.url) as tracker:
+            tracker.setup()  # locked on the first SMR
+            first = np.asarray(tracker.measure().xyz_mm)
+            assert np.linalg.norm(first - truth[0]) < 0.1
+            for k in (1, 2):  # pointed 10 mm off: still captured
+                tracker.go_position(truth[k] + np.array([6.0, -8.0, 0.0]))
+                assert np.linalg.norm(np.asarray(tracker.measure().xyz_mm) - truth[k]) < 0.1
+            with pytest.raises(BeamBrokenError, match="GoPosition"):
+                tracker.go_position(truth[0] + np.array([0.0, 0.0, 60.0]))  # nothing there
+            tracker.initialise()  # back home, then onto the first SMR
+            assert np.linalg.norm(np.asarray(tracker.measure().xyz_mm) - truth[0]) < 0.1
