@@ -21,6 +21,7 @@ from screwcal.calibration.correction import (
 )
 from screwcal.calibration.identify import CalibrationResult
 from screwcal.calibration.measurements import MeasurementSet
+from screwcal.calibration.residual_model import ResidualModel
 from screwcal.calibration.resultfile import compliance_summary
 from screwcal.kinematics.compliance import Payload
 from screwcal.kinematics.forward import flange_kinematics
@@ -117,14 +118,14 @@ def list_payload(options: JobOptions, kind: str) -> Payload:
     return Payload(float(kg), (float(cog[0]), float(cog[1]), float(cog[2])))
 
 
-def compensate_plan(plan: list[PlannedPose], robot: SerialModel, nominal: SerialModel
-                    ) -> tuple[list[PlannedPose], float]:
-    """The plan's joints replaced by those that take `robot` to the `nominal` model's targets,
-    and the largest joint change (deg). Raises before anything moves when one cannot be
-    reached."""
+def compensate_plan(plan: list[PlannedPose], robot: SerialModel, nominal: SerialModel,
+                    residual: ResidualModel | None = None) -> tuple[list[PlannedPose], float]:
+    """The plan's joints replaced by those that take `robot` (with its residual model, when
+    its calibration kept one) to the `nominal` model's targets, and the largest joint change
+    (deg). Raises before anything moves when one cannot be reached."""
     q_nominal = np.radians([p.joints_deg for p in plan])
     comp = compensate(robot, nominal, flange_kinematics(nominal, q_nominal), q_nominal,
-                      frame="base")
+                      frame="base", residual=residual)
     q = np.round(np.degrees(comp.q_rad), 4)
     return ([replace(p, joints_deg=tuple(float(v) for v in q[k]))
              for k, p in enumerate(plan)], comp.max_change_deg)

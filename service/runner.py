@@ -39,6 +39,8 @@ import numpy as np
 from protocol.errors import ControllerError
 from screwcal.calibration.correction import CorrectionRefusedError, after_zero
 from screwcal.calibration.identify import identify
+from screwcal.calibration.residual_model import residual_from_document
+from screwcal.calibration.residual_stage import learn_residual
 from screwcal.calibration.resultfile import result_document
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.model import SerialModel
@@ -141,7 +143,8 @@ class JobRunner:
             return plan
         if phase not in self._compensated:
             self._compensated[phase] = analysis.compensate_plan(
-                plan, self.robot_model(suffix), self.model)[0]
+                plan, self.robot_model(suffix), self.model,
+                residual_from_document(self.job.result.calibration_of(suffix)))[0]
         return self._compensated[phase]
 
     def robot_model(self, suffix: Round) -> SerialModel:
@@ -297,7 +300,8 @@ class JobRunner:
                 result, self.model.name, {"model": kind, "frames": "base", "poses": len(data),
                                           "job": self.job_id, "phase": calibration_list(suffix),
                                           "compliance": self.options.compliance,
-                                          "lag": self.options.lag}))
+                                          "lag": self.options.lag})
+            | {"residual_model": learn_residual(result, data).to_dict()})  # its stage
         doc.base = result.model.base.tolist()
         if self.options.backlash_poses:
             doc.backlash = analysis.backlash_summary(result, rows, self.plan("cal"))

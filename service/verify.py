@@ -12,6 +12,7 @@ than the service's drift_alarm_mm (service/history.py).
 
 from __future__ import annotations
 
+from screwcal.calibration.residual_model import residual_from_document
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.modelfile import parse_model
 from service import analysis
@@ -56,7 +57,8 @@ def verification_targets(store: Store, plan: list[PlannedPose], source_job: int,
     if "compensate" not in route or not calibration:
         return plan
     model = parse_model(calibration["model"], f"job {source_job} calibration{suffix}")
-    return analysis.compensate_plan(plan, model, nominal)[0]
+    return analysis.compensate_plan(plan, model, nominal, residual_from_document(
+        calibration, f"job {source_job} calibration{suffix}"))[0]
 
 
 def drift_warnings(store: Store, job: JobRecord, doc: ResultDocument,
