@@ -17,6 +17,7 @@ has z out: FLANGE = tool0 Ry(-90 deg), as ROS-Industrial's KUKA descriptions hav
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Literal
 
@@ -160,9 +161,14 @@ def filter_program(program: Program, calibrated: SerialModel, nominal: SerialMod
                            not_static=list(program.notes))
     usable: list[Target] = []
     frames: list[tuple[Array, Array]] = []
+    flange_from_tool0 = invert_transform(conv.flange_to_tool0)
+    W_of = {k: _frame_matrix(program.frames, k, conv, "frame")
+            for k in {t.frame for t in program.targets}}
+    tool_of = {k: (m if isinstance(m, str) else flange_from_tool0 @ m)  # tool0 -> TCP
+               for k in {t.tool for t in program.targets}
+               for m in (_frame_matrix(program.tools, k, conv, "tool"),)}
     for t in program.targets:
-        W = _frame_matrix(program.frames, t.frame, conv, "frame")
-        tool = _frame_matrix(program.tools, t.tool, conv, "tool")
+        W, tool = W_of[t.frame], tool_of[t.tool]
         why = t.problem or (W if isinstance(W, str) else "") or \
             (tool if isinstance(tool, str) else "")
         if why:
@@ -170,7 +176,7 @@ def filter_program(program: Program, calibrated: SerialModel, nominal: SerialMod
             continue
         assert isinstance(W, np.ndarray) and isinstance(tool, np.ndarray)
         usable.append(t)
-        frames.append((W, invert_transform(conv.flange_to_tool0) @ tool))  # tool0 -> TCP
+        frames.append((W, tool))
     texts = dict(program.texts)
     if not usable:
         return texts, report
@@ -264,6 +270,7 @@ def _kuka_int(text: str) -> int:
     return int(s[1:], 2) if s[:1] in "Bb" else int(s)
 
 
+@functools.lru_cache(maxsize=256)
 def parse_fanuc_config(text: str) -> FanucConfig:
     """'N U T, 0, 0, 0' (turn numbers optional: 0)."""
     parts = [p.strip() for p in text.split(",")]
@@ -289,10 +296,12 @@ def _replacements(language: str, targets: list[Target], values: Array, q: Array,
     out: list[tuple[str, tuple[int, int], str]] = []
     status, turn = kuka_status_turn(q, branch) if language == "krl" else (None, None)
     configs = fanuc_config(q, branch) if language == "fanuc" else None
+    forms = [f"{{:.{pos}f}}"] * 3 + [f"{{:.{ang}f}}"] * 3
+    digits = [pos] * 3 + [ang] * 3
+    rows = values.tolist()
     for k, t in enumerate(targets):
-        for j, span in enumerate(t.spans):
-            v = float(np.round(values[k, j], pos if j < 3 else ang)) + 0.0
-            out.append((t.path, span, f"{v:.{pos if j < 3 else ang}f}"))
+        for span, v, form, d in zip(t.spans, rows[k], forms, digits, strict=True):
+            out.append((t.path, span, form.format(round(v, d) + 0.0)))  # + 0.0: no "-0.0"
         if status is not None and turn is not None:
             for name, number in (("S", int(status[k])), ("T", int(turn[k]))):
                 if name in t.flags:

@@ -70,7 +70,8 @@ def run_compensate(args: argparse.Namespace) -> int:
     if args.program and is_rapid(args.program):
         args.rapid, args.program = args.program[0], None
     source = args.rapid or args.targets or args.measuring_targets
-    check_outputs([args.out], [args.result, *(args.program or [source])])
+    if not args.program:  # a program's outputs are checked file by file (run_program)
+        check_outputs([args.out], [args.result, source])
     document = read_model_document(args.result)
     calibrated = with_payload(parse_model(document, args.result), args)  # a payload other than
     # the result's

@@ -55,15 +55,16 @@ def run_program(args: argparse.Namespace, calibrated: SerialModel, nominal: Seri
                 residual: ResidualModel | None) -> int:
     """Compensate the files of `--program` and write them; the exit status of compensate."""
     from screwcal.calibration.program_filter import filter_program
+    from screwcal.commands.options import check_outputs
     from screwcal.errors import DataFileError
     from screwcal.programs import ProgramSyntaxError, read_program
     from screwcal.tables import write_text_atomic
 
     paths = list(args.program)
     where = outputs(paths, args.out)
-    for p, dest in where.items():
-        if dest.resolve() == Path(p).resolve():
-            raise DataFileError(str(dest), "--out would overwrite its input")
+    if len(where) > 1 or Path(args.out).is_dir():
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+    check_outputs(where.values(), [args.result, *paths, args.config, args.frames])
     texts = {p: _read(p, "program") for p in paths}
     config = (args.config, _read(args.config, "$config.dat")) if args.config else None
     frames = (args.frames, _read(args.frames, "frames")) if args.frames else None
@@ -78,8 +79,6 @@ def run_program(args: argparse.Namespace, calibrated: SerialModel, nominal: Seri
         print(report.summary(), file=sys.stderr)
         raise DataFileError(paths[0], "no target compensated; nothing written")
     for p, dest in where.items():
-        if dest.parent != Path(""):
-            dest.parent.mkdir(parents=True, exist_ok=True)
         write_text_atomic(str(dest), out[p].encode("latin-1"))
     print(f"{', '.join(paths)} -> {', '.join(str(d) for d in where.values())}: "
           f"{report.summary()}")

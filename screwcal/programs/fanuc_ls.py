@@ -18,6 +18,7 @@ from __future__ import annotations
 import re
 
 from screwcal.programs.program import Flag, Frame, Note, Program, ProgramSyntaxError, Target
+from screwcal.programs.program import line_of as _line
 
 _POS = re.compile(r"^[ \t]*P\[(\d+)(?::[^\]]*)?\][ \t]*\{", re.M)
 _GROUP = re.compile(r"GP(\d+)[ \t]*:", re.I)
@@ -27,10 +28,6 @@ _MOTION = re.compile(r"^[ \t]*\d+:[ \t]*([JLCA])[ \t]+([^;]*);", re.M)
 _REF = re.compile(r"\b(P|PR)\[(\d+)(?::[^\]]*)?\]", re.I)
 _OFFSETS = re.compile(r"\b(Offset|Tool_Offset|VOFFSET|INC)\b", re.I)
 _POSE = ("X", "Y", "Z", "W", "P", "R")
-
-
-def _line(text: str, offset: int) -> int:
-    return text.count("\n", 0, offset) + 1
 
 
 def read_frames(path: str, text: str, program: Program) -> None:

@@ -22,6 +22,7 @@ import re
 from dataclasses import dataclass
 
 from screwcal.programs.program import Flag, Frame, Note, Program, ProgramSyntaxError, Target
+from screwcal.programs.program import line_of as _line
 
 POSE_KEYS = ("X", "Y", "Z", "A", "B", "C")
 _POSE_TYPES = {"E6POS", "POS", "FRAME"}
@@ -87,10 +88,6 @@ def _item(text: str, a: int, b: int, items: dict[str, _Item]) -> None:
     value_start = a + m.end()
     value = text[value_start:b].rstrip()
     items[m.group(1).upper()] = _Item(value, (value_start, value_start + len(value)))
-
-
-def _line(text: str, offset: int) -> int:
-    return text.count("\n", 0, offset) + 1
 
 
 def _frame_of(items: dict[str, _Item]) -> Frame:

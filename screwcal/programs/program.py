@@ -3,11 +3,28 @@ used with, and notes on what a static filter cannot compensate."""
 
 from __future__ import annotations
 
+import bisect
+import functools
 from dataclasses import dataclass, field
 from typing import Literal
 
 Language = Literal["krl", "fanuc", "urscript"]
 Span = tuple[int, int]  # [start, end) character offsets into the file's text
+
+
+@functools.lru_cache(maxsize=16)
+def _newlines(text: str) -> list[int]:
+    """The offsets of a text's line ends, once per text (a str keeps its hash)."""
+    out, at = [], text.find("\n")
+    while at >= 0:
+        out.append(at)
+        at = text.find("\n", at + 1)
+    return out
+
+
+def line_of(text: str, offset: int) -> int:
+    """The 1-based line of a character offset."""
+    return bisect.bisect_left(_newlines(text), offset) + 1
 
 
 class ProgramSyntaxError(ValueError):

@@ -18,6 +18,7 @@ from __future__ import annotations
 import re
 
 from screwcal.programs.program import Frame, Note, Program, Target
+from screwcal.programs.program import line_of as _line
 
 _LITERAL = re.compile(r"\bp\[")
 _MOTION = re.compile(r"\b(movel|movej|movep|movec)[ \t]*\(")
@@ -26,10 +27,6 @@ _VAR = re.compile(r"^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*=(?!
                   re.M)
 _NAME = re.compile(r"[A-Za-z_]\w*")
 _NUM = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
-
-
-def _line(text: str, offset: int) -> int:
-    return text.count("\n", 0, offset) + 1
 
 
 def _code(text: str) -> str:
