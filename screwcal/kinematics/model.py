@@ -78,6 +78,17 @@ def _check_rigid(T: Array, what: str) -> None:
         raise ModelError(f"{what}: the last row must be (0, 0, 0, 1), got {T[3].tolist()}")
 
 
+@dataclass(frozen=True)
+class JointRating:
+    """What a robot description says of a joint beyond its geometry, kept to be written back:
+    its name (URDF's joint_a1, shoulder_pan_joint), the largest effort (N m; N prismatic) and
+    speed (rad/s; mm/s prismatic); None when not given."""
+
+    name: str = ""
+    effort: float | None = None
+    velocity: float | None = None
+
+
 @dataclass(frozen=True, eq=False)
 class SerialModel:
     """A serial robot by successive screws. Arrays are read-only; use `dataclasses.replace`.
@@ -93,6 +104,7 @@ class SerialModel:
     joint_zero : array, shape (n,) — added to the controller's joint values, rad or mm
     base : array, shape (4, 4) — world (measuring system) from robot base; identity by default
     tool : array, shape (4, 4) — flange to measured point; identity by default
+    ratings : tuple of JointRating — names, efforts and speeds a description gave, or ()
     """
 
     name: str
@@ -109,6 +121,7 @@ class SerialModel:
     # (n, len(masses)) rad/(N m): per joint and arm mass, replacing `compliance` when given
     compliance_by_mass: Array | None = None
     payload: Payload = field(default_factory=Payload)
+    ratings: tuple[JointRating, ...] = ()  # per joint, or () when the description gave none
 
     def __post_init__(self) -> None:
         n = len(self.joint_types)
@@ -140,6 +153,9 @@ class SerialModel:
         for what in ("home_flange", "base", "tool"):
             _check_rigid(getattr(self, what), f"model '{self.name}', {what}")
         object.__setattr__(self, "masses", tuple(self.masses))
+        if self.ratings and len(self.ratings) != n:
+            raise ModelError(f"model '{self.name}': {len(self.ratings)} joint ratings for {n} "
+                             "joints")
         if self.compliance_by_mass is not None:
             object.__setattr__(self, "compliance_by_mass", _frozen(
                 self.compliance_by_mass, (n, len(self.masses)),

@@ -60,13 +60,25 @@ def gravity_document(model: SerialModel) -> dict[str, object] | None:
                         "cog_mm": np.asarray(model.payload.cog_mm, float).tolist()}}
 
 
+def _rating_document(model: SerialModel, i: int) -> dict[str, object]:
+    """A joint's name, effort (N m; N for P) and speed (deg/s; mm/s for P) when the model
+    keeps them from its description; nothing otherwise (the files stay as they were)."""
+    if not model.ratings:
+        return {}
+    r = model.ratings[i]
+    speed = None if r.velocity is None else \
+        (math.degrees(r.velocity) if model.joint_types[i] == "R" else r.velocity)
+    return {k: v for k, v in (("name", r.name or None), ("effort_nm", r.effort),
+                              ("velocity_deg_s", speed)) if v is not None}
+
+
 def model_document(model: SerialModel, representation: Representation = "screws"
                    ) -> dict[str, object]:
     """The file document of a model, in the chosen representation (JSON-ready)."""
     limits = model.limits_deg
     zero = model.joints_to_deg(model.joint_zero).tolist()
     common = [{"type": t, "zero_deg": zero[i], "limits_deg": limits[i].tolist()}
-              for i, t in enumerate(model.joint_types)]
+              | _rating_document(model, i) for i, t in enumerate(model.joint_types)]
     doc = {"format": FORMAT, "version": 1, "name": model.name,
            "base": pose_document(model.base), "tool": pose_document(model.tool),
            "gravity": gravity_document(model), "representation": representation}

@@ -11,15 +11,24 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    TypeAdapter,
+    ValidationError,
+    field_validator,
+    model_serializer,
+)
 
 from screwcal.errors import ModelError
 from screwcal.kinematics.compliance import LumpedMass, Payload
 from screwcal.kinematics.dh import DHRow, DHTable, model_from_dh
-from screwcal.kinematics.model import SerialModel
+from screwcal.kinematics.model import JointRating, SerialModel
 from screwcal.kinematics.pose import transform_from_pose
 
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
@@ -45,6 +54,18 @@ class JointCommon(BaseModel):
     type: Literal["R", "P"] = "R"
     zero_deg: FiniteFloat = 0.0
     limits_deg: tuple[FiniteFloat, FiniteFloat]
+    # kept from a robot description (URDF) to be written back: the joint's name, its largest
+    # effort (N m; N for P) and speed (deg/s; mm/s for P)
+    name: str | None = Field(default=None, min_length=1)
+    effort_nm: FiniteFloat | None = Field(default=None, ge=0)
+    velocity_deg_s: FiniteFloat | None = Field(default=None, ge=0)
+
+    @model_serializer(mode="wrap")
+    def _without_unknown_ratings(self, write: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """The ratings a file did not give stay out of it (as modelfile writes them)."""
+        out: dict[str, Any] = write(self)
+        return {k: v for k, v in out.items()
+                if v is not None or k not in ("name", "effort_nm", "velocity_deg_s")}
 
     @field_validator("limits_deg")
     @classmethod
@@ -130,7 +151,15 @@ class _FileCommon(BaseModel):
     tool: PoseIn = PoseIn()
     gravity: GravityIn | None = None
 
-    def _with_gravity(self, model: SerialModel) -> SerialModel:
+    def _with_gravity(self, model: SerialModel,
+                      joints: list[ScrewJoint] | list[DHJoint]) -> SerialModel:
+        """The model with the gravity section and the joints' ratings (when any is given)."""
+        if any(j.name or j.effort_nm is not None or j.velocity_deg_s is not None
+               for j in joints):
+            model = replace(model, ratings=tuple(JointRating(
+                j.name or "", j.effort_nm, None if j.velocity_deg_s is None else
+                (math.radians(j.velocity_deg_s) if j.type == "R" else j.velocity_deg_s))
+                for j in joints))
         if self.gravity is None:
             return model
         return self.gravity.applied_to(model)
@@ -158,7 +187,7 @@ class ScrewsFile(_FileCommon):
             axis_dirs=np.array([j.direction for j in self.joints], float),
             axis_points_mm=np.array([j.point_mm for j in self.joints], float),
             home_flange=self.home_flange.transform(), limits=limits, joint_zero=zero,
-            base=self.base.transform(), tool=self.tool.transform()))
+            base=self.base.transform(), tool=self.tool.transform()), self.joints)
 
 
 class DHFile(_FileCommon):
@@ -183,7 +212,8 @@ class DHFile(_FileCommon):
         table = DHTable(convention=self.representation, rows=rows,
                         dh_base=self.dh_base.transform(), dh_flange=self.dh_flange.transform())
         return self._with_gravity(model_from_dh(table, self.name, limits, zero,
-                                                self.base.transform(), self.tool.transform()))
+                                                self.base.transform(), self.tool.transform()),
+                                  self.joints)
 
 
 ModelFile = Annotated[ScrewsFile | DHFile, Field(discriminator="representation")]

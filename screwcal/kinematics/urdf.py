@@ -21,13 +21,14 @@ Units: URDF's metres and radians, converted at this boundary.
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 
 from screwcal.errors import ModelError
 from screwcal.kinematics.compliance import LumpedMass
-from screwcal.kinematics.model import PRISMATIC, SerialModel
+from screwcal.kinematics.model import PRISMATIC, JointRating, SerialModel
 from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, pose_from_transform
 from screwcal.kinematics.se3 import Array, exp_twist, invert_transform
 from screwcal.kinematics.urdf_tree import Joint, Origin, UrdfTree, read_tree
@@ -39,6 +40,32 @@ def _origin(T: Array) -> str:
     xyz = " ".join(repr(float(v) / 1000.0) for v in T[:3, 3])
     rpy = " ".join(repr(math.radians(float(v))) for v in euler_zyx_deg_from_rotation(T[:3, :3]))
     return f'<origin xyz="{xyz}" rpy="{rpy}"/>'
+
+
+def _joint_names(model: SerialModel) -> list[str]:
+    """The names the description gave (URDF's joint_a1, shoulder_pan_joint), else joint_1 ..
+    joint_n (also when the given ones are not unique or collide with the links' names)."""
+    default = [f"joint_{i + 1}" for i in range(model.n_joints)]
+    if not model.ratings:
+        return default
+    given = [r.name or d for r, d in zip(model.ratings, default, strict=True)]
+    reserved = {"joint_3_coupling", f"joint_{model.n_joints}-flange", "flange-tool0",
+                "base_link-measuring_frame", "tool0-measured_point"}
+    if len(set(given)) < len(given) or reserved & set(given) or \
+            any(not re.fullmatch(r"[\w.\-/]+", g) for g in given):
+        return default
+    return given
+
+
+def _rating(model: SerialModel, i: int) -> tuple[float, float]:
+    """URDF's effort (N m, N) and velocity (rad/s, m/s) of joint i: the description's, else 0
+    (unknown, as ROS-Industrial's files write it)."""
+    if not model.ratings:
+        return 0.0, 0.0
+    r = model.ratings[i]
+    speed = 0.0 if r.velocity is None else r.velocity / (
+        1000.0 if model.joint_types[i] == PRISMATIC else 1.0)
+    return float(r.effort or 0.0), float(speed)
 
 
 def _joint_motion(model: SerialModel, i: int, value: float) -> Array:
@@ -73,6 +100,7 @@ def urdf_from_model(model: SerialModel, j23_coupling: bool = False) -> str:
                          "and 3")
     frames, tool0 = link_frames(model)
     n = model.n_joints
+    names = _joint_names(model)
     masses: dict[int, list[tuple[float, Array]]] = {}
     for m in model.masses:
         # home_mm is where the mass sits with every joint angle 0; at the controller's 0 the
@@ -110,12 +138,13 @@ def urdf_from_model(model: SerialModel, j23_coupling: bool = False) -> str:
             lines.append(f'  <joint name="joint_3_coupling" type="revolute"><parent link='
                          f'"{parent}"/><child link="link_3_coupling"/>{origin}<axis xyz="{axis}"/>'
                          f'<limit lower="{lo2!r}" upper="{hi2!r}" effort="0" velocity="0"/>'
-                         '<mimic joint="joint_2" multiplier="1" offset="0"/></joint>')
+                         f'<mimic joint="{names[1]}" multiplier="1" offset="0"/></joint>')
             parent, origin = "link_3_coupling", _origin(np.eye(4))
-        lines.append(f'  <joint name="joint_{i + 1}" type="{kind}"><parent link="{parent}"/>'
+        effort, speed = _rating(model, i)
+        lines.append(f'  <joint name="{names[i]}" type="{kind}"><parent link="{parent}"/>'
                      f'<child link="{link}"/>{origin}'
-                     f'<axis xyz="{axis}"/><limit lower="{lo!r}" upper="{hi!r}" effort="0" '
-                     'velocity="0"/></joint>')
+                     f'<axis xyz="{axis}"/><limit lower="{lo!r}" upper="{hi!r}" '
+                     f'effort="{effort!r}" velocity="{speed!r}"/></joint>')
         parent, F_parent = link, frames[i]
     flange = tool0 @ invert_transform(_RY90)
     lines += ['  <link name="flange"/>', '  <link name="tool0"/>',
@@ -150,7 +179,7 @@ def model_from_urdf(data: str | bytes, source: str = "URDF", name: str | None = 
     T = np.eye(4)
     for j in climbed:
         T = invert_transform(j.origin.T) @ T
-    dirs, points, types, limits, masses = [], [], [], [], []
+    dirs, points, types, limits, masses, ratings = [], [], [], [], [], []
     moving: list[Joint] = []
     for k, j in enumerate(chain):
         if j.mimic is not None:
@@ -166,6 +195,8 @@ def model_from_urdf(data: str | bytes, source: str = "URDF", name: str | None = 
             points.append(T[:3, 3].copy())
             types.append(PRISMATIC if j.kind == "prismatic" else "R")
             limits.append(_limits(j, tree, notes))
+            ratings.append(JointRating(j.name, j.effort, None if j.velocity is None else
+                                       j.velocity * (1000.0 if j.kind == "prismatic" else 1.0)))
         inertial = tree.links[j.child].inertial
         if inertial is not None and types and inertial.kg > 0:
             com = (T @ inertial.origin.T)[:3, 3]
@@ -184,7 +215,7 @@ def model_from_urdf(data: str | bytes, source: str = "URDF", name: str | None = 
                             joint_types=tuple(types), axis_dirs=np.array(dirs),
                             axis_points_mm=np.array(points), home_flange=home,
                             limits=np.array(limits), base=base, tool=tool,
-                            masses=tuple(masses))
+                            masses=tuple(masses), ratings=tuple(ratings))
     except ModelError as err:
         raise ModelError(f"{source}: {err}") from None
     return model, notes

@@ -227,3 +227,32 @@ def test_a_mimic_joint_other_than_the_coupling_is_refused(tmp_path, capsys):
     assert main(["robot", "import", str(path), "--out", str(tmp_path / "o.json")]) == 2
     assert "joint 'joint_3_coupling' mimics joint 'joint_2': not a serial arm" in \
         capsys.readouterr().err
+
+
+def test_joint_names_efforts_and_speeds_survive_import_calibrate_export(tmp_path, capsys):
+    """Exports wrote effort="0" velocity="0" and joint_1 .. joint_6 whatever the URDF said
+    (joint_a1, shoulder_pan_joint); now the robot file keeps them and the export writes them."""
+    import xml.etree.ElementTree as ET
+
+    from tests.screwcal.commands.test_robot_import_hostile import arm
+
+    names = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+             "wrist_2_joint", "wrist_3_joint"]
+    swap = tuple((f'name="joint_{i}"', f'name="{n}"') for i, n in enumerate(names, 1))
+    swap += (('effort="10" velocity="3"/>\n</joint>\n<link name="link_2"',
+              'effort="150" velocity="3.14159"/>\n</joint>\n<link name="link_2"'),)
+    path, robot, urdf = tmp_path / "ur.urdf", tmp_path / "ur.json", tmp_path / "out.urdf"
+    path.write_text(arm(swap=swap))
+    assert main(["robot", "import", str(path), "--out", str(robot)]) == 0
+    doc = json.loads(robot.read_text())
+    assert [j["name"] for j in doc["joints"]] == names
+    assert doc["joints"][0]["effort_nm"] == 150 and \
+        doc["joints"][0]["velocity_deg_s"] == pytest.approx(179.9998, abs=1e-4)
+    assert main(["robot", "export", str(robot), "--format", "urdf", "--out", str(urdf)]) == 0
+    joints = {j.get("name"): j for j in ET.parse(urdf).getroot().findall("joint")}
+    assert set(names) <= set(joints)
+    limit = joints["shoulder_pan_joint"].find("limit")
+    assert float(limit.get("effort")) == 150 and float(limit.get("velocity")) == \
+        pytest.approx(3.14159, abs=1e-12)
+    assert float(joints["wrist_3_joint"].find("limit").get("effort")) == 10
+    capsys.readouterr()

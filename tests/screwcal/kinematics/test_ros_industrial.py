@@ -193,7 +193,8 @@ def _rotation_deg(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("stem", sorted(THIRD_PARTY))
 def test_third_party_urdf_imports_to_the_fk_of_a_urdf_library(stem, rng):
     """tool0 (else flange) in base_link: within 1e-5 mm and 1e-5 deg of yourdfpy's over 50
-    configurations inside the limits; exported and read back within 1e-5 mm too."""
+    configurations inside the limits; exported and read back within 1e-5 mm too, with the
+    file's joint names, efforts and speeds."""
     yourdfpy = pytest.importorskip("yourdfpy")
     path = _third_party(stem)
     model, _ = model_from_urdf(path.read_text(encoding="utf-8"), str(path))
@@ -208,6 +209,9 @@ def test_third_party_urdf_imports_to_the_fk_of_a_urdf_library(stem, rng):
         assert np.abs(T[:3, 3] * 1000.0 - ours[k, :3, 3]).max() < 1e-5
         assert _rotation_deg(T[:3, :3], ours[k, :3, :3]) < 1e-5
     back, _ = model_from_urdf(urdf_from_model(model), "export")
+    assert [r.name for r in back.ratings] == urdf.actuated_joint_names  # names kept
+    assert [(r.effort, r.velocity) for r in back.ratings] == \
+        [(r.effort, r.velocity) for r in model.ratings]
     again = flange_kinematics(back, q)
     assert np.abs(again[:, :3, 3] - ours[:, :3, 3]).max() < 1e-5
     assert _rotation_deg(again[:, :3, :3], ours[:, :3, :3]).max() < 1e-5
