@@ -25,6 +25,9 @@ class Builtin:
     min_args: int = 0
     max_args: int = 99
     lazy: frozenset[int] = frozenset()  # positional arguments passed unevaluated (`Lazy`)
+    # The optional arguments it implements (lower case; None: any, for instructions accepted
+    # without effect): any other is refused when the module loads.
+    opts: frozenset[str] | None = frozenset()
 
 
 BUILTINS: dict[str, Builtin] = {}
@@ -32,11 +35,13 @@ BUILTINS: dict[str, Builtin] = {}
 
 def builtin(name: str, kind: str, refs: tuple[int, ...] = (), optrefs: tuple[str, ...] = (),
             args: tuple[int, int] = (0, 99),
-            lazy: tuple[int, ...] = ()) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+            lazy: tuple[int, ...] = (), opts: tuple[str, ...] | None = (),
+            ) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     def register(fn: Callable[..., Any]) -> Callable[..., Any]:
-        BUILTINS[name.lower()] = Builtin(kind, fn, frozenset(refs),
-                                         frozenset(o.lower() for o in optrefs), *args,
-                                         lazy=frozenset(lazy))
+        BUILTINS[name.lower()] = Builtin(
+            kind, fn, frozenset(refs), frozenset(o.lower() for o in optrefs), *args,
+            lazy=frozenset(lazy),
+            opts=None if opts is None else frozenset(o.lower() for o in opts))
         return fn
     return register
 

@@ -170,12 +170,16 @@ class Task(Evaluator):
             if (r is None or r.kind != "PROC") and (b is None or b.kind != "proc"):
                 raise LoadError(path, where,
                                 f"instruction {node.name} is unknown to this controller")
+            if r is None or r.kind != "PROC":
+                _check_options(path, node, BUILTINS[node.key])
         elif isinstance(node, A.Call):
             r = self.routines.get(node.key)
             b = BUILTINS.get(node.key)
             if (r is None or r.kind != "FUNC") and (b is None or b.kind != "func"):
                 raise LoadError(path, where,
                                 f"function {node.name} is unknown to this controller")
+            if r is None or r.kind != "FUNC":
+                _check_options(path, node, BUILTINS[node.key])
         elif isinstance(node, A.Name) and node.key not in names:
             raise LoadError(path, where, f"no data named {node.name}")
         elif isinstance(node, A.Connect):
@@ -521,6 +525,20 @@ def _task_names(modules: list[tuple[A.Module, str]]) -> tuple[
                                 f"{where[r.key]})")
             routines[r.key], where[r.key], paths[id(r)] = r, path, path
     return routines, data, paths
+
+
+def _check_options(path: str, node: A.Call | A.ProcCall, b: Any) -> None:
+    """A built-in's optional arguments are those it implements; a required one given by name
+    is not supported."""
+    for a in node.args:
+        if a.name is None:
+            continue
+        if not a.optional:
+            raise LoadError(path, a.line, f"{node.name}: an argument given by name "
+                            f"({a.name}:=) is not supported")
+        if b.opts is not None and a.name.lower() not in b.opts:
+            raise LoadError(path, a.line, f"{node.name} \\{a.name} is not implemented by this "
+                            "controller")
 
 
 def _task_types(modules: list[tuple[A.Module, str]]) -> frozenset[str]:

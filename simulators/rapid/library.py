@@ -49,7 +49,7 @@ def _strpart(task: Any, pos: list, opt: dict) -> str:
     return s[int(start) - 1:int(start) - 1 + int(n)]
 
 
-@builtin("StrFind", "func")
+@builtin("StrFind", "func", opts=("NotInSet",))
 def _strfind(task: Any, pos: list, opt: dict) -> float:
     """The first position from ChPos holding a character of Set (\\NotInSet: not of Set);
     StrLen + 1 when there is none."""
@@ -130,7 +130,7 @@ def _numtostr(task: Any, pos: list, opt: dict) -> str:
 _BYTE_BASES = (("hex", 16, "{:02X}"), ("okt", 8, "{:03o}"), ("bin", 2, "{:08b}"))
 
 
-@builtin("StrToByte", "func")
+@builtin("StrToByte", "func", opts=("Hex", "Okt", "Bin", "Char"))
 def _strtobyte(task: Any, pos: list, opt: dict) -> float:
     """A byte from its text: decimal, or \\Hex, \\Okt, \\Bin digits, or \\Char a character."""
     text = pos[0]
@@ -148,7 +148,7 @@ def _strtobyte(task: Any, pos: list, opt: dict) -> float:
     return float(value)
 
 
-@builtin("ByteToStr", "func")
+@builtin("ByteToStr", "func", opts=("Hex", "Okt", "Bin", "Char"))
 def _bytetostr(task: Any, pos: list, opt: dict) -> str:
     """A byte's text: decimal, or \\Hex (2 digits), \\Okt (3), \\Bin (8), \\Char."""
     b = pos[0]
@@ -173,14 +173,14 @@ def _valtostr(task: Any, pos: list, opt: dict) -> str:
 # ------------------------------------------------------------------ arithmetic
 
 
-@builtin("Trunc", "func")
+@builtin("Trunc", "func", opts=("Dec",))
 def _trunc(task: Any, pos: list, opt: dict) -> float:
     dec = int(opt.get("dec", 0.0))
     f = 10.0 ** dec
     return num(math.trunc(pos[0] * f) / f)
 
 
-@builtin("Round", "func")
+@builtin("Round", "func", opts=("Dec",))
 def _round(task: Any, pos: list, opt: dict) -> float:
     dec = int(opt.get("dec", 0.0))
     f = 10.0 ** dec
@@ -274,7 +274,7 @@ def _euler_zyx_deg(packed: bytes) -> tuple[float, float, float]:
     return rx, ry, rz
 
 
-@builtin("EulerZYX", "func")
+@builtin("EulerZYX", "func", opts=("X", "Y", "Z"))
 def _eulerzyx(task: Any, pos: list, opt: dict) -> float:
     """One Euler angle (deg) of an orient: \\X, \\Y or \\Z of R = Rz Ry Rx."""
     q = pos[0]
@@ -288,7 +288,7 @@ def _eulerzyx(task: Any, pos: list, opt: dict) -> float:
 # ------------------------------------------------------------------ operator interface
 
 
-@builtin("TPWrite", "proc")
+@builtin("TPWrite", "proc", opts=("Num",))
 def _tpwrite(task: Any, pos: list, opt: dict) -> None:
     text = pos[0]
     if "num" in opt:
@@ -301,7 +301,7 @@ def _tperase(task: Any, pos: list, opt: dict) -> None:
     task.pendant.erase()
 
 
-@builtin("TPReadFK", "proc", refs=(0,), optrefs=("BreakFlag",))
+@builtin("TPReadFK", "proc", refs=(0,), optrefs=("BreakFlag",), opts=("MaxTime", "BreakFlag"))
 def _tpreadfk(task: Any, pos: list, opt: dict) -> None:
     """TPReadFK answer, text, FK1..FK5 [\\MaxTime] [\\BreakFlag]: the key pressed (1..5); no
     key within MaxTime is ERR_TP_MAXTIME (into BreakFlag when given, else raised)."""
@@ -325,7 +325,7 @@ def _tpreadfk(task: Any, pos: list, opt: dict) -> None:
     answer.value = float(key)
 
 
-@builtin("ErrWrite", "proc")
+@builtin("ErrWrite", "proc", opts=("W", "I", "RL2", "RL3", "RL4"))
 def _errwrite(task: Any, pos: list, opt: dict) -> None:
     kind = "warning" if opt.get("w") else "info" if opt.get("i") else "error"
     header, reason = pos
@@ -366,7 +366,8 @@ def _present(task: Any, pos: list, opt: dict) -> bool:
 WAIT_UNTIL_POLL_S = 0.1  # WaitUntil's default \\PollRate
 
 
-@builtin("WaitUntil", "proc", lazy=(0,), optrefs=("TimeFlag",))
+@builtin("WaitUntil", "proc", lazy=(0,), optrefs=("TimeFlag",),
+         opts=("InPos", "MaxTime", "TimeFlag", "PollRate"))
 def _waituntil(task: Any, pos: list, opt: dict) -> None:
     """Until the condition is TRUE, evaluated every \\PollRate s (0.1; at least 0.04); past
     \\MaxTime: TimeFlag TRUE when given, else ERR_WAIT_MAXTIME."""
@@ -392,7 +393,7 @@ def _waituntil(task: Any, pos: list, opt: dict) -> None:
         task.services["motion"].wait_in_position(task)
 
 
-@builtin("WaitTime", "proc")
+@builtin("WaitTime", "proc", opts=("InPos",))
 def _waittime(task: Any, pos: list, opt: dict) -> None:
     if pos[0] < 0:
         raise RapidError("ERR_ARGVALERR", "WaitTime of a negative time")
@@ -411,7 +412,8 @@ def _exitcycle(task: Any, pos: list, opt: dict) -> None:
     raise ExitCycle()
 
 
-@builtin("GetSysInfo", "func")
+@builtin("GetSysInfo", "func",
+         opts=("SerialNo", "SWVersion", "RobotType", "CtrlId", "LanIp", "SystemName"))
 def _getsysinfo(task: Any, pos: list, opt: dict) -> str:
     info = task.services.get("sysinfo", {})
     for key in ("lanip", "serialno", "swversion", "robottype", "ctrlid", "systemname"):
@@ -454,7 +456,7 @@ def _ctime(task: Any, pos: list, opt: dict) -> str:
     return time.strftime("%H:%M:%S")
 
 
-@builtin("GetTime", "func")
+@builtin("GetTime", "func", opts=("WDay", "Hour", "Min", "Sec"))
 def _gettime(task: Any, pos: list, opt: dict) -> float:
     """One part of the time now: \\WDay (1 Monday .. 7 Sunday), \\Hour, \\Min, \\Sec."""
     now = time.localtime()
@@ -465,7 +467,7 @@ def _gettime(task: Any, pos: list, opt: dict) -> float:
     raise RapidError("ERR_ARGVALERR", "GetTime needs \\WDay, \\Hour, \\Min or \\Sec")
 
 
-@builtin("ClkRead", "func")
+@builtin("ClkRead", "func", opts=("HighRes",))
 def _clkread(task: Any, pos: list, opt: dict) -> float:
     c = pos[0]
     running = 0.0 if c.since is None else time.monotonic() - c.since

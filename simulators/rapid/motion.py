@@ -219,7 +219,7 @@ def _cjointt(task: Any, pos: list, opt: dict) -> Record:
     return _jointtarget(_motion(task).joints())
 
 
-@builtin("CRobT", "func")
+@builtin("CRobT", "func", opts=("Tool", "WObj"))
 def _crobt(task: Any, pos: list, opt: dict) -> Record:
     """Where the TCP is, in the tool and work object given, else the active ones (those of
     the last move instruction)."""
@@ -228,7 +228,7 @@ def _crobt(task: Any, pos: list, opt: dict) -> Record:
     return m.robtarget(m.joints(), frames)
 
 
-@builtin("CPos", "func")
+@builtin("CPos", "func", opts=("Tool", "WObj"))
 def _cpos(task: Any, pos: list, opt: dict) -> Record:
     """CRobT's position only."""
     rt: Record = _crobt(task, pos, opt).f["trans"]
@@ -266,7 +266,7 @@ def _clearpath(task: Any, pos: list, opt: dict) -> None:
     """See StopMove."""
 
 
-@builtin("CalcJointT", "func")
+@builtin("CalcJointT", "func", opts=("WObj",))
 def _calcjointt(task: Any, pos: list, opt: dict) -> Record:
     """The joints of a robtarget on its confdata's branch (ConfL/ConfJ do not apply)."""
     rt, tool = pos
@@ -274,7 +274,7 @@ def _calcjointt(task: Any, pos: list, opt: dict) -> Record:
     return _jointtarget(m.solve(_robtarget(rt), _frames(tool, opt.get("wobj"))))
 
 
-@builtin("CalcRobT", "func")
+@builtin("CalcRobT", "func", opts=("WObj",))
 def _calcrobt(task: Any, pos: list, opt: dict) -> Record:
     jt, tool = pos
     return _motion(task).robtarget(_robax(jt), _frames(tool, opt.get("wobj")))
@@ -294,7 +294,7 @@ def _activate(m: Motion, tool: Record, opt: dict) -> Frames:
     return frames
 
 
-@builtin("MoveAbsJ", "proc")
+@builtin("MoveAbsJ", "proc", opts=("Conc", "V", "T", "Z", "Inpos", "WObj"))
 def _moveabsj(task: Any, pos: list, opt: dict) -> None:
     jt, _speed, zone, tool = pos
     m = _motion(task)
@@ -303,12 +303,12 @@ def _moveabsj(task: Any, pos: list, opt: dict) -> None:
     _stop_point(task, zone, opt)
 
 
-@builtin("MoveJ", "proc")
+@builtin("MoveJ", "proc", opts=("Conc", "V", "T", "Z", "Inpos", "WObj"))
 def _movej(task: Any, pos: list, opt: dict) -> None:
     _move_to(task, pos, opt, _motion(task).conf_j)
 
 
-@builtin("MoveL", "proc")
+@builtin("MoveL", "proc", opts=("Conc", "V", "T", "Z", "Inpos", "WObj"))
 def _movel(task: Any, pos: list, opt: dict) -> None:
     """In joint space: the emulated world has no path, only arrivals."""
     _move_to(task, pos, opt, _motion(task).conf_l)
@@ -321,7 +321,7 @@ def _move_to(task: Any, pos: list, opt: dict, conf_on: bool) -> None:
     _stop_point(task, zone, opt)
 
 
-@builtin("MoveC", "proc")
+@builtin("MoveC", "proc", opts=("Conc", "V", "T", "Z", "Inpos", "WObj"))
 def _movec(task: Any, pos: list, opt: dict) -> None:
     """MoveC CirPoint, ToPoint, speed, zone, tool [\\WObj]: the circle through the TCP now,
     CirPoint and ToPoint (in the work object). The three must be apart and not on one line
@@ -355,12 +355,12 @@ def _check_circle(start: np.ndarray, cir: np.ndarray, to: np.ndarray) -> None:
         raise RapidError("ERR_ARGVALERR", "circle points on one line: no circle through them")
 
 
-@builtin("ConfL", "proc")
+@builtin("ConfL", "proc", opts=("On", "Off"))
 def _confl(task: Any, pos: list, opt: dict) -> None:
     _motion(task).conf_l = _on_off(opt, "ConfL")
 
 
-@builtin("ConfJ", "proc")
+@builtin("ConfJ", "proc", opts=("On", "Off"))
 def _confj(task: Any, pos: list, opt: dict) -> None:
     _motion(task).conf_j = _on_off(opt, "ConfJ")
 
@@ -371,7 +371,7 @@ def _on_off(opt: dict, name: str) -> bool:
     return bool(opt.get("on"))
 
 
-@builtin("SingArea", "proc")
+@builtin("SingArea", "proc", opts=("Wrist", "LockAxis4", "Off"))
 def _singarea(task: Any, pos: list, opt: dict) -> None:
     """How paths pass a singularity (\\Wrist, \\LockAxis4, \\Off): kept; the emulated world
     moves in joint space (no path passes a singularity)."""
@@ -381,7 +381,7 @@ def _singarea(task: Any, pos: list, opt: dict) -> None:
     _motion(task).sing_area = chosen[0]
 
 
-@builtin("WaitRob", "proc")
+@builtin("WaitRob", "proc", opts=("InPos", "ZeroSpeed"))
 def _waitrob(task: Any, pos: list, opt: dict) -> None:
     _motion(task).wait_in_position(task)
 
@@ -396,7 +396,7 @@ def _offs(task: Any, pos: list, opt: dict) -> Record:
     return out
 
 
-@builtin("RelTool", "func")
+@builtin("RelTool", "func", opts=("Rx", "Ry", "Rz"))
 def _reltool(task: Any, pos: list, opt: dict) -> Record:
     """The robtarget moved by (x, y, z) mm in its own (the tool's) frame, then turned by \\Rx,
     \\Ry, \\Rz degrees about the tool's axes (in that order)."""

@@ -67,7 +67,7 @@ def _encoded(value: Any, opt: dict) -> bytes:
     raise RapidError("ERR_ARGVALERR", "PackRawBytes needs \\Hex1, \\IntX, \\Float4 or \\ASCII")
 
 
-@builtin("PackRawBytes", "proc", refs=(1,))
+@builtin("PackRawBytes", "proc", refs=(1,), opts=("Network", "Hex1", "IntX", "Float4", "ASCII"))
 def _pack(task: Any, pos: list, opt: dict) -> None:
     value, ref, index = pos
     raw: RawBytes = ref.value
@@ -75,7 +75,7 @@ def _pack(task: Any, pos: list, opt: dict) -> None:
     _write(raw, _start(raw, index, len(data)), data)
 
 
-@builtin("UnpackRawBytes", "proc", refs=(2,))
+@builtin("UnpackRawBytes", "proc", refs=(2,), opts=("Network", "Hex1", "IntX", "Float4", "ASCII"))
 def _unpack(task: Any, pos: list, opt: dict) -> None:
     raw, index, target = pos
     order = ">" if opt.get("network") else "<"
@@ -99,7 +99,7 @@ def _unpack(task: Any, pos: list, opt: dict) -> None:
     target.set(decode(raw.data[i:i + size]))
 
 
-@builtin("CopyRawBytes", "proc", refs=(2,))
+@builtin("CopyRawBytes", "proc", refs=(2,), opts=("NoOfBytes",))
 def _copy(task: Any, pos: list, opt: dict) -> None:
     source, start, ref, to_index = pos
     first = _start(source, start, 0)
@@ -112,7 +112,7 @@ def _copy(task: Any, pos: list, opt: dict) -> None:
     _write(raw, _start(raw, to_index, len(chunk)), chunk)
 
 
-@builtin("ClearRawBytes", "proc", refs=(0,))
+@builtin("ClearRawBytes", "proc", refs=(0,), opts=("FromIndex",))
 def _clear(task: Any, pos: list, opt: dict) -> None:
     raw: RawBytes = pos[0].value
     keep = int(opt.get("fromindex", 1)) - 1

@@ -119,7 +119,7 @@ def _time(opt: dict) -> float:
     return t
 
 
-@builtin("SocketCreate", "proc")
+@builtin("SocketCreate", "proc", opts=("UDP",))
 def _create(task: Any, pos: list, opt: dict) -> None:
     dev: SocketDev = pos[0]
     if dev.state not in ("none", "closed"):
@@ -168,7 +168,7 @@ def _listen(task: Any, pos: list, opt: dict) -> None:
     net.listen_event.set()
 
 
-@builtin("SocketAccept", "proc", optrefs=("ClientAddress",))
+@builtin("SocketAccept", "proc", optrefs=("ClientAddress",), opts=("ClientAddress", "Time"))
 def _accept(task: Any, pos: list, opt: dict) -> None:
     dev, client = pos
     if dev.state != "listening":
@@ -218,7 +218,8 @@ def _peek(task: Any, pos: list, opt: dict) -> float:
     return float(n)
 
 
-@builtin("SocketReceive", "proc", optrefs=("Str", "RawData", "Data", "NoRecBytes"))
+@builtin("SocketReceive", "proc", optrefs=("Str", "RawData", "Data", "NoRecBytes"),
+         opts=("Str", "RawData", "Data", "ReadNoOfBytes", "NoRecBytes", "Time"))
 def _receive(task: Any, pos: list, opt: dict) -> None:
     """Into \\Str (at most 80 bytes), \\RawData (1024) or \\Data (a byte array's length):
     what has arrived, or exactly \\ReadNoOfBytes of it."""
@@ -282,7 +283,7 @@ def _outgoing(opt: dict) -> bytes:
     return data
 
 
-@builtin("SocketSend", "proc")
+@builtin("SocketSend", "proc", opts=("Str", "RawData", "Data", "NoOfBytes"))
 def _send(task: Any, pos: list, opt: dict) -> None:
     dev = pos[0]
     s = _connected(dev, "SocketSend")

@@ -31,4 +31,4 @@ def _accepted(task: Any, pos: list, opt: dict) -> None:
 
 
 for _name in INSTRUCTIONS:
-    builtin(_name, "proc")(_accepted)
+    builtin(_name, "proc", opts=None)(_accepted)

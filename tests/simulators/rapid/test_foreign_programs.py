@@ -629,3 +629,17 @@ def test_a_conditional_argument_is_passed_only_when_the_callers_own_is_present()
     t.run()
     assert t.stop_reason.startswith("program ended"), t.stop_reason
     assert list(value(t, "seen").items) == [-1, -1, 104, 4]
+
+
+def test_an_optional_argument_the_interpreter_does_not_implement_is_refused_at_load():
+    with pytest.raises(LoadError, match=r"T\.mod:5: MoveL \\Corr is not implemented"):
+        task("MoveL [[500, 0, 500], [0, 0, 1, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]],"
+             " v100, z10, tool0\n \\Corr;")
+    with pytest.raises(LoadError, match=r"T\.mod:5: TPWrite \\Bool is not implemented"):
+        task("x := 1;\n TPWrite \"on\" \\Bool:=TRUE;", "VAR num x;")
+    with pytest.raises(LoadError, match=r"CRobT \\TaskName is not implemented"):
+        task("p := CRobT(\\TaskName:=\"T_ROB1\");", "VAR robtarget p;")
+    t = task("MoveL [[500, 0, 500], [0, 0, 1, 0], [0, 0, 0, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]],"
+             " v100 \\V:=300, z10 \\Z:=5, tool0 \\WObj:=wobj0;")  # timing and path: accepted
+    t.run()
+    assert t.stop_reason.startswith("program ended"), t.stop_reason
