@@ -12,7 +12,7 @@ import pytest
 from protocol.rapid import MODULE_NAME, module_text
 from simulators.rapid.errors import LoadError
 from simulators.rapid.interpreter import Task, loaded_module
-from simulators.rapid.library import _strfind
+from simulators.rapid.strings import _strfind
 
 
 def test_tasks_of_one_module_share_its_tree():
