@@ -54,6 +54,9 @@ def read_description(path: str | Path, fmt: ImportFormat | None = None,
     except json.JSONDecodeError as err:
         raise ModelError(f"{path}: neither JSON (the templates of docs/robots.md) nor a URDF "
                          f"({err})") from None
+    except RecursionError:
+        raise ModelError(f"{path}: not a robot description (JSON nested deeper than Python "
+                         "reads)") from None
     doc = parsed["model"] if isinstance(parsed, dict) and "model" in parsed and \
         "representation" not in parsed else parsed
     form = doc.get("representation") if isinstance(doc, dict) else None

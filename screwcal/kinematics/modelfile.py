@@ -124,11 +124,14 @@ def read_model_document(path: str | Path) -> object:
     that needs the result's other members too reads it once)."""
     path = Path(path)
     try:
-        data: object = json.loads(path.read_text(encoding="utf-8"))
+        data: object = json.loads(path.read_text(encoding="utf-8-sig"))
     except FileNotFoundError:
         raise ModelError(f"{path}: model file not found") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ModelError(f"{path}: not a JSON model file ({err})") from None
+    except RecursionError:
+        raise ModelError(f"{path}: not a model file (JSON nested deeper than Python reads)"
+                         ) from None
     return data
 
 

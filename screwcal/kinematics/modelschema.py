@@ -31,7 +31,10 @@ from screwcal.kinematics.dh import DHRow, DHTable, model_from_dh
 from screwcal.kinematics.model import JointRating, SerialModel
 from screwcal.kinematics.pose import transform_from_pose
 
-FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+# every number of a model file: finite and within 1e9 (mm, deg, kg, deg/kNm): beyond, a figure
+# is a mistake (1e300 mm passed, and products of such overflowed to inf downstream)
+FIGURE_MAX = 1e9
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False, ge=-FIGURE_MAX, le=FIGURE_MAX)]
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 
 
@@ -113,7 +116,8 @@ class GravityIn(BaseModel):
     """Joint compliance under gravity (`screwcal.kinematics.compliance`)."""
 
     model_config = ConfigDict(extra="forbid")
-    compliance_deg_per_knm: list[Annotated[float, Field(ge=0, allow_inf_nan=False)]]
+    compliance_deg_per_knm: list[Annotated[float, Field(ge=0, le=FIGURE_MAX,
+                                                         allow_inf_nan=False)]]
     # per joint and arm mass (rows: joints, columns: `masses`), replacing the per-joint values
     compliance_by_mass_deg_per_knm: list[list[FiniteFloat]] | None = None
     masses: list[MassIn] = []

@@ -9,6 +9,7 @@ import left its output file behind."""
 
 from __future__ import annotations
 
+import json
 import re
 import resource
 import time
@@ -67,6 +68,15 @@ def _accept(name: str, data: str | bytes, expect: str, *args: str) -> Case:
     return Case(name, data.encode() if isinstance(data, str) else data, expect, False, args)
 
 
+DH = json.dumps({
+    "format": "screwcal-model", "version": 1, "name": "irb120", "representation": "dh",
+    "dh_base": {}, "dh_flange": {"rz": 180}, "joints": [
+        {"limits_deg": [-165, 165], "a_mm": 0, "alpha_deg": -90, "d_mm": 290, "theta_deg": 0},
+        {"limits_deg": [-110, 110], "a_mm": 270, "alpha_deg": 0, "d_mm": 0, "theta_deg": -90},
+        {"limits_deg": [-110, 70], "a_mm": 70, "alpha_deg": -90, "d_mm": 0, "theta_deg": 0},
+        {"limits_deg": [-160, 160], "a_mm": 0, "alpha_deg": 90, "d_mm": 302, "theta_deg": 0},
+        {"limits_deg": [-120, 120], "a_mm": 0, "alpha_deg": -90, "d_mm": 0, "theta_deg": 0},
+        {"limits_deg": [-400, 400], "a_mm": 0, "alpha_deg": 0, "d_mm": 72, "theta_deg": 0}]})
 LAUGHS = ('<?xml version="1.0"?>\n<!DOCTYPE robot [\n<!ENTITY a "aaaaaaaaaa">\n'
           + "".join(f'<!ENTITY {chr(98 + i)} "{("&" + chr(97 + i) + ";") * 10}">\n'
                     for i in range(9))
@@ -219,6 +229,12 @@ CASES = [
                                                       "0 0 0.33")),
             r"link 'base' \(ROS-Industrial: the frame the controller reports in\) is at z 330 mm"),
     _accept("long_fixed_tail.urdf", arm(tail=True, extra=LONG), r"to 'tool0'"),
+    # the JSON templates through the same door
+    _refuse("huge_a.json", DH.replace('"a_mm": 270', '"a_mm": 1e300'),
+            r"joints.1.a_mm: Input should be less than or equal to 1000000000"),
+    _refuse("nan_d.json", DH.replace('"d_mm": 302', '"d_mm": NaN'), r"joints.3.d_mm: "),
+    _refuse("deep.json", "[" * 100000 + "]" * 100000, r"nested deeper than Python reads"),
+    _accept("bom.json", b"\xef\xbb\xbf" + DH.encode(), r"imported dh description"),
     _accept("dtd_without_entities.urdf", arm(head='<?xml version="1.0"?>\n<!DOCTYPE robot>\n'),
             r"6 moving joints"),
 ]
