@@ -18,7 +18,7 @@ objects, a stationary tool (`robhold` TRUE) and a moving or robot-held work obje
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from operator import itemgetter
 from typing import TYPE_CHECKING, TypeGuard
@@ -208,17 +208,25 @@ def _frames(module: RapidModule) -> tuple[Frames, Frames]:
 
 def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialModel, *,
                  tool: str = "tool0", wobj: str = "wobj0",
-                 residual: ResidualModel | None = None) -> tuple[str, FilterReport]:
+                 residual: ResidualModel | None = None,
+                 task: Sequence[RapidModule] = ()) -> tuple[str, FilterReport]:
     """The module's text with every declared robtarget compensated, and what was done.
-    `tool` and `wobj` apply to targets no motion instruction of the module names.
-    `residual`: the calibrated robot's residual model (`correction.compensate`)."""
+    `tool` and `wobj` apply to targets no motion instruction of the task names.
+    `residual`: the calibrated robot's residual model (`correction.compensate`). `task`: the
+    other modules of its task (`rapid_task.read_rapid_task`), whose tools, work objects and
+    motions count."""
     report = FilterReport(module.path)
     tools, wobjs = _frames(module)
+    for other in task:
+        if other is not module:
+            more_tools, more_wobjs = _frames(other)
+            tools = {**more_tools, **tools}
+            wobjs = {**more_wobjs, **wobjs}
     for name, known in ((tool, tools), (wobj, wobjs)):
         if name.lower() not in known:
             raise DataFileError(str(module.path), f"'{name}' is not declared in the module "
                                 "(nor tool0 / wobj0): declare it, or name a declared one")
-    uses = _uses(module, report)
+    uses = _uses(module, report, [m for m in task if m is not module])
     default = (tool.lower(), wobj.lower())
     targets: list[_Target] = []
     frames: list[tuple[Array, Array]] = []  # (work object, tool) per target
@@ -259,17 +267,27 @@ def _use_keys(name: str) -> tuple[str, ...]:
     """The keys under which motions to target `name` (`p`, `pArr{2}`, `weld{2}.p`) are
     recorded: the target itself, and its declaration's with any index (`weld{*}.p`, `pArr`)."""
     key = name.lower()
-    base, index, components = _REFERENCE.fullmatch(key).groups()  # type: ignore[union-attr]
-    return (key, f"{base}{{*}}{components}") if index else (key,)
+    ref = _REFERENCE.fullmatch(key)
+    if ref is None or not ref.group(2):
+        return (key,)
+    return key, f"{ref.group(1)}{{*}}{ref.group(3)}"
 
 
-def _uses(module: RapidModule, report: FilterReport) -> dict[str, set[tuple[str, str]]]:
-    """The (tool, work object) pairs each declared robtarget is moved to with, by the keys of
-    `_use_keys` (an index that is not a literal counts for every element); the targets only the
-    program knows are noted in the report."""
-    declared = {d.name.lower() for d in module.declarations if d.kind in ("robtarget", "record")}
+def _uses(module: RapidModule, report: FilterReport, others: Sequence[RapidModule] = ()
+          ) -> dict[str, set[tuple[str, str]]]:
+    """The (tool, work object) pairs each robtarget the module declares is moved to with (by
+    the task's motions), by the keys of `_use_keys` (an index that is not a literal counts for
+    every element); the targets only the program knows are noted in the report (the module's
+    own motions: the other modules' have their own reports)."""
+    kinds = ("robtarget", "record")
+    declared = {d.name.lower() for d in module.declarations if d.kind in kinds}
+    elsewhere = {d.name.lower() for m in others for d in m.declarations if d.kind in kinds}
     uses: dict[str, set[tuple[str, str]]] = {}
-    for m in module.motions:
+    motions = [(m, True) for m in module.motions] + \
+        [(m, False) for o in others for m in o.motions]
+    for m, own in motions:
+        if m.template:  # to a routine's parameter: each call is a motion of its own
+            continue
         for target in m.targets:
             key = target.lower()
             if key in declared:  # a declared name alone: most motions
@@ -282,7 +300,7 @@ def _uses(module: RapidModule, report: FilterReport) -> dict[str, set[tuple[str,
                     index = "{*}"
                 uses.setdefault(f"{base}{index or ''}{components}", set()).add(
                     (m.tool.lower(), m.wobj.lower()))
-            elif "(" not in target:  # calls: the run-time list below
+            elif own and "(" not in target and not (ref and ref.group(1) in elsewhere):
                 report.not_static.append(Note(m.line, target[:40], "an inline or undeclared "
                                               "target: declare it in the module to filter it"))
     for line, what in module.runtime:

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import re
 from bisect import bisect_right
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
-from operator import add, attrgetter
+from operator import add
 from typing import NamedTuple
 
 from screwcal.errors import DataFileError
@@ -83,6 +83,20 @@ class Motion:
     targets: list[str]
     tool: str
     wobj: str
+    routine: str = ""  # the routine it is in (lower case)
+    template: bool = False  # its target is a parameter of its routine: moved at each call
+
+
+@dataclass(frozen=True)
+class RoutineCall:
+    """A call of a routine of the task, with its arguments as written (where a routine that
+    moves to a robtarget parameter is called: `rapid_task`)."""
+
+    line: int
+    routine: str  # lower case
+    caller: str  # the routine the call is in (lower case)
+    positional: tuple[str, ...]
+    optional: tuple[tuple[str, str], ...]  # (lower-case name, value as written)
 
 
 @dataclass
@@ -95,6 +109,9 @@ class RapidModule:
     # RECORD types that hold robtargets (in a component, or a component's record):
     # lower-case name -> (component name, lower-case type) in order
     records: dict[str, list[tuple[str, str]]] = field(default_factory=dict)
+    # routines: lower-case name -> its parameters (lower-case name, optional) in order
+    params: dict[str, list[tuple[str, bool]]] = field(default_factory=dict)
+    calls: list[RoutineCall] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self._lines = _Lines(self.text)
@@ -168,10 +185,11 @@ def _motion(call: rapid.ProcCall, text: str, line: int) -> Motion:
                   tool, wobj)
 
 
-def _target_records(parsed: rapid.Module) -> dict[str, list[tuple[str, str]]]:
-    """The module's RECORD types that hold a robtarget, directly or in a component's record."""
+def target_records(parsed: list[rapid.Module]) -> dict[str, list[tuple[str, str]]]:
+    """The RECORD types of modules that hold a robtarget, directly or in a component's
+    record."""
     records = {r.name.lower(): [(f.name, f.type.lower()) for f in r.fields]
-               for r in parsed.records}
+               for m in parsed for r in m.records}
     holding: set[str] = set()
     changed = True
     while changed:
@@ -183,15 +201,31 @@ def _target_records(parsed: rapid.Module) -> dict[str, list[tuple[str, str]]]:
     return {name: fields for name, fields in records.items() if name in holding}
 
 
+def parse_rapid(path: str, text: str) -> rapid.Module:
+    """The parsed module; a syntax error as DataFileError naming the file and line."""
+    try:
+        return parse_module(text, path)
+    except RapidSyntaxError as err:
+        raise DataFileError(path, f"{err.reason} (column {err.col})", line=err.line) from None
+
+
 def read_rapid_module(path: str, text: str) -> RapidModule:
     """The module's data declarations, motion instructions and run-time targets (a large
     module's single-threaded caller pauses the cyclic collector around this and the filter:
-    `screwcal.runtime.policy.collection_paused`)."""
-    try:
-        parsed = parse_module(text, path)
-    except RapidSyntaxError as err:
-        raise DataFileError(path, f"{err.reason} (column {err.col})", line=err.line) from None
-    module = RapidModule(path, text, records=_target_records(parsed))
+    `screwcal.runtime.policy.collection_paused`); a task of several modules: `rapid_task`.
+    A routine moving to its robtarget parameter moves to each call's argument
+    (`resolve_routine_motions`)."""
+    parsed = parse_rapid(path, text)
+    module = module_of(parsed, path, text, target_records([parsed]))
+    resolve_routine_motions([module])
+    return module
+
+
+def module_of(parsed: rapid.Module, path: str, text: str,
+              records: dict[str, list[tuple[str, str]]]) -> RapidModule:
+    """What the filter reads of a parsed module; `records`: the task's RECORD types that
+    hold robtargets."""
+    module = RapidModule(path, text, records=records)
     line_of = module._lines.of
     data = [*parsed.data, *(d for r in parsed.routines for d in r.data)]
     for d in sorted(data, key=lambda d: d.start):
@@ -204,10 +238,69 @@ def read_rapid_module(path: str, text: str) -> RapidModule:
     # calls in data values (`:= Offs(...)`): only where the value's text holds a parenthesis
     values = tuple(d.value for d in data if d.value is not None
                    and text.find("(", d.value.start, d.value.end) >= 0)
-    found = _calls(values) + _calls(parsed.routines)
-    for node in sorted(found, key=attrgetter("start")):
+    found = [(n, "") for n in _calls(values)]
+    for r in parsed.routines:
+        found += [(n, r.key) for n in _calls((r,))]
+        if r.params:
+            module.params[r.key] = [(p.name.lower(), p.optional) for p in r.params]
+    for node, routine in sorted(found, key=lambda f: f[0].start):
         if type(node) is rapid.ProcCall and node.key in MOTIONS:
-            module.motions.append(_motion(node, text, line_of(node.start)))
+            motion = _motion(node, text, line_of(node.start))
+            motion.routine = routine
+            module.motions.append(motion)
         elif type(node) is rapid.Call and node.key in RUNTIME_FUNCTIONS:
             module.runtime.append((line_of(node.start), node.name))
+        elif type(node) is rapid.ProcCall and node.args:
+            module.calls.append(RoutineCall(
+                line_of(node.start), node.key, routine,
+                tuple(text[a.value.start:a.value.end].strip() for a in node.args
+                      if not a.optional and a.value is not None),
+                tuple((a.name.lower(), text[a.value.start:a.value.end].strip())
+                      for a in node.args if a.optional and a.name and a.value is not None)))
     return module
+
+
+def _argument(call: RoutineCall, params: list[tuple[str, bool]], name: str,
+              default: str) -> str:
+    """What `call` passes for parameter `name`, or `default` when it passes nothing."""
+    positional = [p for p, optional in params if not optional]
+    if name in positional:
+        k = positional.index(name)
+        return call.positional[k] if k < len(call.positional) else default
+    return dict(call.optional).get(name, default)
+
+
+def resolve_routine_motions(modules: list[RapidModule]) -> None:
+    """Mark the motions to a routine's own parameter as templates, and add to each calling
+    module one motion per call of such a routine, its targets, tool and work object those
+    the call passes (repeated through routines that pass their parameter on)."""
+    params = {k: v for m in modules for k, v in m.params.items()}
+    templates: dict[str, list[Motion]] = {}
+    done: set[tuple[str, int, int]] = set()
+    pending = True
+    while pending:
+        pending = False
+        for m in modules:
+            for motion in m.motions:
+                names = {p for p, _ in params.get(motion.routine, [])}
+                if not motion.template and any(t.lower() in names for t in motion.targets):
+                    motion.template = True
+                    templates.setdefault(motion.routine, []).append(motion)
+                    pending = True
+        for m in modules:
+            for call in m.calls:
+                for t in templates.get(call.routine, []):
+                    key = (m.path, call.line, id(t))
+                    if key in done:
+                        continue
+                    done.add(key)
+                    own = params[call.routine]
+                    m.motions.append(replace(
+                        t, line=call.line, instruction=f"{t.instruction} in {call.routine}",
+                        targets=[_argument(call, own, x.lower(), x) for x in t.targets],
+                        tool=_argument(call, own, t.tool.lower(), "tool0"
+                                       if (t.tool.lower(), True) in own else t.tool),
+                        wobj=_argument(call, own, t.wobj.lower(), "wobj0"
+                                       if (t.wobj.lower(), True) in own else t.wobj),
+                        routine=call.caller, template=False))
+                    pending = True

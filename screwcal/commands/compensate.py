@@ -22,6 +22,7 @@ PARTIAL_EXIT = 3  # some targets refused (listed), the others written
 COMPENSATE_DOC = """`screwcal compensate`: make the calibrated robot reach what is asked of it.
 
     screwcal compensate --result result.json --rapid IN.mod --out OUT.mod [--tool T] [--wobj W]
+    screwcal compensate --result result.json --rapid TASK1/ --out OUT_FOLDER
     screwcal compensate --result result.json --program prog.src prog.dat \
         --config '$config.dat' --out compensated/
     screwcal compensate --result result.json --program cell.ls --frames frames.csv --out out.ls
@@ -68,9 +69,12 @@ def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
     if args.program and is_rapid(args.program):
-        args.rapid, args.program = args.program[0], None
-    source = args.rapid or args.targets or args.measuring_targets
-    if not args.program:  # a program's outputs are checked file by file (run_program)
+        args.rapid, args.program = args.program[:1], None
+    source = args.targets or args.measuring_targets
+    if args.rapid:
+        args.rapid_outputs = _rapid_outputs(args.rapid, args.out)
+        check_outputs(args.rapid_outputs.values(), [args.result, *args.rapid_outputs])
+    elif not args.program:  # a program's outputs are checked file by file (run_program)
         check_outputs([args.out], [args.result, source])
     document = read_model_document(args.result)
     calibrated = with_payload(parse_model(document, args.result), args)  # a payload other than
@@ -161,31 +165,66 @@ def nominal_of(doc: object, result_path: str, robot: str | None) -> SerialModel 
     return resolve_model(name)
 
 
+def _rapid_outputs(given: list[str], out: str) -> dict[str, Path]:
+    """The modules of the task `--rapid` names (files, or a folder of one task's modules: a
+    backup's TASKn, a program folder) and where each compensated one goes: --out itself for
+    one module, else the folder --out (made if missing) under each module's own name."""
+    from screwcal.commands.compensate_program import outputs
+    from screwcal.errors import DataFileError
+    from screwcal.rapid.tasks import tasks_in
+
+    files: list[str] = []
+    for name in given:
+        if Path(name).is_dir():
+            tasks = tasks_in(Path(name))
+            if len(tasks) != 1:
+                raise DataFileError(name, f"holds {len(tasks)} RAPID tasks ("
+                                    f"{', '.join(t.name for t in tasks) or 'no module'}): "
+                                    "give the folder of one task, or its modules")
+            files += [str(m) for m in tasks[0].modules]
+        else:
+            files.append(name)
+    if len(files) > 1 and not Path(out).exists():
+        Path(out).mkdir()
+    return outputs(files, out)
+
+
 def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
                       nominal: SerialModel, residual: ResidualModel | None = None) -> int:
+    """The modules of one task compensated together (a target declared in one module may be
+    moved to from another, with a tool a third declares); each written to its output."""
     from screwcal.calibration.rapid_filter import filter_rapid
-    from screwcal.calibration.rapid_source import read_rapid_module
+    from screwcal.calibration.rapid_task import read_rapid_task
     from screwcal.errors import DataFileError
     from screwcal.runtime.policy import collection_paused
     from screwcal.tables import write_text_atomic
 
-    path = Path(args.rapid)
-    try:
-        raw = path.read_bytes()
-    except OSError as err:
-        raise DataFileError(str(path), f"cannot read the RAPID module ({err.strerror})") from None
-    text = raw.decode("latin-1")  # RAPID files are 8-bit; every byte round-trips
-    with collection_paused():  # the module's tree lives through the filter: no cycle
-        module = read_rapid_module(str(path), text)  # in it, nothing for passes over it
-        out_text, report = filter_rapid(module, calibrated, nominal, tool=args.tool,
-                                        wobj=args.wobj, residual=residual)
-        del module  # freed here, not gone through once more by the collector it resumes
-    if report.compensated == 0:
-        print(report.summary(), file=sys.stderr)
-        raise DataFileError(str(path), f"no robtarget compensated; {args.out} not written")
-    write_text_atomic(args.out, out_text.encode("latin-1"))
-    print(report.summary().replace(f"{path}:", f"{path} -> {args.out}:", 1))
-    return PARTIAL_EXIT if report.refused or report.not_static else 0
+    outs: dict[str, Path] = args.rapid_outputs
+    sources = []
+    for name in outs:
+        try:
+            raw = Path(name).read_bytes()
+        except OSError as err:
+            raise DataFileError(name, f"cannot read the RAPID module ({err.strerror})") \
+                from None
+        sources.append((name, raw.decode("latin-1")))  # RAPID files are 8-bit: every byte
+        # round-trips
+    with collection_paused():  # the modules' trees live through the filter: no cycle
+        modules = read_rapid_task(sources)  # in them, nothing for passes over them
+        results = [filter_rapid(m, calibrated, nominal, tool=args.tool, wobj=args.wobj,
+                                residual=residual, task=modules) for m in modules]
+        del modules  # freed here, not gone through once more by the collector it resumes
+    if sum(report.compensated for _, report in results) == 0:
+        for _, report in results:
+            print(report.summary(), file=sys.stderr)
+        raise DataFileError(", ".join(outs), "no robtarget compensated; "
+                            f"{args.out} not written")
+    partial = False
+    for (name, target), (out_text, report) in zip(outs.items(), results, strict=True):
+        write_text_atomic(target, out_text.encode("latin-1"))
+        print(report.summary().replace(f"{name}:", f"{name} -> {target}:", 1))
+        partial |= bool(report.refused or report.not_static)
+    return PARTIAL_EXIT if partial else 0
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -196,8 +235,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                help="calibration result (screwcal calibrate), or a calibrated model file "
                "(screwcal job model)")
     what = c.add_mutually_exclusive_group(required=True)
-    what.add_argument("--rapid", metavar="IN.mod", help="a RAPID module: every robtarget "
-                      "declaration rewritten (tool and work object applied)")
+    what.add_argument("--rapid", metavar="IN.mod", nargs="+", help="RAPID modules of one "
+                      "task (files, or the task's folder): every robtarget rewritten in its "
+                      "tool and work object; several modules: --out is a folder")
     what.add_argument("--program", metavar="FILE", nargs="+", help="a robot program of any "
                       "maker, by extension and content: RAPID (.mod/.prg/.sys, as --rapid), "
                       "KUKA KRL (.src and .dat; --config), FANUC LS (.ls; --frames), URScript "

@@ -179,3 +179,68 @@ def test_the_command_lists_what_it_did_not_compensate_and_exits_3(tmp_path, rng)
                            str(model), "--robot", "irb1600", "--rapid", str(clean), "--out",
                            str(tmp_path / "clean_out.mod")], capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def _targets_by_name(text: str, path: str = "m.mod") -> dict[str, list[str]]:
+    module = read_rapid_module(path, text)
+    scratch = FilterReport(path)
+    return {t.name: [tok.text for tok in t.tokens] for d in module.declarations
+            for t in _static_targets(module, d, scratch)}
+
+
+def test_a_target_moved_to_through_a_routine_takes_that_routines_tool_and_work_object(rng):
+    """`PROC Approach(robtarget p, PERS tooldata t)` moving to `p` with `t` and wTable: each
+    call moves to its argument in the tool it passes and the routine's work object, as if the
+    call were that MoveL; the MoveL on the parameter itself is not an undeclared target."""
+    nominal, truth = irb1600(), apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    text, _ = _cell(rng)
+    direct = text.replace("    MoveC pCir, pTo, v100, z10, tGun \\WObj:=wTable;\r\n",
+                          "    MoveL pCir, v100, z10, tGun \\WObj:=wTable;\r\n"
+                          "    MoveL pTo, v100, z10, tGun \\WObj:=wTable;\r\n")
+    routed = text.replace("    MoveC pCir, pTo, v100, z10, tGun \\WObj:=wTable;\r\n",
+                          "    Approach pCir, tGun;\r\n    Approach pTo, tGun;\r\n").replace(
+        "  ENDPROC\r\nENDMODULE", "  ENDPROC\r\n  PROC Approach(robtarget p, PERS tooldata t)\r\n"
+        "    MoveL p, v200, z10, t \\WObj:=wTable;\r\n  ENDPROC\r\nENDMODULE")
+    out_direct, _ = filter_rapid(read_rapid_module("d.mod", direct), truth, nominal)
+    out_routed, report = filter_rapid(read_rapid_module("r.mod", routed), truth, nominal)
+    assert report.not_static == [] and {n.name for n in report.refused} == {"pFound"}
+    assert _targets_by_name(out_routed) == _targets_by_name(out_direct)
+    plain = routed.replace("Approach pCir, tGun", "Approach pCir, tool0")
+    assert _targets_by_name(filter_rapid(read_rapid_module("p.mod", plain), truth,
+                                         nominal)[0])["pCir"] != _targets_by_name(out_direct)[
+        "pCir"]  # the tool passed counts
+
+
+def test_the_modules_of_a_task_are_compensated_together(tmp_path, rng):
+    """Tools and work objects in a system module, targets in one program module, motions in
+    another (a backup's TASK1 folder): compensated as one module holding them all; --out a
+    folder receives each module under its own name; exit 0."""
+    nominal, truth = irb1600(), apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    text, _ = _cell(rng)
+    lines = text.split("\r\n")
+    frames = [x for x in lines if "tooldata" in x or "wobjdata" in x]
+    head, body = text.split("  PROC main()")
+    data = head.split("MODULE Cell\r\n")[1]
+    data = "\r\n".join(x for x in data.split("\r\n") if x not in frames)
+    task = tmp_path / "BACKUP" / "RAPID" / "TASK1"
+    (task / "SYSMOD").mkdir(parents=True)
+    (task / "PROGMOD").mkdir()
+    (task / "SYSMOD" / "CellData.sys").write_bytes(
+        ("MODULE CellData(SYSMODULE)\r\n" + "\r\n".join(frames) + "\r\nENDMODULE\r\n").encode())
+    (task / "PROGMOD" / "Targets.mod").write_bytes(
+        (HEADER + "MODULE Targets\r\n" + data + "ENDMODULE\r\n").encode())
+    (task / "PROGMOD" / "Main.mod").write_bytes(
+        ("MODULE Main\r\n  VAR triggdata trigg1;\r\n  PROC main()" + body).replace(
+            "  VAR triggdata trigg1;\r\n  VAR triggdata trigg1;", "").encode())
+    model = tmp_path / "model.json"
+    save_model(apply_virtual_joints(irb1600(), THESIS_TABLE11), model)
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "screwcal", "compensate", "--result",
+                          str(model), "--robot", "irb1600", "--rapid", str(task), "--out",
+                          str(out)], capture_output=True, text=True)
+    assert run.returncode == 3, run.stdout + run.stderr  # pFound: declared without a value
+    assert f"{len(USES)} robtargets compensated" in run.stdout
+    assert sorted(p.name for p in out.iterdir()) == ["CellData.sys", "Main.mod", "Targets.mod"]
+    together, _ = filter_rapid(read_rapid_module("cell.mod", text), truth, nominal)
+    assert _targets_by_name((out / "Targets.mod").read_text(), "t.mod") == \
+        _targets_by_name(together)
