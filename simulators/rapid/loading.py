@@ -75,24 +75,18 @@ def check_module(module: A.Module, path: str, scope: TaskScope) -> None:
 def _check_node(node: Any, names: set[str], path: str,
                 routines: dict[str, A.Routine]) -> None:
     where = node.line if isinstance(node, A.Node) else 0
-    if isinstance(node, A.ProcCall):
-        if node.late is not None:
+    if isinstance(node, A.ProcCall | A.Call):
+        proc = isinstance(node, A.ProcCall)
+        if isinstance(node, A.ProcCall) and node.late is not None:
             raise LoadError(path, where, "late-bound procedure calls are not supported")
+        kind = "PROC" if proc else "FUNC"
         r = routines.get(node.key)
-        b = BUILTINS.get(node.key)
-        if (r is None or r.kind != "PROC") and (b is None or b.kind != "proc"):
-            raise LoadError(path, where,
-                            f"instruction {node.name} is unknown to this controller")
-        if r is None or r.kind != "PROC":
-            _check_options(path, node, BUILTINS[node.key])
-    elif isinstance(node, A.Call):
-        r = routines.get(node.key)
-        b = BUILTINS.get(node.key)
-        if (r is None or r.kind != "FUNC") and (b is None or b.kind != "func"):
-            raise LoadError(path, where,
-                            f"function {node.name} is unknown to this controller")
-        if r is None or r.kind != "FUNC":
-            _check_options(path, node, BUILTINS[node.key])
+        if r is None or r.kind != kind:  # a built-in, or nothing
+            b = BUILTINS.get(node.key)
+            if b is None or b.kind != kind.lower():
+                raise LoadError(path, where, f"{'instruction' if proc else 'function'} "
+                                f"{node.name} is unknown to this controller")
+            _check_options(path, node, b)
     elif isinstance(node, A.Name) and node.key not in names:
         raise LoadError(path, where, f"no data named {node.name}")
     elif isinstance(node, A.Connect):
