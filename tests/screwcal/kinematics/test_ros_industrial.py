@@ -230,7 +230,48 @@ def test_third_party_urdf_matches_its_library_robot(stem):
     in_file = points @ frame[:3, :3].T + frame[:3, 3]
     np.testing.assert_allclose(model.axis_points_mm, in_file, atol=1e-6)  # the joint origins
     np.testing.assert_allclose(model.home_flange, frame @ tool0, atol=1e-6)
+    np.testing.assert_allclose(model.limits_deg, ROSI_LIMITS_DEG[name], atol=0.06)
     in_base, _ = model_from_urdf(path.read_bytes(), str(path), base_link="base")
     np.testing.assert_allclose(in_base.home_flange, _rosi_at_zero(name, "base")[2], atol=1e-6)
     if name in ROSI_BASE:  # the import says where the controller's frame is
         assert any("--base-link base" in n for n in notes), notes
+
+
+# ROS-I's joint limits (deg; its files' radians agree within 0.06 deg)
+ROSI_LIMITS_DEG = {
+    "irb120": [[-165, 165], [-110, 110], [-110, 70], [-160, 160], [-120, 120], [-400, 400]],
+    "irb1200": [[-170, 170], [-100, 135], [-200, 70], [-270, 270], [-130, 130], [-360, 360]],
+    "irb1600": [[-180, 180], [-63, 110], [-235, 55], [-200, 200], [-115, 115], [-400, 400]],
+    "irb2600": [[-180, 180], [-155, 95], [-155, 75], [-400, 400], [-120, 120], [-400, 400]],
+    "irb4600": [[-180, 180], [-90, 150], [-180, 75], [-400, 400], [-125, 120], [-400, 400]],
+    "irb6700": [[-170, 170], [-65, 85], [-180, 70], [-300, 300], [-130, 130], [-360, 360]],
+    "kr6-r900": [[-170, 170], [-190, 45], [-120, 156], [-185, 185], [-120, 120], [-350, 350]],
+    "kr10-r900": [[-170, 170], [-190, 45], [-120, 156], [-185, 185], [-120, 120], [-350, 350]],
+    "kr16": [[-185, 185], [-155, 35], [-130, 154], [-350, 350], [-130, 130], [-350, 350]],
+    "lrmate200id": [[-170, 170], [-100, 145], [-70, 205], [-190, 190], [-125, 125],
+                    [-360, 360]],
+    "m20ia": [[-170, 170], [-100, 160], [-185, 273.12], [-200, 200], [-140, 140], [-270, 270]],
+    "ur5e": [[-360, 360]] * 2 + [[-180, 180]] + [[-360, 360]] * 3,
+    "ur10e": [[-360, 360]] * 2 + [[-180, 180]] + [[-360, 360]] * 3,
+}
+# where the library keeps the maker's datasheet over ROS-I's file, and why: (robot, joint)
+DATASHEET_OVER_ROSI = {
+    ("irb1200", 6): "ABB's axis 6 default +-400 deg; ROS-I +-360",
+    ("irb1600", 2): "IRB 1600-6/1.2: axis 2 +150/-90; ROS-I's 6_12 file has the 1.45 m arm's",
+    ("irb1600", 3): "IRB 1600-6/1.2: axis 3 +65/-245; ROS-I's 6_12 file has the 1.45 m arm's",
+    ("irb2600", 2): "IRB 2600 axis 2 +155/-95 (forward positive); ROS-I's file has it mirrored",
+    ("irb2600", 3): "IRB 2600 axis 3 +75/-180; ROS-I -155",
+    ("lrmate200id", 3): "datasheet J3 range 420 deg (-140/+280, FANUC's J3 taken on the serial "
+                        "angle); ROS-I's 2019 'spec' limits -70/+205",
+    ("ur5e", 3): "UR's datasheet +-360 on every joint; ROS-I +-180 on the elbow",
+    ("ur10e", 3): "UR's datasheet +-360 on every joint; ROS-I +-180 on the elbow",
+}
+
+
+@pytest.mark.parametrize("name", sorted(ROSI_LIMITS_DEG))
+def test_library_limits_are_ros_industrials_or_the_datasheets_for_a_stated_reason(name):
+    model = LIBRARY[name].model()
+    for j, (ours, theirs) in enumerate(zip(model.limits_deg, ROSI_LIMITS_DEG[name],
+                                           strict=True), 1):
+        same = np.allclose(ours, theirs, atol=0.15)
+        assert same != ((name, j) in DATASHEET_OVER_ROSI), (name, j, ours.tolist(), theirs)
