@@ -108,8 +108,11 @@ def _position(path: str, text: str, number: int, start: int, end: int, program: 
     name = f"P[{number}]"
     missing = [k for k in _POSE if k not in fields]
     if missing:
-        raise ProgramSyntaxError(path, line, f"{name}: no {', '.join(missing)} (a Cartesian "
-                                 "position has X, Y, Z, W, P, R)")
+        found = sorted(set(re.findall(r"\b([A-Z]{1,3})[ \t]*=", text[body_start:end])))
+        return Target(path, line, name, (), (), problem="its coordinates are not X, Y, Z, W, P, "
+                      f"R (found {', '.join(found) or 'none'}): a form this filter does not read")
+    if any(fields[k].group(2).startswith("*") for k in _POSE):
+        return Target(path, line, name, (), (), problem="not taught (its values are ********)")
     values = tuple(float(fields[k].group(2)) for k in _POSE)
     spans = tuple(fields[k].span(2) for k in _POSE)
     flags = {}

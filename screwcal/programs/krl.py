@@ -102,7 +102,10 @@ def _frame_of(items: dict[str, _Item]) -> Frame:
 
 
 def read_config(path: str, text: str, program: Program) -> None:
-    """The tools and bases `$config.dat` declares (`TOOL_DATA[n]`, `BASE_DATA[n]`)."""
+    """The tools and bases `$config.dat` declares (`TOOL_DATA[n]`, `BASE_DATA[n]`), and its
+    global joint targets (`DECL GLOBAL E6AXIS XHOME`)."""
+    program.joint_names.update(m.group(2).upper() for m in _DECL.finditer(text)
+                               if m.group(1).upper() in _AXIS_TYPES)
     for m in _ELEMENT.finditer(text):
         name = m.group(1).upper()
         if name not in ("TOOL_DATA", "BASE_DATA"):
@@ -138,7 +141,7 @@ def read_krl(files: dict[str, str], program: Program) -> None:
     declared: dict[str, Target] = {}  # by upper-case name (array elements with their index)
     fdat: dict[str, dict[str, _Item]] = {}
     arrays: set[str] = set()
-    axes: set[str] = set()  # E6AXIS / AXIS names: joints, nothing to compensate
+    axes = set(program.joint_names)  # E6AXIS / AXIS names: joints, nothing to compensate
     for path, text in files.items():
         _declarations(path, text, program, declared, fdat, arrays, axes)
     for path, text in files.items():

@@ -91,3 +91,4 @@ class Program:
     frames: dict[str, Frame] = field(default_factory=dict)
     notes: list[Note] = field(default_factory=list)
     joint_targets: int = 0  # targets written in joints: left as they are
+    joint_names: set[str] = field(default_factory=set)  # global joint targets (KUKA's XHOME)
