@@ -5,14 +5,15 @@
 
 The files given are checked together as the modules of one task (a routine of one may be
 called from another). A folder is searched for tasks: each TASKn folder of a backup (its
-PROGMOD and SYSMOD modules together), or each folder of modules. Each finding is a line
-`file:line:col: kind: reason`, kind one of syntax, unknown, option (a name a RobotWare option
-not selected brings), argument, type, string, and the notes placeholder and encrypted (the
-controller loads such modules). --options names the controller's RobotWare options (default:
-those of a calibration cell: socket-messaging, pc-interface, multitasking,
-collision-detection, world-zones; `--options none` for the base system alone). The exit status
-is 0 when no module has a finding other than a note (1 when some have, 2 when a file or folder
-cannot be read).
+PROGMOD and SYSMOD modules together), or each folder of modules (with the system modules
+elsewhere in a tree without TASKn folders, a controller's HOME: their routines known). Each
+finding is a line `file:line:col: kind: reason`, kind one of syntax, unknown, option (a name a
+RobotWare option not selected brings), argument, type, string, and the notes placeholder,
+encrypted and unverified (a name only an encrypted module of the task may define). --options
+names the controller's RobotWare options (default: those of a calibration cell:
+socket-messaging, pc-interface, multitasking, collision-detection, world-zones; `--options
+none` for the base system alone). The exit status is 0 when no module has a finding other
+than a note (1 when some have, 2 when a file or folder cannot be read).
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ def run_check(args: argparse.Namespace) -> int:
 
     options = _options(args)
     known = [k.strip() for k in ",".join(args.known).split(",") if k.strip()]
-    groups: list[tuple[str, list[tuple[str, str]]]] = []
+    groups: list[tuple[str, list[tuple[str, str]], list[tuple[str, str]]]] = []
     files: list[tuple[str, str]] = []
     for name in map(Path, args.files):
         if name.is_dir():
@@ -64,14 +65,15 @@ def run_check(args: argparse.Namespace) -> int:
             if not tasks:
                 raise DataFileError(str(name), "no RAPID module (.mod, .modx, .sys, .sysx) in "
                                     "this folder nor below it")
-            groups += [(f"task {t.name}", [_read(m) for m in t.modules]) for t in tasks]
+            groups += [(f"task {t.name}", [_read(m) for m in t.modules],
+                        [_read(m) for m in t.context]) for t in tasks]
         else:
             files.append(_read(name))
     if files:
-        groups.insert(0, ("the files given", files))
+        groups.insert(0, ("the files given", files, []))
     failed, n_modules, n_findings, paths = False, 0, 0, set()
-    for title, sources in groups:
-        findings = check_modules(sources, known, options)
+    for title, sources, context in groups:
+        findings = check_modules(sources, known, options, context)
         for f in findings:
             print(f)
         errors = [f for f in findings if not f.is_note]

@@ -13,15 +13,17 @@ Classes of finding, each with file:line:col and a one-line reason:
   operator, an argument of a routine of the checked modules);
 - string: a string literal over 80 characters (RAPID's limit).
 
-Two more are notes, not errors (the controller loads such modules): placeholder (`<SMT>`,
-`<EXP>`...: the program stops with an execution error where it reaches one) and encrypted (a
-module whose text is not RAPID source: nothing in it can be checked here).
+Three more are notes, not errors: placeholder (`<SMT>`, `<EXP>`...: the controller loads the
+module, the program stops with an execution error where it reaches one), encrypted (a module
+whose text is not RAPID source: nothing in it can be checked here) and unverified (a name none
+of the readable modules defines, in a task with an encrypted module that may define it).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, fields
+from pathlib import PurePath
 
 from screwcal.rapid.ast import (
     Argument,
@@ -84,7 +86,7 @@ class Finding:
         return f"{self.path}:{self.line}:{self.col}: {self.kind}: {self.reason}"
 
 
-NOTE_KINDS = frozenset(("placeholder", "encrypted"))
+NOTE_KINDS = frozenset(("placeholder", "encrypted", "unverified"))
 
 
 def _children(node: Node) -> Iterator[Node]:
@@ -149,9 +151,13 @@ class _Checker:
     def add(self, path: str, node: Node, kind: str, reason: str) -> None:
         self.findings.append(Finding(path, node.line, node.col, kind, reason))
 
-    def run(self) -> list[Finding]:
-        for path, module in self.modules.items():
-            self.module(path, module)
+    def run(self, reported: Iterable[str], hidden: Sequence[str] = ()) -> list[Finding]:
+        """Findings of the modules of `reported` (the others: context, for their names);
+        `hidden`: the task's modules that cannot be read (encrypted)."""
+        self.hidden = hidden
+        for path in reported:
+            if path in self.modules:
+                self.module(path, self.modules[path])
         return sorted(self.findings, key=lambda f: (f.path, f.line, f.col))
 
     def module(self, path: str, module: Module) -> None:
@@ -204,8 +210,16 @@ class _Checker:
                 self.add(self.path, node, "option", f"data type '{type_}' comes with the "
                          f"RobotWare option {' or '.join(options)}, not selected (--options)")
             else:
-                self.add(self.path, node, "unknown", f"unknown data type '{type_}' (not in "
-                         "the RobotWare tables nor a RECORD or ALIAS of the modules checked)")
+                self.unknown(node, f"data type '{type_}'", "a RECORD or ALIAS")
+
+    def unknown(self, node: Node, what: str, defined_as: str) -> None:
+        if self.hidden:
+            names = ", ".join(PurePath(h).name for h in self.hidden)
+            self.add(self.path, node, "unverified", f"unknown {what}: not in the RobotWare tables "
+                     f"nor {defined_as} of the readable modules; perhaps of the encrypted {names}")
+        else:
+            self.add(self.path, node, "unknown", f"unknown {what} (not in the RobotWare tables "
+                     f"nor {defined_as} of the modules checked)")
 
     def declaration(self, d: DataDecl) -> None:
         if d.value is None or d.dims:
@@ -299,8 +313,7 @@ class _Checker:
                 self.add(self.path, node, "option", f"{what} '{name}' comes with the RobotWare "
                          f"option {' or '.join(options)}, not selected (--options)")
                 return
-            self.add(self.path, node, "unknown", f"unknown {what} '{name}' (not in the RobotWare "
-                     "tables nor a routine of the modules checked)")
+            self.unknown(node, f"{what} '{name}'", "a routine")
             return
         positional = [a for a in args if not a.optional]
         if sig.min_positional is not None and not (
@@ -340,19 +353,25 @@ def _shown(e: Expr) -> str:
 
 
 def check_modules(sources: Sequence[tuple[str, str]], known: Iterable[str] = (),
-                  options: Iterable[str] = CALIBRATION_CELL) -> list[Finding]:
+                  options: Iterable[str] = CALIBRATION_CELL,
+                  context: Sequence[tuple[str, str]] = ()) -> list[Finding]:
     """Findings for (path, text) pairs checked together as one task's modules: a syntax error
     stops that file's other checks. `known`: routines and data types defined elsewhere (other
     modules of the task, a gripper's package), not reported as unknown; `options`: the
-    RobotWare options of the controller (keys of `names.OPTIONS`)."""
+    RobotWare options of the controller (keys of `names.OPTIONS`); `context`: more modules the
+    task loads (a controller's system modules), read for their names, not reported on."""
     findings: list[Finding] = []
     modules: dict[str, Module] = {}
-    for path, text in sources:
+    hidden: list[str] = []
+    for path, text in [*sources, *context]:
         try:
             modules[path] = parse_module(text, path)
         except RapidEncryptedError as err:
-            findings.append(Finding(path, err.line, err.col, "encrypted", err.reason))
+            hidden.append(path)
+            if (path, text) in sources:
+                findings.append(Finding(path, err.line, err.col, "encrypted", err.reason))
         except RapidSyntaxError as err:
-            findings.append(Finding(path, err.line, err.col, "syntax", err.reason))
-    return findings + _Checker(modules, frozenset(k.lower() for k in known),
-                               catalogue(options)).run()
+            if (path, text) in sources:
+                findings.append(Finding(path, err.line, err.col, "syntax", err.reason))
+    checker = _Checker(modules, frozenset(k.lower() for k in known), catalogue(options))
+    return findings + checker.run([p for p, _ in sources], hidden)

@@ -76,7 +76,7 @@ GetMecUnitName 1
 GetModalPayLoadMode 0
 GetMotorTorque 0-1 MecUnit Axis
 GetNextCyclicBool 2
-GetNextMechUnit 2 ULName MechType MecTaskNo MotPlanNo Active
+GetNextMechUnit 2 MecRef TCPRob NoOfAxes MecTaskNo MotPlanNo Active DriveModule OKToDeact
 GetNextSym 2 Recursive
 GetNumberOfCyclicBool 0
 GetServiceInfo 1 DutyTimeCnt
@@ -104,6 +104,9 @@ IsStopStateEvent 0 PPMoved|PPToMain
 IsSyncMoveOn 0
 IsSysId 1
 IsVar 1
+MaxExtLinearSpeed 0
+MaxExtReorientSpeed 0
+MaxRobReorientSpeed 0
 MaxRobSpeed 0
 MirPos 2 WObj MirY
 ModExist 1
@@ -160,6 +163,7 @@ STIsClosed 1 RetThickness
 STIsIndGun 1
 STIsOpen 1
 StrDigCalc 3
+StrFormat 1 *
 StrDigCmp 3
 StrFind 3 NotInSet
 StrLen 1

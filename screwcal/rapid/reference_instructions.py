@@ -116,7 +116,7 @@ MoveLDO 6 ID T WObj TLoad
 MoveLSync 5 ID T WObj TLoad
 MToolRotCalib 3 XPos
 MToolTCPCalib 7
-Open 2 File Read|Write|Append|Bin Bin
+Open 2 File Read|Write|Append Bin
 OpenDir 2
 PackDNHeader 3
 PackRawBytes 3 Network Hex1|IntX|Float4|ASCII
@@ -231,6 +231,6 @@ Write 2 Num|Bool|Pos|Orient|Dnum NoNewLine
 WriteAnyBin 2
 WriteBin 3
 WriteCfgData 3 ListNo
-WriteRawBytes 1 NoOfBytes
+WriteRawBytes 2 NoOfBytes
 WriteStrBin 2
 """

@@ -132,16 +132,16 @@ EGMActMove 2 SampleRate
 EGMActPose 5 StreamStart Tool WObj TLoad X Y Z Rx Ry Rz LpFilter SampleRate MaxPosDeviation
     MaxSpeedDeviation
 EGMGetId 1
-EGMMoveC 5 Zone|Fine TLoad
-EGMMoveL 4 Zone|Fine TLoad
+EGMMoveC 6 WObj TLoad
+EGMMoveL 5 WObj TLoad
 EGMReset 1
 EGMRunJoint 2 NoWaitCond J1 J2 J3 J4 J5 J6 J7 CondTime RampInTime RampOutTime Offset PosCorrGain
 EGMRunPose 2 NoWaitCond X Y Z Rx Ry Rz CondTime RampInTime RampOutTime Offset PosCorrGain
-EGMSetupAI 5 Joint|Pose|Path APTR|LATR
-EGMSetupAO 5 Joint|Pose|Path APTR|LATR
-EGMSetupGI 5 Joint|Pose|Path APTR|LATR
-EGMSetupLTAPP 5 Joint|Pose|Path APTR|LATR
-EGMSetupUC 4 Joint|Pose|Path CommTimeout
+EGMSetupAI * *
+EGMSetupAO * *
+EGMSetupGI * *
+EGMSetupLTAPP * *
+EGMSetupUC 4 Joint|Pose|PathCorr APTR|LATR CommTimeout
 EGMStop 2 RampOutTime
 EGMStreamStart 1 SampleRate
 EGMStreamStop 1
