@@ -68,6 +68,19 @@ CONVENTIONS = {
 }
 
 
+def world_frame(language: str, nominal: SerialModel) -> Array:
+    """The frame a maker's controller calls the world (a target's frame 0), in the robot's
+    base frame: FANUC's World lies on axis 1 in the plane of J2 (ROS-Industrial's `base`, 330 mm
+    above `base_link` on the LR Mate 200iD), KUKA's `$ROBROOT` and UR's base are the robot base.
+    A FANUC model already in the World frame has J2's axis at height 0: the same rule gives
+    the identity."""
+    T = np.eye(4)
+    if language == "fanuc":
+        T[:3, 3] = nominal.axis_points_mm[0] + nominal.axis_dirs[0] * float(
+            nominal.axis_dirs[0] @ (nominal.axis_points_mm[1] - nominal.axis_points_mm[0]))
+    return T
+
+
 def matrices(values: Array, conv: Convention) -> Array:
     """Poses (N, 4, 4) in mm of six program numbers per row (N, 6)."""
     v = np.asarray(values, float).reshape(-1, 6)
@@ -162,8 +175,10 @@ def filter_program(program: Program, calibrated: SerialModel, nominal: SerialMod
     usable: list[Target] = []
     frames: list[tuple[Array, Array]] = []
     flange_from_tool0 = invert_transform(conv.flange_to_tool0)
-    W_of = {k: _frame_matrix(program.frames, k, conv, "frame")
-            for k in {t.frame for t in program.targets}}
+    world = world_frame(program.language, nominal)
+    W_of = {k: (m if isinstance(m, str) else world @ m)
+            for k in {t.frame for t in program.targets}
+            for m in (_frame_matrix(program.frames, k, conv, "frame"),)}
     tool_of = {k: (m if isinstance(m, str) else flange_from_tool0 @ m)  # tool0 -> TCP
                for k in {t.tool for t in program.targets}
                for m in (_frame_matrix(program.tools, k, conv, "tool"),)}

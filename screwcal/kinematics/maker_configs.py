@@ -32,7 +32,8 @@ __all__ = ["FanucConfig", "branch_index", "fanuc_config", "fanuc_select", "kuka_
 
 _TAU = 2.0 * np.pi
 _SAME_RAD = 1e-7  # a branch equal to given joints (mod a turn) within this
-_ZERO_RAD = 1e-9  # a joint this near zero counts as either sign (the wrist singularity)
+_ZERO_RAD = 1e-5  # a joint this near zero counts as either sign: a target written with the
+# pendant's decimals (0.001 mm, 0.0001 deg) places a joint taught at 0.000 no closer than that
 _BACK = np.array([s == "back" for s, _, _ in BRANCHES])
 _UP = np.array([e == "up" for _, e, _ in BRANCHES])
 _TURNS = np.arange(-2, 3)

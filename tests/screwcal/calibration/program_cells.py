@@ -6,7 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from screwcal.calibration.program_filter import CONVENTIONS, matrices, parse_fanuc_config
+from screwcal.calibration.program_filter import (
+    CONVENTIONS,
+    matrices,
+    parse_fanuc_config,
+    world_frame,
+)
 from screwcal.kinematics.forward import flange_kinematics, perturb_model
 from screwcal.kinematics.ik_branches import all_branches
 from screwcal.kinematics.maker_configs import (
@@ -38,7 +43,8 @@ def pose(language: str, frame: np.ndarray, tool: np.ndarray, nominal: SerialMode
          q: np.ndarray) -> list[float]:
     """The six program numbers of the TCP at joints q (6,) rad, in `frame`, with `tool`."""
     conv = CONVENTIONS[language]
-    T = invert_transform(frame) @ flange_kinematics(nominal, q[None])[0] @ \
+    world = world_frame(language, nominal)
+    T = invert_transform(world @ frame) @ flange_kinematics(nominal, q[None])[0] @ \
         invert_transform(conv.flange_to_tool0) @ tool
     xyz = T[:3, 3] / conv.mm_per_unit
     if language == "urscript":
@@ -67,7 +73,8 @@ def controller_tcp(program: Program, truth: SerialModel, nominal: SerialModel,
     conv = CONVENTIONS[program.language]
     frames = [_matrix(program.frames, t.frame, conv) for t in program.targets]
     tools = [_matrix(program.tools, t.tool, conv) for t in program.targets]
-    W, tool = np.array(frames), np.array(tools)
+    W = world_frame(program.language, nominal) @ np.array(frames)
+    tool = np.array(tools)
     P = matrices(np.array([t.values for t in program.targets]), conv)
     T_tool0 = W @ P @ invert_transform(tool) @ conv.flange_to_tool0
     sol = all_branches(nominal, T_tool0)
