@@ -131,16 +131,19 @@ def compensate(calibrated: SerialModel, nominal: SerialModel, T_desired: ArrayLi
     (CorrectionRefusedError, UnreachableError or JointLimitError naming it); otherwise the
     refusals are listed in the result and those rows keep q_ref.
 
-    `residual` (`residual_model`): the calibrated robot is its model plus that residual; each
-    target is moved back by the residual's correction (into the target's frame), taken at the
-    reference solution (or, without one, at the physical model's solution): the compensated
-    joints differ from it by far less than the residual's length scale. The result carries
-    the correction and its uncertainty per target (`Compensation.residual`).
+    `residual`: the calibrated robot's residual model (`_with_residual`).
     """
     if residual is not None:
         return _with_residual(calibrated, nominal, np.asarray(T_desired, dtype=float), q_ref,
                               residual, frame=frame, bound_deg=bound_deg, strict=strict)
-    T = np.asarray(T_desired, dtype=float)
+    return _physical(calibrated, nominal, np.asarray(T_desired, dtype=float), q_ref,
+                     frame=frame, bound_deg=bound_deg, strict=strict)
+
+
+def _physical(calibrated: SerialModel, nominal: SerialModel, T: Array,
+              q_ref: ArrayLike | None, *, frame: Literal["base", "measuring"],
+              bound_deg: float, strict: bool) -> Compensation:
+    """`compensate` with the calibrated robot's physical model alone."""
     robot = calibrated if frame == "measuring" else \
         calibrated.with_frames(base=np.eye(4), tool=np.eye(4))
     if q_ref is None:
@@ -211,7 +214,12 @@ def _with_residual(calibrated: SerialModel, nominal: SerialModel, T: Array,
                    q_ref: ArrayLike | None, residual: ResidualModel, *,
                    frame: Literal["base", "measuring"], bound_deg: float, strict: bool
                    ) -> Compensation:
-    """`compensate` of the targets moved back by the residual model's correction."""
+    """`compensate` with a residual model (`residual_model`): the calibrated robot is its
+    model plus that residual; each target is moved back by the residual's correction (into
+    the target's frame), taken at the reference solution (or, without one, at the physical
+    model's solution): the compensated joints differ from it by far less than the residual's
+    length scale. The result carries the correction and its uncertainty per target
+    (`Compensation.residual`)."""
     from dataclasses import replace
 
     at = calibrated.n_joints
@@ -227,8 +235,8 @@ def _with_residual(calibrated: SerialModel, nominal: SerialModel, T: Array,
         shift = shift @ calibrated.base[:3, :3]
     moved = T.copy()
     moved[:, :3, 3] -= shift
-    comp = compensate(calibrated, nominal, moved, q_ref, frame=frame, bound_deg=bound_deg,
-                      strict=strict)
+    comp = _physical(calibrated, nominal, moved, q_ref, frame=frame, bound_deg=bound_deg,
+                     strict=strict)
     return replace(comp, residual=seen)
 
 
@@ -393,21 +401,11 @@ def compensate_each(calibrated: SerialModel, nominal: SerialModel, T_desired: Ar
         q[k], tool0[k], change[k] = one.q_rad[0], one.nominal_tool0[0], one.change_deg[0]
         if one.residual is not None:
             seen.append((k, one.residual))
-    return Compensation(q, tool0, change, tuple(refused), _gathered(seen, len(T)))
+    if seen:  # the residual's predictions of the single targets as one (zeros where none)
+        from screwcal.calibration.residual_model import stacked_predictions
 
-
-def _gathered(seen: list[tuple[int, ResidualPrediction]], n: int) -> ResidualPrediction | None:
-    """The residual predictions of single targets as one for all n (zeros where none)."""
-    if not seen:
-        return None
-    from screwcal.calibration.residual_model import ResidualPrediction
-
-    rows = [k for k, _ in seen]
-    correction, std, nearest = np.zeros((n, 3)), np.zeros(n), np.zeros(n)
-    correction[rows] = [p.correction_mm[0] for _, p in seen]
-    std[rows] = [p.std_mm[0] for _, p in seen]
-    nearest[rows] = [p.nearest_lengths[0] for _, p in seen]
-    return ResidualPrediction(correction, std, nearest, seen[0][1].reach_lengths)
+        return Compensation(q, tool0, change, tuple(refused), stacked_predictions(seen, len(T)))
+    return Compensation(q, tool0, change, tuple(refused))
 
 
 def _compensate_from_home(calibrated: SerialModel, nominal: SerialModel, T: Array,

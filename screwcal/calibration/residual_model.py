@@ -147,6 +147,18 @@ class ResidualPrediction:
         return text
 
 
+def stacked_predictions(rows: list[tuple[int, ResidualPrediction]], n: int
+                        ) -> ResidualPrediction:
+    """Predictions of single configurations (index, prediction of one) as one for n of them:
+    zeros where none was made (e.g. refused targets)."""
+    index = [k for k, _ in rows]
+    correction, std, nearest = np.zeros((n, 3)), np.zeros(n), np.zeros(n)
+    correction[index] = [p.correction_mm[0] for _, p in rows]
+    std[index] = [p.std_mm[0] for _, p in rows]
+    nearest[index] = [p.nearest_lengths[0] for _, p in rows]
+    return ResidualPrediction(correction, std, nearest, rows[0][1].reach_lengths)
+
+
 @dataclass(frozen=True)
 class ResidualModel:
     """A trained residual model: predicts the position the physical model misses."""

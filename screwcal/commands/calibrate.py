@@ -37,6 +37,7 @@ from screwcal.commands.options import (
 )
 
 if TYPE_CHECKING:
+    from screwcal.calibration.identify_result import CalibrationResult
     from screwcal.calibration.plausible import PlausibleRanges
     from screwcal.kinematics.model import SerialModel
 
@@ -107,8 +108,16 @@ def run_calibrate(args: argparse.Namespace) -> int:
     if backlash is not None:
         doc["backlash"] = backlash
     write_json_atomic(args.out, doc)
+    _print_findings(args, len(data), result, doc, backlash)
+    return 0 if result.converged else 1
+
+
+def _print_findings(args: argparse.Namespace, poses: int, result: CalibrationResult,
+                    doc: dict, backlash: dict | None) -> None:
+    """What calibrate says it found: the fit, the noise, the compliance, the lag, the prior,
+    the backlash, the residual model and the warnings."""
     b, a = doc["residuals"]["summary_before"], doc["residuals"]["summary_after"]
-    print(f"{args.error_model} model, {len(data)} poses, rank {result.rank}/"
+    print(f"{args.error_model} model, {poses} poses, rank {result.rank}/"
           f"{result.n_candidates}: "
           f"residual mean {b['mean']:.3f} -> {a['mean']:.3f} mm, max {b['max']:.3f} -> "
           f"{a['max']:.3f} mm{'' if result.converged else ' (NOT converged)'} -> {args.out}")
@@ -137,15 +146,15 @@ def run_calibrate(args: argparse.Namespace) -> int:
             f"{j['joint']} {j['backlash_deg']:.4f} +- {j['std_deg']:.4f} deg"
             for j in backlash["joints"] if j["identified"]) or "no joint separable")
             + f"; {backlash['compensation']}")
-    print(f"residual model {residual.note}" + (
-        f"; predictive std {residual.model.std_at_calibration_mm():.4f} mm (per component, "
-        "mean over the calibration poses)" if residual.used and residual.model else ""))
+    rm = doc["residual_model"]
+    print(f"residual model {rm['note']}" + (
+        f"; predictive std {rm['predictive_std_mm']['mean_over_calibration_poses']:.4f} mm "
+        "(per component, mean over the calibration poses)" if rm["used"] else ""))
     for warning in doc["warnings"]:
         print(f"warning: {warning}")
     if result.degenerate:
         print("warning: some requested parameters cannot be identified from these data; see "
               "removed_parameters in the result")
-    return 0 if result.converged else 1
 
 
 RANGE_KEYS = {"zero": "zero_deg", "tilt": "tilt_deg", "length": "length_mm",

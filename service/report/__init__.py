@@ -12,6 +12,8 @@ own, one concept each:
     home           the home check (thesis Table 14)
     calibration    what the data could not separate in plain words, the fit, the residual
                    table and chart, the symbols, the parameter table
+    residual       the residual model over joint space: kept or declined, the physical and the
+                   residual model's out-of-fold figures side by side, its uncertainty
     backlash       lost motion per joint, its std error, what compensation cannot do
     correction     what the route did, left in the robot, and what nothing corrects
     straightness   ISO 12780-1 along the line: table and chart

@@ -15,6 +15,7 @@ from service.report import (
     correction,
     drift,
     home,
+    residual,
     straightness,
     summary,
     timing,
@@ -27,7 +28,8 @@ from service.report.markup import CSS, esc
 # markup.pair for a table with its chart) and put it here.
 SECTIONS: tuple[Section, ...] = (
     summary.summary_section, conditions.robot_section, accuracy.accuracy_section,
-    home.home_section, calibration.calibration_section, backlash.backlash_section,
+    home.home_section, calibration.calibration_section, residual.residual_section,
+    backlash.backlash_section,
     correction.correction_section, straightness.straightness_section, drift.drift_section,
     timing.timing_section)
 

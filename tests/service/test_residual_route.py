@@ -3,11 +3,12 @@ residual model too (service.analysis.compensate_plan)."""
 
 import numpy as np
 
-from screwcal.calibration.residual_model import fit_residual_model
+from screwcal.calibration.residual_model import ResidualOutcome, fit_residual_model
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.robots import irb120
 from service.analysis import compensate_plan
 from service.plans import PlannedPose
+from service.report.residual import residual_body
 
 
 def test_the_compensated_plan_takes_the_residual_into_account():
@@ -27,3 +28,19 @@ def test_the_compensated_plan_takes_the_residual_into_account():
     reached = flange_kinematics(nominal, q_with)[:, :3, 3] + residual.predict(q_with).correction_mm
     assert np.abs(reached - wanted).max() < 0.01  # mm: joints rounded to 1e-4 deg
     assert np.abs(q_with - q_plain).max() > 1e-5
+
+
+def test_the_report_sets_the_residual_model_beside_the_physical_one():
+    rng = np.random.default_rng(4)
+    q = np.radians(rng.uniform(-90, 90, (120, 6)))
+    smooth = 0.1 * np.c_[np.sin(q[:, 1]), np.cos(q[:, 2]), np.sin(q[:, 0])]
+    model = fit_residual_model(q, smooth + rng.normal(0, 0.005, smooth.shape))
+    member = ResidualOutcome("auto", model, True, "kept (auto): it pays").to_dict()
+    html = residual_body(member)
+    assert "kept (auto): it pays" in html
+    assert "physical model" in html and "physical + residual" in html
+    assert f"{model.cv.corrected_mean_mm:.4f}" in html
+    assert "Robot exports (URDF, DH) carry the physical model only" in html
+    declined = residual_body(ResidualOutcome("auto", model, False, "declined").to_dict())
+    assert "declined" in declined and "physical + residual" in declined
+    assert "Each prediction" not in declined
