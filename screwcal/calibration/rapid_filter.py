@@ -260,6 +260,7 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
 
 
 _REFERENCE = re.compile(r"([A-Za-z]\w*)(\{[^{}]*\})?((?:\.[A-Za-z]\w*)*)")
+_NAME = re.compile(r"(?<![\w.])([a-z]\w*)(?![\w(])")  # a datum's name in an expression
 _LITERAL_INDEX = re.compile(r"\{\d+(?:,\d+)*\}")
 
 
@@ -300,7 +301,12 @@ def _uses(module: RapidModule, report: FilterReport, others: Sequence[RapidModul
                     index = "{*}"
                 uses.setdefault(f"{base}{index or ''}{components}", set()).add(
                     (m.tool.lower(), m.wobj.lower()))
-            elif own and "(" not in target and not (ref and ref.group(1) in elsewhere):
+            elif "(" in target:  # Offs(p, ...), RelTool(p, ...): p is moved to in this
+                # motion's tool and work object, offset (the offset: the run-time list)
+                for name in _NAME.findall(target.lower()):
+                    if name in declared:
+                        uses.setdefault(name, set()).add((m.tool.lower(), m.wobj.lower()))
+            elif own and not (ref and ref.group(1) in elsewhere):
                 report.not_static.append(Note(m.line, target[:40], "an inline or undeclared "
                                               "target: declare it in the module to filter it"))
     for line, what in module.runtime:

@@ -244,3 +244,19 @@ def test_the_modules_of_a_task_are_compensated_together(tmp_path, rng):
     together, _ = filter_rapid(read_rapid_module("cell.mod", text), truth, nominal)
     assert _targets_by_name((out / "Targets.mod").read_text(), "t.mod") == \
         _targets_by_name(together)
+
+
+def test_a_target_moved_to_only_through_offs_takes_that_motions_frames(rng):
+    """`MoveL Offs(pTo, 0, 0, 20), ..., tGun \\WObj:=wTable` alone: pTo is compensated in
+    tGun and wTable (the offset itself listed as run-time), not in tool0 and wobj0."""
+    nominal, truth = irb1600(), apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    text, _ = _cell(rng)
+    direct = text.replace("    MoveC pCir, pTo, v100, z10, tGun \\WObj:=wTable;\r\n",
+                          "    MoveL pCir, v100, z10, tGun \\WObj:=wTable;\r\n"
+                          "    MoveL pTo, v100, z10, tGun \\WObj:=wTable;\r\n")
+    offset = direct.replace("    MoveL pTo, v100, z10, tGun \\WObj:=wTable;\r\n",
+                            "    MoveL Offs(pTo, 0, 0, 20), v100, z10, tGun \\WObj:=wTable;\r\n")
+    out_direct, _ = filter_rapid(read_rapid_module("d.mod", direct), truth, nominal)
+    out_offset, report = filter_rapid(read_rapid_module("o.mod", offset), truth, nominal)
+    assert _targets_by_name(out_offset)["pTo"] == _targets_by_name(out_direct)["pTo"]
+    assert any(n.name == "Offs" for n in report.not_static)
