@@ -44,6 +44,9 @@ _FDAT_ACT = re.compile(r"^[ \t]*FDAT_ACT[ \t]*=[ \t]*(\w+)", re.I | re.M)
 _FOLD = re.compile(r"^[ \t]*;FOLD[ \t]+(?:S?PTP|S?LIN|S?CIRC|SPL)\b[^\n]*", re.I | re.M)
 _FOLD_TOOL = re.compile(r"\bTool\[(\d+)\]", re.I)
 _FOLD_BASE = re.compile(r"\bBase\[(\d+)\]", re.I)
+_TYPED = re.compile(r"[ \t]*[A-Za-z_]\w*[ \t]*:(?!:)")
+_AXES = re.compile(r"[{,:][ \t]*A[1-6][ \t]", re.I)
+_CARTESIAN = re.compile(r"[{,:][ \t]*X[ \t]", re.I)
 _ASSIGN = re.compile(r"^[ \t]*([A-Za-z_]\w*)(?:\[[^\]]*\])?(?:\.[A-Za-z]\w*)?[ \t]*=(?!=)",
                      re.M)
 
@@ -59,6 +62,9 @@ def _aggregate(path: str, text: str, start: int) -> tuple[dict[str, _Item], int]
     the offset after its '}'."""
     items: dict[str, _Item] = {}
     i, depth, item_start = start + 1, 1, start + 1
+    typed = _TYPED.match(text, start + 1)  # {FRAME: X 0.0, ...}: the type named first
+    if typed:
+        i = item_start = typed.end()
     while depth:
         if i >= len(text):
             raise ProgramSyntaxError(path, _line(text, start), "an aggregate '{' is never "
@@ -273,7 +279,9 @@ def _motion(path: str, text: str, line: int, m: re.Match[str],
                                   "the robot stands, not a pose; applied in the nominal frame"))
         return
     for arg, start in _arguments(args, m.start(2), 2 if verb in ("CIRC", "SCIRC") else 1):
-        if arg.startswith("{"):
+        if arg.startswith("{") and _AXES.search(arg) and not _CARTESIAN.search(arg):
+            program.joint_targets += 1  # {A1 0, A2 -90, ...}: joints, as the controller's
+        elif arg.startswith("{"):
             t, _ = _target(path, text, f"{verb} inline", start, "inline target")
             t.tool, t.frame = binding
             program.targets.append(t)

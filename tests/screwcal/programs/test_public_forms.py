@@ -101,3 +101,18 @@ def test_every_public_program_is_read_and_filtered_without_a_crash():
             filter_program(program, nominal, nominal, start_deg=np.zeros(6))
             seen[language, "read"] += 1
     assert all(seen[lang, "read"] for lang in robots), seen
+
+
+def test_krl_typed_aggregates_and_inline_joints():
+    """`$BASE = {FRAME: X ...}` and `LIN {E6POS: X ...}` name their type first; `PTP {A1 ...}`
+    is a joint target (a CAM post-processor's program writes both)."""
+    src = ("DEF Milling ( )\n$BASE = {FRAME: X 0.000,Y -1000.000,Z 0.000,A 0.000,B 0.000,C 0.000}"
+           "\n$TOOL = {FRAME: X 166.604,Y -4.165,Z 109.636,A -0.000,B 90.000,C 0.000}\n"
+           "PTP {A1 7.78457,A2 -44.95260,A3 141.64681,A4 17.66839,A5 -87.93467,A6 6.37710}\n"
+           "LIN {E6POS: X 900.000,Y 1000.000,Z 606.350,A -180.000,B 0.000,C -180.000}\nEND\n")
+    program = read_program({"Milling.src": src})
+    assert program.joint_targets == 1 and not program.notes
+    (target,) = program.targets
+    assert target.values == (900.0, 1000.0, 606.35, -180.0, 0.0, -180.0)
+    assert program.frames[target.frame].values == (0.0, -1000.0, 0.0, 0.0, 0.0, 0.0)
+    assert program.tools[target.tool].values == (166.604, -4.165, 109.636, -0.0, 90.0, 0.0)
