@@ -34,6 +34,7 @@ from service.document import DiscardedReadings
 from service.drift import DRIFT_PHASE, DriftSchedule, DriftState
 from service.errors import SafetyError
 from service.events import JobEvents
+from service.outage import StoreOutage
 from service.phases import ListKind, list_kind
 from service.plans import PlannedPose
 from service.readings import EarlierReadings, MotionTolerance, PoseReading, refusal
@@ -110,9 +111,12 @@ class Acquisition:
     """One job's links and measurements. `robot` is the robot's stored record."""
 
     def __init__(self, store: Store, settings: ServiceSettings, events: JobEvents, job_id: int,
-                 robot: dict[str, Any], model: SerialModel, gate: OperatorGate):
+                 robot: dict[str, Any], model: SerialModel, gate: OperatorGate,
+                 outage: StoreOutage | None = None):
+        """`outage`: the job's store calls (the runner's), waiting out the store's outages."""
         self.store, self.settings, self.events, self.job_id = store, settings, events, job_id
         self.robot, self.model, self.gate = robot, model, gate
+        self.outage = outage or StoreOutage(store, events, job_id, settings.reconnect_interval_s)
         self.flange = MeasuringFlange.from_holes_in_flange(robot["holes_mm"])
         self.drift: DriftSchedule | None = None  # the job's drift checks (the runner's)
         self.discarded: Counter[str] = Counter()  # arm readings refused, by kind
@@ -177,18 +181,18 @@ class Acquisition:
         if self.drift is not None:
             self._check_limits(DRIFT_PHASE, self.drift.references)
         list_name = CONTROLLER_LIST[list_kind(phase)]
-        seen = await asyncio.to_thread(self._seen)
+        seen = await self.outage.call(self._seen)
         while True:  # the store read once per chunk
-            measured = await asyncio.to_thread(self.store.measured_indices, self.job_id, phase)
+            measured = await self.outage.call(self.store.measured_indices, self.job_id, phase)
             todo = [p for p in plan if p.idx not in measured]
             room = MAX_LIST
             if self.drift is not None:
-                state = DriftState(*await asyncio.to_thread(self.store.phase_progress,
-                                                            self.job_id, DRIFT_PHASE))
+                state = DriftState(*await self.outage.call(self.store.phase_progress,
+                                                           self.job_id, DRIFT_PHASE))
                 check = self.drift.due(state, time.time(), end_of_list=not todo)
                 if check is not None:
-                    done = await asyncio.to_thread(self.store.measured_indices, self.job_id,
-                                                   DRIFT_PHASE)
+                    done = await self.outage.call(self.store.measured_indices, self.job_id,
+                                                  DRIFT_PHASE)
                     poses = [p for p in self.drift.check(check) if p.idx not in done]
                     await self._run_list(DRIFT_PHASE, list_name, poses, seen,
                                          self.drift.per_check, self.drift.per_check - len(poses))
@@ -232,16 +236,26 @@ class Acquisition:
             planned = chunk[got.idx]
             reading = await self._read_pose(phase, planned.idx, got.joints_deg, seen.previous,
                                             seen.earlier)
-            await asyncio.to_thread(
-                self.store.add_measurement, self.job_id, phase, planned.idx,
-                list(got.joints_deg), list(got.tool0), reading.holes_mm.tolist(),
-                pose_from_transform(reading.flange).tolist())
+            await self._commit(phase, planned.idx, list(got.joints_deg), list(got.tool0),
+                               reading.holes_mm.tolist(),
+                               pose_from_transform(reading.flange).tolist())
             seen.previous = reading
             seen.earlier = seen.earlier.plus(reading, f"{phase}/{planned.idx}")
             done += 1
             await self.events.publish("measured", phase=phase, index=planned.idx,
                                       done=done, total=total)
-        await asyncio.to_thread(self._count_discarded)
+        await self.outage.call(self._count_discarded)
+
+    async def _commit(self, phase: str, idx: int, *pose: list) -> None:
+        """Commit one pose before the robot moves on; through an outage of the store the robot
+        waits at the pose and the commit is retried (a commit whose answer a lost connection
+        took may have been made: then it is there, once)."""
+        try:
+            await self.outage.call(self.store.add_measurement, self.job_id, phase, idx, *pose)
+        except self.store.db.integrity_errors:
+            if idx not in await self.outage.call(self.store.measured_indices, self.job_id,
+                                                 phase):
+                raise
 
     async def move_through(self, phase: str, plan: list[PlannedPose]) -> None:
         """Run the robot through `plan` without measuring (a warm-up), in lists of at most

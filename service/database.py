@@ -12,6 +12,11 @@ Why psycopg beside sqlite3 and not SQLAlchemy Core: the store is some twenty han
 statements, and what makes it safe is dialect-specific anyway (SQLite's owner flock, WAL and
 `SQLITE_FULL`, PostgreSQL's `FOR UPDATE`, advisory lock and SQLSTATE 53100); an expression layer
 would translate the portable statements and still leave those here, for a large dependency.
+
+Faults that pass (StoreUnavailableError: a full disk, an I/O error such as a file-size limit, a
+read-only file, a lost PostgreSQL connection) leave the database object usable: the next call
+opens the connection again where it needs to (PostgreSQL: a server restarted; SQLite: a file
+that was read-only), so a service outlives its database's outage without a restart.
 """
 
 from __future__ import annotations
@@ -26,7 +31,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, ClassVar
 
-from service.errors import StoreBusyError, StoreFullError, StoreLostError
+from screwcal._lazy import optional_import
+from service.errors import StoreBusyError, StoreFullError, StoreLostError, StoreUnavailableError
 
 POSTGRES_SCHEMES = ("postgresql://", "postgres://")
 _MIGRATION_LOCK = 28_0528  # the advisory lock key under which PostgreSQL migrations run
@@ -72,6 +78,10 @@ class Database:
     def check(self) -> None:
         """StoreLostError when the database can no longer be written (SQLite: its file gone)."""
 
+    def _ensure(self) -> None:
+        """Before a use, under the lock: open the connection again when a fault closed it
+        (StoreUnavailableError while it cannot be)."""
+
     def schema_version(self) -> int:
         raise NotImplementedError
 
@@ -86,10 +96,12 @@ class Database:
     # -- the same for both ---------------------------------------------------------------------
     def rows(self, sql: str, args: Sequence[Any] = ()) -> list[dict[str, Any]]:
         with self.lock:
+            self._ensure()
             return [dict(r) for r in self._guarded(sql, args).fetchall()]
 
     def row(self, sql: str, args: Sequence[Any] = ()) -> dict[str, Any] | None:
         with self.lock:
+            self._ensure()
             r = self._guarded(sql, args).fetchone()
         return None if r is None else dict(r)
 
@@ -110,6 +122,7 @@ class Database:
     def tx(self) -> Iterator[Database]:
         """One transaction, committed when the block ends, rolled back when it raises."""
         with self.lock:
+            self._ensure()
             self.check()
             try:
                 self._begin()
@@ -166,16 +179,35 @@ class SQLiteDatabase(Database):
         self.path = path
         self.label = str(path)
         self._owner_fd = _hold_owner_lock(path)
+        self._reopen = False  # set by a fault that the connection itself may carry
         try:
-            self._db = sqlite3.connect(path, check_same_thread=False, isolation_level=None)
-            self._db.row_factory = sqlite3.Row
-            self._db.execute("PRAGMA journal_mode=WAL")
-            self._db.execute("PRAGMA synchronous=FULL")
-            self._db.execute("PRAGMA foreign_keys=ON")
+            self._db = self._connect()
             self._file = _identity(path)
         except BaseException:
             os.close(self._owner_fd)
             raise
+
+    def _connect(self) -> sqlite3.Connection:
+        db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None)
+        db.row_factory = sqlite3.Row
+        db.execute("PRAGMA journal_mode=WAL")
+        db.execute("PRAGMA synchronous=FULL")
+        db.execute("PRAGMA foreign_keys=ON")
+        return db
+
+    def _ensure(self) -> None:
+        # a file opened while it was read-only stays read-only for that connection
+        if not self._reopen:
+            return
+        self.check()  # the same file, not one put in its place meanwhile
+        with contextlib.suppress(sqlite3.Error):
+            self._db.close()
+        try:
+            self._db = self._connect()
+        except sqlite3.Error as err:
+            raise self._translate(err) or StoreUnavailableError(
+                f"cannot open the database file {self.path} again (SQLite: {err})") from err
+        self._reopen = False
 
     def _run(self, sql: str, args: Sequence[Any]) -> Any:
         return self._db.execute(sql, tuple(args))
@@ -192,11 +224,25 @@ class SQLiteDatabase(Database):
             self._db.execute("ROLLBACK")
 
     def _translate(self, err: Exception) -> Exception | None:
-        if isinstance(err, sqlite3.OperationalError) and \
-                getattr(err, "sqlite_errorcode", None) == sqlite3.SQLITE_FULL:
+        if not isinstance(err, sqlite3.Error):
+            return None
+        code = getattr(err, "sqlite_errorcode", None)
+        primary = None if code is None else code & 0xFF  # the extended code's family
+        if primary == sqlite3.SQLITE_FULL:
             return StoreFullError(
-                f"the disk holding {self.path} is full (SQLite: {err}): free space, then "
-                "restart the service; the job resumes where it stopped")
+                f"the disk holding {self.path} is full (SQLite: {err}): free space; the job "
+                "goes on where it stopped")
+        if primary == sqlite3.SQLITE_IOERR:
+            return StoreUnavailableError(
+                f"the database file {self.path} cannot be written (SQLite: {err}; a file-size "
+                "limit, ulimit -f, or a failing disk): the job waits and goes on where it "
+                "stopped once the file can grow again")
+        if primary in (sqlite3.SQLITE_READONLY, sqlite3.SQLITE_CANTOPEN):
+            self._reopen = True
+            return StoreUnavailableError(
+                f"the database file {self.path} cannot be written (SQLite: {err}): make it "
+                "and its folder writable for the service's user; the job goes on where it "
+                "stopped")
         return None
 
     def check(self) -> None:
@@ -242,16 +288,15 @@ class PostgresDatabase(Database):
     for_update = " FOR UPDATE"
 
     def __init__(self, url: str):
-        import psycopg
-        from psycopg.rows import dict_row
-
+        psycopg = optional_import("psycopg", "postgres",
+                                  f"a PostgreSQL job store ({redact(url)})")
         super().__init__()
         self._psycopg = psycopg
+        self._url = url
         self.integrity_errors = (psycopg.IntegrityError,)
         self.label = redact(url)
         try:
-            self._db = psycopg.connect(url, autocommit=True, row_factory=dict_row,
-                                       connect_timeout=10)
+            self._db = self._open()
         except psycopg.OperationalError as err:
             raise StoreLostError(f"cannot connect to the database {self.label}: "
                                  f"{str(err).strip()}") from None
@@ -280,13 +325,32 @@ class PostgresDatabase(Database):
         errors = self._psycopg.errors
         if isinstance(err, errors.DiskFull):
             return StoreFullError(f"the disk of the database {self.label} is full "
-                                  f"(PostgreSQL: {str(err).strip()}): free space, then restart "
-                                  "the service; the job resumes where it stopped")
-        if isinstance(err, self._psycopg.OperationalError) and self._db.closed:
-            return StoreLostError(f"the connection to the database {self.label} was lost "
-                                  f"({str(err).strip()}): the service stops; its jobs are "
-                                  "resumed by another service when their leases expire")
+                                  f"(PostgreSQL: {str(err).strip()}): free space; the job goes "
+                                  "on where it stopped")
+        if isinstance(err, self._psycopg.OperationalError) and \
+                (self._db.closed or self._db.broken):
+            return StoreUnavailableError(
+                f"the connection to the database {self.label} was lost ({str(err).strip()}): "
+                "the jobs wait, and go on where they stopped once it is back")
         return None
+
+    def _ensure(self) -> None:
+        if not (self._db.closed or self._db.broken):
+            return
+        with contextlib.suppress(self._psycopg.Error):
+            self._db.close()
+        self._tx = None
+        try:
+            self._db = self._open()
+        except self._psycopg.OperationalError as err:
+            raise StoreUnavailableError(
+                f"cannot reach the database {self.label} ({str(err).strip()}): the jobs wait, "
+                "and go on where they stopped once it is back") from None
+
+    def _open(self) -> Any:
+        dict_row = self._psycopg.rows.dict_row
+        return self._psycopg.connect(self._url, autocommit=True, row_factory=dict_row,
+                                     connect_timeout=10)
 
     def schema_version(self) -> int:
         with self.lock:

@@ -7,7 +7,10 @@
     ├── SafetyError        a target or correction refused before anything is sent (HTTP 422)
     └── StoreError         the database cannot be used (HTTP 503)
         ├── StoreBusyError     another live service holds the database file
-        ├── StoreFullError     the disk (or the database's size limit) is full: jobs pause
+        ├── StoreUnavailableError  the database cannot be written for now (an I/O error, a
+        │   │                  file-size limit, a read-only file, a lost PostgreSQL
+        │   │                  connection): jobs pause and go on when it is back
+        │   └── StoreFullError     the disk (or the database's size limit) is full
         ├── StoreLostError     the database file was deleted or replaced under the service
         └── SchemaTooNewError  a newer release wrote the database: this one must not
 """
@@ -41,7 +44,12 @@ class StoreBusyError(StoreError):
     pass
 
 
-class StoreFullError(StoreError):
+class StoreUnavailableError(StoreError):
+    """For now: what was not committed is done again once the database is back (the store
+    reconnects by itself), and nothing committed is lost."""
+
+
+class StoreFullError(StoreUnavailableError):
     pass
 
 

@@ -23,8 +23,10 @@ A ZERO on a real IRC5 stops (WAIT 0) while a person enters the offsets on the Fl
 WAIT needs the operator's go-ahead in every mode, AUTO included.
 
 A lost controller or arm link pauses the job (its state says why); it resumes from the next
-unmeasured pose when the link is back. A correction outside plausible bounds, or a target outside
-the joint limits, fails the job before anything is sent.
+unmeasured pose when the link is back. A store that cannot be written for now (a full disk, a
+file-size limit, a lost PostgreSQL connection) pauses it too, the robot waiting where it is,
+until the store takes the call again (service/outage.py). A correction outside plausible
+bounds, or a target outside the joint limits, fails the job before anything is sent.
 """
 
 from __future__ import annotations
@@ -55,9 +57,10 @@ from service.drift import (
     drift_section,
     drift_warnings,
 )
-from service.errors import ConflictError, SafetyError, StoreFullError, StoreLostError
+from service.errors import ConflictError, SafetyError, StoreLostError, StoreUnavailableError
 from service.events import JobEvents
 from service.job_state import JobState
+from service.outage import StoreOutage
 from service.phases import (
     ESTIMATION_FOR,
     HOME_PHASES,
@@ -93,8 +96,9 @@ class JobRunner:
         self.model = parse_model(self.robot["model"], f"robot {self.robot['id']}")
         self.options = self.job.options
         self.gate = OperatorGate(step_mode=self.job.mode == "STEP")
+        self.outage = StoreOutage(store, events, job.id, settings.reconnect_interval_s)
         self.acquisition = Acquisition(store, settings, events, job.id, self.robot, self.model,
-                                       self.gate)
+                                       self.gate, self.outage)
         self._plans: dict[str, list[PlannedPose]] = dict(plans or {})
         self._compensated: dict[str, list[PlannedPose]] = {}
 
@@ -177,10 +181,10 @@ class JobRunner:
             await self._build_plans()
             await self._with_links(SETUP)
             if SETUP not in self.job.phases:
-                await asyncio.to_thread(self.store.finish_step, self.job_id, SETUP,
-                                        time.perf_counter() - t0)
+                await self.outage.call(self.store.finish_step, self.job_id, SETUP,
+                                       time.perf_counter() - t0)
             for step in self.steps():
-                phase = await asyncio.to_thread(self._claim, step)
+                phase = await self.outage.call(self._claim, step)
                 if phase.done:
                     continue
                 if is_correction(step) and phase.started \
@@ -190,14 +194,12 @@ class JobRunner:
                 start = time.perf_counter()
                 await self._with_links(step)
                 seconds = time.perf_counter() - start
-                await asyncio.to_thread(self.store.finish_step, self.job_id, step, seconds)
+                await self.outage.call(self.store.finish_step, self.job_id, step, seconds)
                 await self.events.publish("phase", phase=step, seconds=seconds)
             await self._set(JobState.DONE, "")
             await self.events.publish(JobState.DONE)
         except ConflictError as err:  # a stale runner: another ended this job; touch nothing
             await self.events.publish("stale", reason=str(err))
-        except StoreFullError as err:  # nothing committed is lost: the job waits for space
-            await self._store_full(err)
         except StoreLostError as err:
             if self.on_fatal is not None:
                 self.on_fatal(str(err))
@@ -228,16 +230,6 @@ class JobRunner:
     async def abort(self) -> None:
         await self.acquisition.abort()
 
-    async def _store_full(self, err: StoreFullError) -> None:
-        """Paused, not failed: a restart with free space resumes the job from its last
-        committed pose (an unfinished job is resumed; if even this small write fails, the job
-        stays as stored, unfinished, and is resumed all the same)."""
-        try:
-            await self._set(JobState.PAUSED, str(err))
-        except StoreFullError:
-            pass
-        await self.events.publish(JobState.PAUSED, reason=str(err))
-
     async def _aborted(self) -> None:
         await self._set(JobState.ABORTED, "aborted by the operator")
         await self.events.publish(JobState.ABORTED)
@@ -247,14 +239,18 @@ class JobRunner:
         await self.events.publish(JobState.FAILED, reason=reason)
 
     async def _set(self, state: JobState, reason: str) -> None:
-        self.job = await asyncio.to_thread(self.store.set_state, self.job_id, state, reason)
+        self.job = await self.outage.call(self.store.set_state, self.job_id, state, reason)
 
     async def _with_links(self, step: str) -> None:
-        """Run a step; a lost link pauses the job until it is back, then the step goes on."""
+        """Run a step; a lost link pauses the job until it is back, then the step goes on; so
+        does a store that failed it (an estimation's result not stored, say): once the store
+        is back, the step runs again (what it committed is kept, service/outage.py)."""
         while True:
             try:
                 await self._step(step)
                 return
+            except StoreUnavailableError as err:
+                await self.outage.wait(err)
             except LINK_ERRORS as err:
                 if self.gate.aborted.is_set():
                     raise JobAborted() from None
@@ -336,9 +332,9 @@ class JobRunner:
         doc["model_note"] = ("the robot once ZERO made the identified offsets the new zero: "
                              "the model of the joints as the controller now reads them")
         sent = correction.model_copy(update={"sent": True})
-        self.job = await asyncio.to_thread(self.store.set_result, self.job_id,
-                                           self.job.result.with_round(suffix, calibration=doc,
-                                                                      correction=sent))
+        self.job = await self.outage.call(self.store.set_result, self.job_id,
+                                          self.job.result.with_round(suffix, calibration=doc,
+                                                                     correction=sent))
         await self.events.publish("corrected", route=self.route,
                                   zero_command_deg=zero.tolist())
 

@@ -31,7 +31,7 @@ class ServiceSettings(BaseSettings):
     read_token: str = Field("", description="a second token that may only read (jobs, "
                                             "measurements, results, reports), e.g. for a "
                                             "dashboard; empty: none")
-    reconnect_interval_s: float = 0.5  # a paused job retries its links this often
+    reconnect_interval_s: float = 0.5  # a paused job retries its links and its store this often
     arm_timeout_s: float = 10.0  # waiting for the three holes of one pose
     pose_timeout_s: float = 120.0  # waiting for one pose of a running list
     max_concurrent_plans: int = Field(2, ge=1, description="job plans computed at once (each "

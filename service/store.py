@@ -21,8 +21,11 @@ are unique, a robot has at most one unfinished job (a partial unique index check
 transaction that inserts the job), and a job's step is claimed by compare-and-set
 (`claim_step`), so a step that changes the robot (ZERO) can never be started twice.
 
-Faults: a full disk is a `StoreFullError` (jobs pause, nothing committed is lost); a SQLite file
-deleted or replaced under the service, or a PostgreSQL connection lost, is a `StoreLostError`.
+Faults: one that passes (a full disk, an I/O error such as a file-size limit, a read-only file,
+a lost PostgreSQL connection) is a `StoreUnavailableError` (`StoreFullError` for a full disk):
+jobs pause and go on once the store takes their calls again (service/outage.py), nothing
+committed is lost, and the database reconnects by itself; a SQLite file deleted or replaced
+under the service is a `StoreLostError`, which stops it.
 """
 
 from __future__ import annotations

@@ -56,10 +56,18 @@ class PostgresServer:
     def start(self) -> None:
         self._run("initdb", "-D", str(self.data), "-A", "trust", "-U", "screwcal", "-N",
                   "-E", "UTF8", "--locale=C")
+        self.resume()
+
+    def resume(self) -> None:
+        """Start the server on its data (again, after `halt`), on the same socket."""
         self._run("pg_ctl", "-D", str(self.data), "-l", str(self.folder / "log"), "-w",
                   "-t", "60", "-o",
                   f"-k {self.socket_dir} -c listen_addresses='' -c max_connections=200 "
                   "-c fsync=off -c full_page_writes=off", "start")
+
+    def halt(self) -> None:
+        """Stop the server as a crash would (every connection cut), keeping its data."""
+        self._run("pg_ctl", "-D", str(self.data), "-m", "immediate", "-w", "stop")
 
     def stop(self) -> None:
         try:

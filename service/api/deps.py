@@ -9,6 +9,7 @@ from fastapi import Depends, HTTPException, Path, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from service.document import SQLITE_MAX_ID, JobRecord
+from service.job_state import JobState
 from service.manager import JobManager
 from service.schemas import JobPublic
 from service.store import Store
@@ -55,9 +56,15 @@ def manager_of(request: Request) -> JobManager:
 
 
 def public(job: JobRecord, manager: JobManager) -> JobPublic:
-    """A stored job as the API shows it, with the pose its runner waits for now."""
+    """A stored job as the API shows it, with the pose its runner waits for now; paused, with
+    the cause, while its runner waits for a store that could not even store that."""
     runner = manager.runners.get(job.id)
-    return JobPublic.of(job, runner.gate.waiting_for if runner is not None else None)
+    if runner is None:
+        return JobPublic.of(job, None)
+    outage = runner.outage.reason
+    if outage is not None and not job.state.finished:
+        job = job.model_copy(update={"state": JobState.PAUSED, "reason": outage})
+    return JobPublic.of(job, runner.gate.waiting_for)
 
 
 Auth = Annotated[None, Depends(authorised)]

@@ -18,7 +18,7 @@ from service.errors import ConflictError, StoreBusyError, StoreFullError, StoreL
 from service.runner import JobRunner
 from service.settings import ServiceSettings
 from service.store import Store
-from tests.integration.conftest import AUTH, FAST, TOKEN, add_robot
+from tests.integration.conftest import AUTH, FAST, TOKEN, add_robot, finished
 from tests.integration.test_hostile_requests import GOOD_ROBOT
 from tests.integration.test_jobs import wait_state
 
@@ -174,7 +174,7 @@ def test_disk_full_is_said_as_such_and_loses_nothing_committed(tmp_path):
     again.close()
 
 
-async def test_a_full_disk_pauses_the_job_instead_of_failing_it(app_http, rig):
+async def test_a_full_disk_pauses_the_job_which_goes_on_once_there_is_space(app_http, rig):
     app, http = app_http
     robot = await add_robot(http, rig)
     rig.emu.settings.time_scale = 0.02
@@ -189,6 +189,17 @@ async def test_a_full_disk_pauses_the_job_instead_of_failing_it(app_http, rig):
         while (job := app.state.manager.store.job(job_id)).state == "running":
             await asyncio.sleep(0.02)
     assert job.state == "paused" and "full" in job.reason, job
+    held = len((await http.get(f"/jobs/{job_id}/measurements")).json())
+    await asyncio.sleep(0.5)  # the robot waits: no pose is measured, none is lost
+    assert len((await http.get(f"/jobs/{job_id}/measurements")).json()) == held
+    db.execute("PRAGMA max_page_count = 1073741823")  # space again: no restart
+    job = await finished(http, job_id, 120)
+    assert job["state"] == "done", job["reason"]
+    poses = [(m["phase"], m["idx"]) for m in
+             (await http.get(f"/jobs/{job_id}/measurements")).json()]
+    assert len(poses) == len(set(poses)) == FAST["calibration_poses"]
+    kinds = [e["kind"] for e in app.state.manager.events.of(job_id).items]
+    assert "paused" in kinds and "resumed" in kinds[kinds.index("paused"):]
 
 
 async def test_a_deleted_database_stops_the_service_with_the_reason(app_http, tmp_path):
