@@ -33,6 +33,7 @@ from screwcal.kinematics.se3 import Array
 
 LENGTH_BOUNDS = (0.05, 20.0)  # feature-space length scales searched (6 joints: distances <= 4.9)
 RATIO_BOUNDS = (1e-6, 1e4)  # noise variance / signal variance searched
+CHUNK_ROWS = 4096  # predictions in blocks of this many configurations (memory: rows x poses)
 LENGTH_TOL = 0.08  # the length scale's search stops within 8 % of the best (a flat maximum)
 RATIO_TOL = 0.03  # the noise-to-signal ratio's within 3 %
 
@@ -144,12 +145,17 @@ class Posterior:
         """Predictive mean (M, m) at Xs (M, d)."""
         return kernel(Xs, self.X, self.h) @ self.alpha
 
-    def predict(self, Xs: Array) -> tuple[Array, Array]:
-        """Predictive mean (M, m) and latent variance (M,) (noise excluded) at Xs (M, d)."""
-        Ks = kernel(Xs, self.X, self.h)
-        latent = self.h.signal_mm ** 2 - np.einsum("ij,ij->i", Ks @ self.Kinv, Ks)
-        return Ks @ self.alpha, np.maximum(latent, 0.0)
-
-    def nearest(self, Xs: Array) -> Array:
-        """(M,) the distance of each row of Xs to the nearest training row, in length scales."""
-        return np.sqrt(squared_distances(Xs, self.X).min(axis=1)) / self.h.length
+    def predict(self, Xs: Array) -> tuple[Array, Array, Array]:
+        """Predictive mean (M, m), latent variance (M,) (noise excluded) and the distance to
+        the nearest training row in length scales (M,) at Xs (M, d), in blocks of
+        `CHUNK_ROWS` rows."""
+        mean = np.empty((len(Xs), self.alpha.shape[1]))
+        latent, nearest = np.empty(len(Xs)), np.empty(len(Xs))
+        for a in range(0, len(Xs), CHUNK_ROWS):
+            block = slice(a, a + CHUNK_ROWS)
+            D2 = squared_distances(Xs[block], self.X)
+            Ks = self.h.signal_mm ** 2 * np.exp(-0.5 * D2 / self.h.length ** 2)
+            mean[block] = Ks @ self.alpha
+            latent[block] = self.h.signal_mm ** 2 - np.einsum("ij,ij->i", Ks @ self.Kinv, Ks)
+            nearest[block] = np.sqrt(D2.min(axis=1)) / self.h.length
+        return mean, np.maximum(latent, 0.0), nearest

@@ -13,7 +13,8 @@ longer noise but a smooth function of the joints (unmodelled gear and bearing er
 arm's bending beyond the compliance terms). A Gaussian process over sin/cos of the joints
 (`residual_gp`) learns it from the calibration poses the identification kept (outliers out, lag
 corrected): training inputs are those joints, targets the measured minus the predicted position
-in the measuring system's frame.
+in the measuring system's frame. Positions only: the orientation stays the physical model's
+(a compensated target's orientation is not corrected).
 
 Choice (`mode`): "none" skips it; "gp" keeps it; "auto" keeps it only when 5-fold
 cross-validation on the calibration poses shows that the corrected positions beat the physical
@@ -63,6 +64,7 @@ RESIDUAL_MODEL_VERSION = 1
 KERNEL = "squared exponential over sin and cos of the joint angles, one per Cartesian component"
 FOLDS = 5
 MIN_POSES = 30  # fewer calibration poses: no residual model (6 per fold at least)
+MAX_POSES = 800  # more: trained on a seeded random subset of this many (cost grows as N^3)
 MIN_GAIN_SHARE = 0.01  # auto: the gain must also pass 1 % of the physical residual
 REACH_LENGTHS = 2.5  # farther from every calibration pose (in length scales): no correction
 REACH_GAPS = 3.0  # ...or farther than this many times the calibration poses' widest gap
@@ -186,9 +188,7 @@ class ResidualModel:
         if q.shape[1] != self.q_rad.shape[1]:
             raise ModelError(f"the residual model takes {self.q_rad.shape[1]} joints; got "
                              f"{q.shape[1]}")
-        X = joint_features(q)
-        mean, latent = self.posterior.predict(X)
-        nearest = self.posterior.nearest(X)
+        mean, latent, nearest = self.posterior.predict(joint_features(q))
         beyond = nearest > self.reach_lengths
         mean[beyond] = 0.0  # no extrapolation: the physical model alone there
         latent[beyond] = self.h.signal_mm ** 2
@@ -265,7 +265,7 @@ def cross_validate(posterior: Posterior, Y: Array, folds: int = FOLDS, seed: int
     z = corrected ** 2 / var
     coverage = float(np.mean(z <= BAND_CHI2))
     if X_out is not None and Y_out is not None and len(X_out):
-        mean_out, latent = posterior.predict(X_out)
+        mean_out, latent, _ = posterior.predict(X_out)
         z = np.r_[z, np.sum((Y_out - mean_out) ** 2, axis=1) / (latent + h.noise_mm ** 2)]
     scale = float(np.clip(np.sqrt(np.quantile(z, BAND) / BAND_CHI2), *STD_SCALE_BOUNDS))
     return CrossValidation(folds, len(X), float(physical.mean()), float(corrected.mean()), gains,

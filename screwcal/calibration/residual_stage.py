@@ -10,6 +10,7 @@ from screwcal.calibration.lag import correct_lag
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.residual_model import (
     BAND_CHI2,
+    MAX_POSES,
     MIN_POSES,
     RESIDUAL_MODES,
     ResidualMode,
@@ -50,14 +51,19 @@ def learn_residual(result: CalibrationResult, data: MeasurementSet,
     if why:
         note = f"no residual model: {why}"
         return ResidualOutcome(mode, None, False, note, (note,) if mode == "gp" else ())
+    subset = ""
+    if len(q) > MAX_POSES:  # the exact process costs N^3: a seeded random subset
+        subset = f" (trained on {MAX_POSES} of the {len(q)} poses kept, a seeded random subset)"
+        pick = np.sort(np.random.default_rng(0).choice(len(q), MAX_POSES, replace=False))
+        q, residuals = q[pick], residuals[pick]
     model = fit_residual_model(q, residuals, *training_set(result, data, rejected=True))
     cv = model.cv
     if cv.beats_physical():
-        return ResidualOutcome(mode, model, True, f"kept ({mode}): {cv.describe()}")
+        return ResidualOutcome(mode, model, True, f"kept ({mode}): {cv.describe()}{subset}")
     if mode == "auto":
         return ResidualOutcome(mode, model, False, f"declined (auto): {cv.describe()}; no "
-                               "gain beyond its spread")
-    return ResidualOutcome(mode, model, True, f"kept (gp, as asked): {cv.describe()}", (
+                               f"gain beyond its spread{subset}")
+    return ResidualOutcome(mode, model, True, f"kept (gp, as asked): {cv.describe()}{subset}", (
         f"the residual model does not beat the physical model beyond its spread "
         f"({cv.describe()}): kept because --residual-model gp asked for it",))
 

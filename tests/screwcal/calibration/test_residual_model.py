@@ -68,7 +68,7 @@ def test_fold_predictions_are_those_of_a_process_trained_on_the_other_folds(rng)
     for f in range(4):
         out = folds == f
         alone = Posterior.train(X[~out], Y[~out], h)
-        m, latent = alone.predict(X[out])
+        m, latent, _ = alone.predict(X[out])
         np.testing.assert_allclose(mean[out], m, atol=1e-10)
         np.testing.assert_allclose(var[out], latent + h.noise_mm ** 2, rtol=1e-8)
 
@@ -142,3 +142,37 @@ def test_a_newer_or_broken_residual_model_is_refused_by_name(rng):
     doc["residual_model"]["training"]["residuals_mm"][0] = [1.0, 2.0]
     with pytest.raises(ModelError, match=r"r\.json: residual_model"):
         residual_from_document(doc, "r.json")
+
+
+def test_predictions_in_blocks_equal_one_block(rng, monkeypatch):
+    from screwcal.calibration import residual_gp
+
+    q = _joints(rng, 50)
+    model = fit_residual_model(q, _smooth(q) + rng.normal(0, 0.01, (50, 3)))
+    q_new = _joints(rng, 23)
+    whole = model.predict(q_new)
+    monkeypatch.setattr(residual_gp, "CHUNK_ROWS", 5)
+    blocks = model.predict(q_new)
+    np.testing.assert_allclose(blocks.correction_mm, whole.correction_mm, atol=1e-12)
+    np.testing.assert_allclose(blocks.std_mm, whole.std_mm, atol=1e-12)
+    np.testing.assert_allclose(blocks.nearest_lengths, whole.nearest_lengths, atol=1e-12)
+
+
+def test_a_large_set_trains_on_a_seeded_subset_and_says_so(rng, monkeypatch):
+    from screwcal.calibration import residual_stage
+    from screwcal.calibration.identify import identify
+    from screwcal.calibration.posesets import random_configurations
+    from screwcal.kinematics.robots import irb1600
+    from screwcal.studies.simulated_measurements import simulate_measurements
+
+    q = random_configurations(60, rng)
+    data = simulate_measurements(irb1600(), q, rng, joint_noise_deg=0.0)
+    data = data.__class__(data.q, data.positions_mm + _smooth(data.q), data.rotations)
+    result = identify(irb1600(), data, kind="joints")
+    monkeypatch.setattr(residual_stage, "MAX_POSES", 40)
+    outcome = residual_stage.learn_residual(result, data, "gp")
+    kept = len(data) - sum(o.rejected for o in result.outliers)
+    assert f"(trained on 40 of the {kept} poses kept, a seeded random subset)" in outcome.note
+    assert outcome.model is not None and outcome.model.q_rad.shape == (40, 6)
+    again = residual_stage.learn_residual(result, data, "gp")
+    np.testing.assert_array_equal(again.model.q_rad, outcome.model.q_rad)
