@@ -216,6 +216,10 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
     other modules of its task (`rapid_task.read_rapid_task`), whose tools, work objects and
     motions count."""
     report = FilterReport(module.path)
+    if module.unreadable:
+        report.refused.append(Note(1, "the module", f"{module.unreadable}: left as it is; "
+                                   "the robtargets it may hold are not compensated"))
+        return module.text, report
     tools, wobjs = _frames(module)
     for other in task:
         if other is not module:

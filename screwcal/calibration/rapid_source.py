@@ -112,6 +112,7 @@ class RapidModule:
     # routines: lower-case name -> its parameters (lower-case name, optional) in order
     params: dict[str, list[tuple[str, bool]]] = field(default_factory=dict)
     calls: list[RoutineCall] = field(default_factory=list)
+    unreadable: str = ""  # why the module's text cannot be read (an encrypted module)
 
     def __post_init__(self) -> None:
         self._lines = _Lines(self.text)

@@ -260,3 +260,25 @@ def test_a_target_moved_to_only_through_offs_takes_that_motions_frames(rng):
     out_offset, report = filter_rapid(read_rapid_module("o.mod", offset), truth, nominal)
     assert _targets_by_name(out_offset)["pTo"] == _targets_by_name(out_direct)["pTo"]
     assert any(n.name == "Offs" for n in report.not_static)
+
+
+def test_an_encrypted_module_of_the_task_is_written_as_it_is_and_listed(tmp_path, rng):
+    """A backup's task holding an encrypted library beside the program: the program's targets
+    are compensated, the library is copied byte for byte and listed; exit 3."""
+    model = tmp_path / "model.json"
+    save_model(apply_virtual_joints(irb1600(), THESIS_TABLE11), model)
+    text, _ = _cell(rng)
+    task = tmp_path / "RAPID" / "TASK1" / "PROGMOD"
+    task.mkdir(parents=True)
+    (task / "Cell.mod").write_bytes(text.replace("  VAR robtarget pFound;\r\n", "").replace(
+        "pFound", "wpSearch.p").encode("latin-1"))
+    secret = bytes([0xFE, 0xC0, 0x01, 0x10, 0x3E, 0x1D, 0x09, 0x84]) * 64
+    (task / "Lib.mod").write_bytes(secret)
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "screwcal", "compensate", "--result",
+                          str(model), "--robot", "irb1600", "--rapid", str(task.parent),
+                          "--out", str(out)], capture_output=True, text=True)
+    assert run.returncode == 3, run.stdout + run.stderr
+    assert f"{len(USES)} robtargets compensated" in run.stdout
+    assert "Lib.mod:1: the module: an encrypted or binary module" in run.stdout
+    assert (out / "Lib.mod").read_bytes() == secret
