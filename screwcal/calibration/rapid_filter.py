@@ -167,9 +167,16 @@ def _array_elements(name: str, value: object, dims: int, index: tuple[int, ...] 
             for e in _array_elements(name, child, dims - 1, (*index, k + 1))]
 
 
+class _ZeroOrientationError(ValueError):
+    """A frame whose quaternion is [0,0,0,0]: a placeholder, no rotation."""
+
+
 def _frame(trans: list[Token], rot: list[Token]) -> Array:
     T = np.eye(4)
-    T[:3, :3] = rotation_from_quaternion_wxyz(np.array([t.number for t in rot]))
+    quat = np.array([t.number for t in rot])
+    if not quat.any():
+        raise _ZeroOrientationError
+    T[:3, :3] = rotation_from_quaternion_wxyz(quat)
     T[:3, 3] = [t.number for t in trans]
     return T
 
@@ -180,6 +187,8 @@ def _frames(module: RapidModule) -> tuple[Frames, Frames]:
     tools: Frames = {"tool0": np.eye(4)}
     wobjs: Frames = {"wobj0": np.eye(4)}
     for d in module.declarations:
+        if d.kind not in ("tooldata", "wobjdata"):
+            continue
         key = d.name.lower()
         if d.value is None:
             (tools if d.kind == "tooldata" else wobjs)[key] = "declared without a value"
@@ -200,6 +209,9 @@ def _frames(module: RapidModule) -> tuple[Frames, Frames]:
                     wobjs[key] = "a moving work object (ufprog FALSE: coordinated motion)"
                 else:
                     wobjs[key] = _frame(ut, ur) @ _frame(ot, orot)
+        except _ZeroOrientationError:
+            (tools if d.kind == "tooldata" else wobjs)[key] = "its orientation is [0,0,0,0], " \
+                "a placeholder: never defined"
         except (TypeError, ValueError, IndexError, AttributeError):
             (tools if d.kind == "tooldata" else wobjs)[key] = f"its {d.kind} value is not " \
                 "of the standard form"

@@ -282,3 +282,22 @@ def test_an_encrypted_module_of_the_task_is_written_as_it_is_and_listed(tmp_path
     assert f"{len(USES)} robtargets compensated" in run.stdout
     assert "Lib.mod:1: the module: an encrypted or binary module" in run.stdout
     assert (out / "Lib.mod").read_bytes() == secret
+
+
+def test_a_tool_or_work_object_with_a_zero_quaternion_is_a_named_placeholder():
+    """No numpy warning: the targets moved with them are refused, saying why."""
+    text = ("MODULE m\n  PERS tooldata tNew:=[TRUE,[[0,0,100],[0,0,0,0]],[1,[0,0,1],[1,0,0,0],"
+            "0,0,0]];\n  PERS wobjdata wNew:=[FALSE,TRUE,\"\",[[0,0,0],[0,0,0,0]],[[0,0,0],"
+            "[1,0,0,0]]];\n"
+            "  CONST robtarget p1:=[[900,0,900],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  CONST robtarget p2:=[[900,0,900],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  PROC main()\n    MoveL p1, v100, z10, tNew;\n"
+            "    MoveL p2, v100, z10, tool0 \\WObj:=wNew;\n  ENDPROC\nENDMODULE\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, report = filter_rapid(read_rapid_module("m.mod", text),
+                                 apply_virtual_joints(irb1600(), THESIS_TABLE11), irb1600())
+    reasons = {n.name: n.reason for n in report.refused}
+    assert reasons == {"p1": "tool tnew: its orientation is [0,0,0,0], a placeholder: never "
+                       "defined", "p2": "work object wnew: its orientation is [0,0,0,0], a "
+                       "placeholder: never defined"}
