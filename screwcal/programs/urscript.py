@@ -8,7 +8,7 @@ literal or a variable assigned one (the target is then in that feature's frame).
 last `set_tcp(p[...])` before the motion in the file (else the flange: the installation's TCP
 is not in the program). Joint targets (`movej([...])`) are left as they are.
 
-Not compensated, listed with the line: poses computed by `pose_add`, `pose_sub`, `pose_trans`
+Not compensated, listed with the line: motions to poses computed by `pose_add`, `pose_sub`, `pose_trans`
 of computed operands, `interpolate_pose` and the like; variables assigned more than once or
 from an expression; a TCP set from an expression.
 """
@@ -123,10 +123,6 @@ def read_urscript(path: str, text: str, program: Program) -> None:
             continue
         for s, e in args[:2 if m.group(1) == "movec" else 1]:
             _pose_argument(path, text, code, s, e, m.group(1), tool, variables, program, uses)
-    for name, t in variables.items():
-        if name not in uses and not _feature_only(code, name):
-            program.notes.append(Note(path, t.line, name, "a pose no motion names directly "
-                                      "(used in a computation): left as it is"))
     for name, combos in uses.items():
         t = variables[name]
         if len(combos) > 1:
@@ -136,12 +132,6 @@ def read_urscript(path: str, text: str, program: Program) -> None:
             (t.tool, t.frame), = combos
         program.targets.append(t)
     program.targets.sort(key=lambda t: (t.path, t.line))
-
-
-def _feature_only(code: str, name: str) -> bool:
-    """Whether a variable is used as a feature (pose_trans's first pose) or a TCP."""
-    return re.search(rf"\b(?:pose_trans[ \t]*\([ \t]*|set_tcp[ \t]*\([ \t]*){name}\b",
-                     code) is not None
 
 
 def _tcp(path: str, text: str, code: str, line: int, args: list[tuple[int, int]],
