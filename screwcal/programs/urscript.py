@@ -8,8 +8,8 @@ literal or a variable assigned one (the target is then in that feature's frame).
 last `set_tcp(p[...])` before the motion in the file (else the flange: the installation's TCP
 is not in the program). Joint targets (`movej([...])`) are left as they are.
 
-Not compensated, listed with the line: motions to poses computed by `pose_add`, `pose_sub`, `pose_trans`
-of computed operands, `interpolate_pose` and the like; variables assigned more than once or
+Not compensated, listed with the line: motions to poses computed by `pose_add`, `pose_sub`,
+`pose_trans` of computed operands, `interpolate_pose` and the like; variables assigned more than once or
 from an expression; a TCP set from an expression.
 """
 
