@@ -9,8 +9,8 @@ last `set_tcp(p[...])` before the motion in the file (else the flange: the insta
 is not in the program). Joint targets (`movej([...])`) are left as they are.
 
 Not compensated, listed with the line: motions to poses computed by `pose_add`, `pose_sub`,
-`pose_trans` of computed operands, `interpolate_pose` and the like; variables assigned more than once or
-from an expression; a TCP set from an expression.
+`pose_trans` of computed operands, `interpolate_pose` and the like; variables assigned more than
+once or from an expression; a TCP set from an expression.
 """
 
 from __future__ import annotations
