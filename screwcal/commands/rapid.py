@@ -12,8 +12,9 @@ RobotWare option not selected brings), argument, type, string, and the notes pla
 encrypted and unverified (a name only an encrypted module of the task may define). --options
 names the controller's RobotWare options (default: those of a calibration cell:
 socket-messaging, pc-interface, multitasking, collision-detection, world-zones; `--options
-none` for the base system alone). The exit status is 0 when no module has a finding other
-than a note (1 when some have, 2 when a file or folder cannot be read).
++arc,+egm` adds to them, `--options none` for the base system alone). The exit status is 0 when
+no module has a finding other than a note (1 when some have, 2 when a file or folder cannot be
+read).
 """
 
 from __future__ import annotations
@@ -43,6 +44,8 @@ def _options(args: argparse.Namespace) -> list[str]:
     keys = [k.strip().lower() for k in ",".join(args.options).split(",") if k.strip()]
     if keys == ["none"]:
         return []
+    if all(k.startswith("+") for k in keys):  # added to a calibration cell's
+        keys = [*CALIBRATION_CELL, *(k[1:] for k in keys)]
     unknown = [k for k in keys if k not in option_keys()]
     if unknown:
         raise InputError(f"--options: unknown RobotWare option '{unknown[0]}'; known: "
@@ -107,5 +110,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "gripper's package): not reported as unknown")
     c.add_argument("--options", action="append", default=[], metavar="KEYS",
                    help="comma-separated RobotWare options of the controller (default: a "
-                   "calibration cell's; 'none': the base system alone)")
+                   "calibration cell's; '+arc': added to those; 'none': the base system "
+                   "alone)")
     c.set_defaults(func=run_check)

@@ -41,7 +41,6 @@ CalcRotAxisFrame 4
 CDate 0
 CJointT 0 TaskRef|TaskName
 ClkRead 1 HighRes
-CorrRead 0
 Cos 1
 CosDnum 1
 CPos 0 Tool WObj
@@ -90,8 +89,6 @@ GInputDnum 1
 GOutput 1
 GOutputDnum 1
 HexToDec 1
-IndInpos 2
-IndSpeed 2 InSpeed|ZeroSpeed
 IOUnitState 1 Phys|Logic
 IsBrakeCheckActive 0
 IsCyclicBool 1
@@ -101,7 +98,6 @@ IsMechUnitActive 1
 IsPers 1
 IsStopMoveAct 0 FromMoveTask|FromNonMoveTask
 IsStopStateEvent 0 PPMoved|PPToMain
-IsSyncMoveOn 0
 IsSysId 1
 IsVar 1
 MaxExtLinearSpeed 0
@@ -123,8 +119,6 @@ ORobT 1 InPDisp|InEOffs
 ParIdPosValid 3
 ParIdRobValid 1 MechUnit AxisNo
 PathLevel 0
-PathRecValidBwd 0 ID
-PathRecValidFwd 0 ID
 PFRestart 0 Base|Irpt
 PoseInv 1
 PoseMult 2
@@ -141,27 +135,17 @@ ReadMotor 1 MecUnit
 ReadNum 1 Delim Time
 ReadStr 1 Delim|RemoveCR DiscardHeaders Time
 ReadStrBin 2 Time
-ReadVar 3 TaskRef|TaskName
 RelTool 4 Rx Ry Rz
 RemainingRetries 0
-RMQGetSlotName 1
 RobName 0
 RobOS 0
 Round 1 Dec
 RoundDnum 1 Dec
 RunMode 0 Main
-SocketGetStatus 1
-SocketPeek 1
 Sin 1
 SinDnum 1
 Sqrt 1
 SqrtDnum 1
-STCalcForce 2
-STCalcTorque 2
-STIsCalib 1 sguninit|sgunsynch
-STIsClosed 1 RetThickness
-STIsIndGun 1
-STIsOpen 1
 StrDigCalc 3
 StrFormat 1 *
 StrDigCmp 3
@@ -178,9 +162,6 @@ Tan 1
 TanDnum 1
 TaskRunMec 0
 TaskRunRob 0
-TaskIsActive 1
-TaskIsExecuting 1
-TasksInSync 1
 TestAndSet 1
 TestDI 1
 TestSignRead 1
@@ -212,13 +193,11 @@ VectMagn 1
 
 # Chapter 3, and the predefined data types of the base system's modules.
 DATA_TYPES = """
-aiotrigg bool btnres busstate buttondata byte cfgdomain clock confdata corrdescr datapos dionum
-dir dnum egmident errdomain errnum errstr errtype event_type exec_level extjoint handler_type
-icondata identno intnum iodev iounit_state jointtarget listitem loaddata loadidnum loadsession
-mecunit motsetdata num opcalc opnum orient paridnum paridvalidnum pathrecid pos pose progdisp
-rawbytes restartdata rmqheader rmqmessage rmqslot robjoint robtarget shapedata signalai
-signalao signaldi signaldo signalgi signalgo signalorigin socketdev socketstatus speeddata
-stoppointdata string stringdig switch symnum syncident sysnum taskid tasks testsignal tooldata
-tpnum trapdata triggdata triggflag triggios triggiosdnum triggstrgo tunetype uishownum
-wobjdata wzstationary wztemporary zonedata
+aiotrigg bool btnres busstate buttondata byte cfgdomain clock confdata datapos dionum dir dnum
+errdomain errnum errstr errtype event_type exec_level extjoint handler_type icondata intnum
+iodev iounit_state jointtarget listitem loaddata loadidnum loadsession mecunit motsetdata num
+opcalc opnum orient paridnum paridvalidnum pos pose progdisp rawbytes restartdata robjoint
+robtarget signalai signalao signaldi signaldo signalgi signalgo signalorigin speeddata
+stoppointdata string stringdig switch symnum sysnum taskid testsignal tooldata tpnum trapdata
+triggdata triggflag triggios triggiosdnum triggstrgo tunetype wobjdata zonedata
 """

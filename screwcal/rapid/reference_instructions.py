@@ -207,7 +207,6 @@ TuneReset 0
 TuneServo 3 Type
 UIMsgBox 1 Header MsgLine2 MsgLine3 MsgLine4 MsgLine5 Wrap Buttons Icon Image Result MaxTime
     DIBreak DIPassive DOBreak DOPassive PersBoolBreak PersBoolPassive BreakFlag UIActiveSignal
-UIShow 2 InitCmd InstanceID Status NoCloseBtn
 UnLoad 1 ErrIfChanged|Save FilePath File
 UnpackRawBytes 3 Network Hex1|IntX|Float4|ASCII
 VelSet 2

@@ -203,3 +203,39 @@ def test_public_modules_fetched_have_no_false_finding(capsys):
         if Path(path).parent.name != "sample":  # the welding cell's copy of its own program
             found.add((repo, Path(path).name, int(line_no), what))
     assert found <= _EXPECTED, found - _EXPECTED
+
+
+def test_options_added_to_a_calibration_cells(tmp_path, capsys):
+    module = _write(tmp_path / "weld.mod", "MODULE Weld\n  PROC main()\n    MotionSup \\On;\n"
+                    "    ArcKill;\n  ENDPROC\nENDMODULE\n")
+    assert main(["rapid", "check", str(module), "--options", "+arc"]) == 0
+    assert main(["rapid", "check", str(module), "--options", "arc"]) == 1  # no collision
+    assert "Collision Detection (613-1)" in capsys.readouterr().out      # detection then
+
+
+def test_the_tables_are_well_formed():
+    """Every row of the base and option tables reads as a signature; no base name is also an
+    option's (an option's table would never be consulted for it); every option named in the
+    default exists; alternatives are among the options they group."""
+    from screwcal.rapid.names import (
+        BASE_FUNCTIONS,
+        BASE_INSTRUCTIONS,
+        BASE_TYPES,
+        CALIBRATION_CELL,
+        OPTIONS,
+        _table,
+        option_keys,
+    )
+
+    assert set(CALIBRATION_CELL) <= set(option_keys())
+    base = set(BASE_INSTRUCTIONS) | set(BASE_FUNCTIONS) | BASE_TYPES
+    for option in OPTIONS:
+        rows = {**_table(option.instructions or "x 0"), **_table(option.functions or "x 0")}
+        rows.pop("x", None)
+        overlap = (set(rows) | set(option.types.split())) & base
+        assert not overlap, (option.key, overlap)
+        for sig in rows.values():
+            assert all(group <= (sig.options or group) for group in sig.alternatives)
+    for sig in [*BASE_INSTRUCTIONS.values(), *BASE_FUNCTIONS.values()]:
+        assert sig.min_positional is None or sig.min_positional <= (sig.max_positional or 0)
+        assert all(group <= (sig.options or group) for group in sig.alternatives)
