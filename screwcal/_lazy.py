@@ -13,6 +13,9 @@ from __future__ import annotations
 import importlib
 import sys
 from collections.abc import Callable
+from types import ModuleType
+
+from screwcal.errors import ExtraMissingError
 
 
 def lazy_exports(package: str, exports: dict[str, str]
@@ -31,3 +34,14 @@ def lazy_exports(package: str, exports: dict[str, str]
         return sorted(set(exports) | set(vars(sys.modules[package])))
 
     return __getattr__, __dir__
+
+
+def optional_import(module: str, extra: str, purpose: str) -> ModuleType:
+    """`module`, which only the extra `screwcal[extra]` installs; ExtraMissingError saying what
+    needs it and how to install it when it is missing."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise ExtraMissingError(
+            f"{purpose} needs {module.split('.')[0]}, which is not installed: install the "
+            f"extra with `pip install 'screwcal[{extra}]'`") from None

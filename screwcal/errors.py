@@ -9,6 +9,7 @@
     │   ├── FlangeError           probed holes that cannot define the flange frame
     │   ├── AlignmentError        sweep points that cannot give an axis
     │   └── IdentificationError   the data cannot identify what was asked
+    ├── ExtraMissingError         an optional part is not installed: names the extra to install
     └── TargetRefusedError        a target the robot is not sent to: nothing moves
         ├── UnreachableError      an IK target cannot be reached by any branch
         ├── JointLimitError       a joint value lies outside the model's limits
@@ -29,6 +30,11 @@ class ScrewcalError(Exception):
 
 class InputError(ScrewcalError):
     """The user's input (a model, a file, measurements) cannot be used as given."""
+
+
+class ExtraMissingError(ScrewcalError):
+    """An optional part of screwcal (a Dask cluster, a PostgreSQL store) was asked for and its
+    library is not installed; the message names the extra that installs it."""
 
 
 class TargetRefusedError(ScrewcalError):
