@@ -271,10 +271,24 @@ def _argument(call: RoutineCall, params: list[tuple[str, bool]], name: str,
     return dict(call.optional).get(name, default)
 
 
+_WORD = re.compile(r"(?<![\w.])[A-Za-z]\w*")  # a name in an expression (not a component)
+
+
+def _passed(call: RoutineCall, params: list[tuple[str, bool]], target: str) -> str:
+    """A target of a routine's motion (`p`, `Offs(p, 0, 0, 10)`) with the routine's
+    parameters replaced by what `call` passes."""
+    names = {p for p, _ in params}
+    if target.lower() in names:
+        return _argument(call, params, target.lower(), target)
+    return _WORD.sub(lambda w: _argument(call, params, w.group().lower(), w.group())
+                     if w.group().lower() in names else w.group(), target)
+
+
 def resolve_routine_motions(modules: list[RapidModule]) -> None:
-    """Mark the motions to a routine's own parameter as templates, and add to each calling
-    module one motion per call of such a routine, its targets, tool and work object those
-    the call passes (repeated through routines that pass their parameter on)."""
+    """Mark the motions to a routine's own parameter (`p`, or `Offs(p, ...)`) as templates,
+    and add to each calling module one motion per call of such a routine, its targets, tool and
+    work object those the call passes (repeated through routines that pass their parameter
+    on)."""
     params = {k: v for m in modules for k, v in m.params.items()}
     templates: dict[str, list[Motion]] = {}
     done: set[tuple[str, int, int]] = set()
@@ -284,7 +298,8 @@ def resolve_routine_motions(modules: list[RapidModule]) -> None:
         for m in modules:
             for motion in m.motions:
                 names = {p for p, _ in params.get(motion.routine, [])}
-                if not motion.template and any(t.lower() in names for t in motion.targets):
+                if not motion.template and any(w.lower() in names for t in motion.targets
+                                               for w in _WORD.findall(t)):
                     motion.template = True
                     templates.setdefault(motion.routine, []).append(motion)
                     pending = True
@@ -298,7 +313,7 @@ def resolve_routine_motions(modules: list[RapidModule]) -> None:
                     own = params[call.routine]
                     m.motions.append(replace(
                         t, line=call.line, instruction=f"{t.instruction} in {call.routine}",
-                        targets=[_argument(call, own, x.lower(), x) for x in t.targets],
+                        targets=[_passed(call, own, x) for x in t.targets],
                         tool=_argument(call, own, t.tool.lower(), "tool0"
                                        if (t.tool.lower(), True) in own else t.tool),
                         wobj=_argument(call, own, t.wobj.lower(), "wobj0"

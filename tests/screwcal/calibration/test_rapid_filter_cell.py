@@ -301,3 +301,20 @@ def test_a_tool_or_work_object_with_a_zero_quaternion_is_a_named_placeholder():
     assert reasons == {"p1": "tool tnew: its orientation is [0,0,0,0], a placeholder: never "
                        "defined", "p2": "work object wnew: its orientation is [0,0,0,0], a "
                        "placeholder: never defined"}
+
+
+def test_a_routine_moving_to_an_offset_of_its_parameter_counts_for_the_argument(rng):
+    """`PROC Above(robtarget p) MoveL Offs(p, 0, 0, 20), ..., tGun \\WObj:=wTable;` called as
+    `Above pTo;`: pTo is compensated in tGun and wTable, as a direct MoveL would."""
+    nominal, truth = irb1600(), apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    text, _ = _cell(rng)
+    direct = text.replace("    MoveC pCir, pTo, v100, z10, tGun \\WObj:=wTable;\r\n",
+                          "    MoveL pCir, v100, z10, tGun \\WObj:=wTable;\r\n"
+                          "    MoveL pTo, v100, z10, tGun \\WObj:=wTable;\r\n")
+    routed = direct.replace("    MoveL pTo, v100, z10, tGun \\WObj:=wTable;\r\n",
+                            "    Above pTo;\r\n").replace(
+        "  ENDPROC\r\nENDMODULE", "  ENDPROC\r\n  PROC Above(robtarget p)\r\n"
+        "    MoveL Offs(p, 0, 0, 20), v200, z10, tGun \\WObj:=wTable;\r\n  ENDPROC\r\nENDMODULE")
+    out_direct, _ = filter_rapid(read_rapid_module("d.mod", direct), truth, nominal)
+    out_routed, _ = filter_rapid(read_rapid_module("r.mod", routed), truth, nominal)
+    assert _targets_by_name(out_routed)["pTo"] == _targets_by_name(out_direct)["pTo"]
