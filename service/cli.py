@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sqlite3
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -27,6 +28,7 @@ from screwcal.commands.options import (
     ERROR_MODELS,
     add_option,
     add_vector,
+    check_outputs,
     non_negative_float,
     positive_int,
 )
@@ -59,6 +61,9 @@ def run_serve(args: argparse.Namespace) -> int:
     from service.database import is_postgres_url
 
     db_key = "db_url" if is_postgres_url(args.db or "") else "db_path"
+    if db_key == "db_path" and args.db:
+        check_outputs([args.db], [])  # a folder, or a missing folder: refused before binding
+        _check_sqlite_file(Path(args.db))
     overrides = {k: v for k, v in ((db_key, args.db), ("host", args.host),
                                    ("port", args.port), ("token", args.token)) if v is not None}
     from service.settings import ServiceSettings
@@ -71,6 +76,23 @@ def run_serve(args: argparse.Namespace) -> int:
         return serve(settings)
     except KeyboardInterrupt:
         return 0
+    except sqlite3.DatabaseError as err:  # a file that is not a database, or cannot be one
+        raise ServiceError(f"{settings.db_path}: cannot be the service's SQLite database "
+                           f"({err}); --db names a new file or one `screwcal serve` "
+                           "made") from None
+
+
+def _check_sqlite_file(path: Path) -> None:
+    """Refuse an existing file that is not an SQLite database before the service opens it
+    (and leaves its lock file beside it): a new file, an empty one or a database is fine."""
+    try:
+        with path.open("rb") as f:
+            head = f.read(16)
+    except FileNotFoundError:
+        return
+    if head and head != b"SQLite format 3\x00":
+        raise ServiceError(f"{path}: is not an SQLite database; --db names a new file or one "
+                           "`screwcal serve` made")
 
 
 def _model_argument(model: str) -> str | dict:
@@ -103,6 +125,8 @@ def _operator(args: argparse.Namespace) -> Operator:
 
 
 def run_job(args: argparse.Namespace) -> int:
+    if args.action in ("model", "report"):
+        check_outputs([args.out], [])  # before the service is asked
     with _operator(args) as op:
         return _run_job(op, args)
 

@@ -112,6 +112,7 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
 
 
 async def _serve_arm(args: argparse.Namespace) -> None:
+    import errno
 
     from simulators.arm import ArmEmulator, WorldFileSource
 
@@ -120,6 +121,10 @@ async def _serve_arm(args: argparse.Namespace) -> None:
               "world file the irc5 emulator printed", file=sys.stderr)
     world = Path(args.world) if args.world else \
         Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "none.json"
+    if world.is_dir():  # named with what --world expects by the CLI's boundary
+        raise IsADirectoryError(errno.EISDIR, "is a folder", str(world))
+    if not world.parent.is_dir():  # no irc5 emulator can write it there
+        raise FileNotFoundError(errno.ENOENT, "no such folder", str(world))
     arm = ArmEmulator(WorldFileSource(world), seed=args.seed, faults=args.arm_faults)
     host, port = await arm.start(args.host, args.port, pty=args.pty)
     line = f"measuring arm on socket://{host}:{port}"

@@ -194,7 +194,7 @@ def realism_from_document(doc: object, where: str) -> Realism:
 def read_realism(path: str) -> Realism:
     try:
         doc = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as err:
+    except (OSError, ValueError) as err:  # JSONDecodeError, UnicodeDecodeError
         raise ModelError(f"{path}: cannot read the realism file ({err})") from None
     return realism_from_document(doc, path)
 

@@ -52,7 +52,7 @@ def true_robot(errors_file: str | None, seed: int | None) -> SerialModel:
             apply_virtual_joints(nominal, THESIS_TABLE11)
     try:
         doc = json.loads(Path(errors_file).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as err:
+    except (OSError, ValueError) as err:  # JSONDecodeError, UnicodeDecodeError
         raise ModelError(f"{errors_file}: cannot read the errors file ({err})") from None
     if isinstance(doc, dict) and ("representation" in doc or "model" in doc):
         return parse_model(doc, errors_file)  # a whole true model

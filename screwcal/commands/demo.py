@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from screwcal.commands.options import ERROR_MODELS, add_option, add_vector
+from screwcal.commands.options import ERROR_MODELS, add_option, add_vector, make_output_folder
 from screwcal.instrument import TRACKER_STAND_MM
 from service.demo import DEFAULT_POSES, DEFAULT_POSES_REAL, NOISE_SEED
 
@@ -32,6 +32,7 @@ def run(args: argparse.Namespace) -> int:
     from simulators.realism import PRESETS
 
     started = time.perf_counter()
+    make_output_folder(args.out)  # before the emulators start: a bad --out is refused now
     realism = PRESETS[args.realism]
     poses = args.poses or (DEFAULT_POSES if realism.is_ideal else DEFAULT_POSES_REAL)
     if args.instrument == "tracker":

@@ -13,9 +13,8 @@ With `--before`, the report and plots compare the two (e.g. before and after cal
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from screwcal.commands.options import check_outputs
+from screwcal.commands.options import check_outputs, make_output_folder
 
 
 def run(args: argparse.Namespace) -> int:
@@ -29,16 +28,15 @@ def run(args: argparse.Namespace) -> int:
     from screwcal.tables import write_json_atomic
 
     check_outputs([args.out], [args.data, args.before, args.path, args.path_before])
+    folder = make_output_folder(args.plots, "--plots") if args.plots else None
     after = read_performance_csv(args.data)
     before = read_performance_csv(args.before) if args.before else None
     line = straightness(read_path_csv(args.path)) if args.path else None
     line_before = straightness(read_path_csv(args.path_before)) if args.path_before else None
     report = build_report(after, before, line, line_before)
-    if args.plots:
+    if folder is not None:
         from screwcal.performance import plots
 
-        folder = Path(args.plots)
-        folder.mkdir(parents=True, exist_ok=True)
         results = {"after": point_metrics(after)} if before is None else \
             {"before": point_metrics(before), "after": point_metrics(after)}
         written = [plots.accuracy_per_point(results, folder / "accuracy_per_point.png"),

@@ -78,6 +78,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         # written its result by then: it prints after)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
         return 141  # as a shell reports a command ended by SIGPIPE
+    except OSError as err:  # a path the user gave: a folder, missing, not writable, ...
+        from screwcal.commands.path_errors import path_error_text
+
+        return _refused(args.command, path_error_text(err, args, parser))
     except Exception as err:
         from service.errors import ServiceError  # only the service's commands raise it
 
@@ -86,6 +90,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _refused(args.command, err)
 
 
-def _refused(command: str, err: Exception) -> int:
+def _refused(command: str, err: Exception | str) -> int:
     print(f"screwcal {command}: error: {err}", file=sys.stderr)
     return 2

@@ -4,7 +4,8 @@
   where the option is a size, a count or a noise level; argparse names the option in its error
   (`argument --noise-mm: ...`) and exits with 2.
 - Output files: the folder must exist and be writable, and the file must not be one of the
-  command's inputs (`check_outputs`); checked before a fit, never after it.
+  command's inputs (`check_outputs`); checked before a fit, never after it. Output folders are
+  made before the work (`make_output_folder`).
 """
 
 from __future__ import annotations
@@ -90,6 +91,17 @@ def check_outputs(outputs: Iterable[str | Path | None], inputs: Iterable[str | P
                                 "choose another output")
         if not os.access(folder, os.W_OK | os.X_OK):
             raise DataFileError(str(path), f"the folder {folder} is not writable")
+
+
+def make_output_folder(folder: str | Path, option: str = "--out") -> Path:
+    """Create the output folder (and its parents) before any work is done: a file of that
+    name is refused now, not after the work; a place where no folder can be made raises the
+    OSError that the CLI's boundary names (commands/path_errors.py)."""
+    path = Path(folder)
+    if path.exists() and not path.is_dir():
+        raise DataFileError(str(path), f"is a file; {option} names a folder for the outputs")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
 
 
 # -- one vocabulary across commands (issue 27) ---------------------------------------------------

@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
-from screwcal.commands.options import positive_int
+from screwcal.commands.options import make_output_folder, positive_int
 
 # The studies' names, for --help without importing the studies (a test holds them to
 # screwcal.studies.study.STUDIES).
@@ -23,9 +22,10 @@ def run(args: argparse.Namespace) -> int:
     from screwcal.studies.study import STUDIES, run_study
 
     names = list(STUDIES) if args.name == "all" else [args.name]
+    out = make_output_folder(args.out)
     start = time.perf_counter()
     for name in names:
-        print(run_study(name, args.seed, args.samples, args.workers, Path(args.out),
+        print(run_study(name, args.seed, args.samples, args.workers, out,
                         args.scheduler))
     print(f"{len(names)} studies in {time.perf_counter() - start:.1f} s -> {args.out}")
     return 0

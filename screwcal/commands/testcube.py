@@ -8,6 +8,7 @@ The cube, its inclined plane and P1-P5 are described in `screwcal.performance.te
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from screwcal.commands.options import (
     add_option,
@@ -17,6 +18,7 @@ from screwcal.commands.options import (
     positive_float,
     positive_int,
 )
+from screwcal.errors import DataFileError
 
 
 def run(args: argparse.Namespace) -> int:
@@ -33,6 +35,8 @@ def run(args: argparse.Namespace) -> int:
     )
 
     check_outputs([args.out, args.plot], [args.robot])
+    if args.plot and Path(args.plot).suffix.lower() not in ("", ".png"):
+        raise DataFileError(args.plot, "--plot writes a PNG: name a .png file")
     model = resolve_model(args.robot)
     arm = ArmSphere(tuple(args.arm_centre_mm), args.arm_radius_mm) if args.arm_centre_mm \
         else None

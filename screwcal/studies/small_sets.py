@@ -26,6 +26,7 @@ import numpy as np
 
 from screwcal.calibration.identify import CalibrationResult, identify
 from screwcal.calibration.measurements import MeasurementSet
+from screwcal.errors import DataFileError
 from screwcal.kinematics.robots import irb120
 from screwcal.studies.markdown import markdown_table
 from screwcal.studies.tracker_dataset import (
@@ -94,10 +95,14 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main() -> None:
-    args = parser().parse_args()
+    parser_ = parser()
+    args = parser_.parse_args()
     if args.subsets < 1 or args.poses < 3 * FOLDS:
-        parser().error(f"--subsets must be at least 1 and --poses at least {3 * FOLDS}")
-    data = read_tracker_dataset(locate_dataset(args.data)).measurements(full_pose=False)
+        parser_.error(f"--subsets must be at least 1 and --poses at least {3 * FOLDS}")
+    try:
+        data = read_tracker_dataset(locate_dataset(args.data)).measurements(full_pose=False)
+    except DataFileError as err:  # the data set is not there, or not readable
+        parser_.exit(2, f"error: {err}\n")
     print(format_table(run(data, args.subsets, args.poses), args.poses))
 
 
