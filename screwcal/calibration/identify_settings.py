@@ -1,16 +1,16 @@
 """What one identification is asked to do: `identify`'s options as one frozen object, and the
 noise model it weights the residuals with.
 
-`identify(...)` builds an `IdentifySettings` once; the layers under it (compliance and lag
-choices, outlier rejection, the single fit) pass it on whole and change a field with
-`dataclasses.replace` (the compliance tried, a noise level held at zero).
+`identify(...)` takes an `IdentifySettings` (or builds one from its keyword options); its plan
+of stages is built from it (`identify.plan`), and each fit's state carries its own copy, a field
+changed with `dataclasses.replace` (the compliance tried, a learned prior).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -24,6 +24,8 @@ from screwcal.kinematics.se3 import Array
 Frames = Literal["unknown", "known", "base"]  # base: only the measuring frame is unknown
 Solver = Literal["lm", "de"]
 Outliers = Literal["reject", "keep"]
+Lag = Literal["none", "auto"]  # auto: the readings' lag estimated and corrected
+PriorScale = Literal["learned", "plausible"]  # the prior's scale on small sets
 WEIGHTINGS = ("statistical", "eq2.4")
 PRIOR_NOISE = (POSITION_NOISE_MM, ORIENTATION_NOISE_DEG, JOINT_ERROR_DEG)  # screwcal/instrument.py
 DEFAULT_RANGES = PlausibleRanges()
@@ -68,9 +70,18 @@ class IdentifySettings:
     link_offsets: Sequence[str] | None = None
     outliers: Outliers = "reject"
     de_polish: bool = True
-    compliance: str = "none"  # the compliance of this fit ("auto" is chosen above it)
+    compliance: str = "none"  # the compliance fitted; "auto": chosen (model_choice)
     ranges: PlausibleRanges | None = DEFAULT_RANGES  # the prior; None: plain least squares
     prior: PlausibleRanges | None = None  # narrower prior scales (empirical_prior); None: ranges
+    lag: Lag = "none"
+    prior_scale: PriorScale = "learned"
+
+    @classmethod
+    def of(cls, *, noise: NoiseModel | None = None,
+           plausible: PlausibleRanges | None = DEFAULT_RANGES, **options: Any) -> IdentifySettings:
+        """The settings of `identify`'s keyword options (`noise` None: every level estimated;
+        `plausible`: the ranges)."""
+        return cls(noise=noise or NoiseModel(), ranges=plausible, **options)
 
     def __post_init__(self) -> None:
         if self.weighting not in WEIGHTINGS:

@@ -1,6 +1,8 @@
 """One fit of all the poses given (thesis 2.2.3, Eq. 2.4): the starting frames, the
-identifiable parameters, the solve (with the noise levels when they are estimated), and the
-result with its statistics.
+identifiable parameters (the `select` stage), the solve with the noise levels when they are
+estimated, and the result with its statistics (the `solve` stage). Both are stages of an
+identification's plan (`fit_state`): they read where the fit starts from the state (from
+scratch, after outlier rounds, or nested in a richer fit) and write the fit to it.
 
 Identifiability: the weighted Jacobian of every candidate parameter at the start is factorised
 by QR with column pivoting (frames and the model's preferred parameters first); the parameters
@@ -19,8 +21,10 @@ import scipy.linalg
 
 from screwcal.calibration.degenerate import NEAR_AXIS_MM, data_warnings, point_axis_distance_mm
 from screwcal.calibration.error_parameters import ErrorModel, Param, candidate_params
+from screwcal.calibration.fit_state import FitState, Plan
 from screwcal.calibration.identifiability import (
     GRAM_COND,
+    Index,
     Residual,
     explain_removed,
     scaled_singular_values,
@@ -28,7 +32,11 @@ from screwcal.calibration.identifiability import (
     structural_rank,
 )
 from screwcal.calibration.identify_result import CalibrationResult, NoiseEstimate
-from screwcal.calibration.identify_settings import IdentifySettings, resolved_residual
+from screwcal.calibration.identify_settings import (
+    IdentifySettings,
+    resolved_residual,
+    variance_from_levels,
+)
 from screwcal.calibration.initial_frames import align_frames
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.noise_levels import Linearised, estimate_with_joint_check, fixed_levels
@@ -96,85 +104,96 @@ class Selection:
                        settings)
 
 
-@dataclass(frozen=True)
-class WarmStart:
-    """A fit of most of the poses of an earlier one (after outlier rounds): the earlier fit's
-    selection, which of its poses are kept, and the estimate and variance components (3,) the
-    rounds found for them."""
-
-    selection: Selection
-    kept: Array
-    x: Array
-    theta: Array
-
-
-@dataclass(frozen=True)
-class RicherFit:
-    """A fit of the same poses with the joint-2/3 compliance, for the nested fit without it
-    ("auto"): its selection (the nested fit's start and Jacobian columns) and the variance
-    components (3,) it found (the nested fit's levels start there; None: none estimated)."""
-
-    selection: Selection
-    theta: Array | None
-    problem: ResidualProblem | None = None  # its final problem and estimate: the nested
-    x: Array | None = None  # fit's levels are found on its linearisation there
-
-    def linearised_for(self, chosen: Selection) -> Linearised | None:
-        """The richer fit's linearisation at its estimate for the nested fit's parameters
-        (`chosen`, the same poses): their columns, the residuals less what the left-out
-        (compliance) columns' values put in them, their values; None when the nested fit
-        keeps a parameter the richer fit did not."""
-        if self.problem is None or self.x is None:
-            return None
-        richer = {name: k for k, name in enumerate(self.problem.errors.names)}  # A's columns
-        if any(name not in richer for name in chosen.errors.names):
-            return None
-        cols = [richer[name] for name in chosen.errors.names]
-        out = np.setdiff1d(np.arange(len(self.x)), cols)
-        e, A = self.problem.raw(self.x)
-        return Linearised(self.x[cols], e - A[..., out] @ self.x[out], A[..., cols],
-                          self.problem.components(self.x))
-
-
-@dataclass(frozen=True)
-class SingleFit:
-    """One fit: the result, the final problem, its estimate and the selection it started
-    from."""
-
-    result: CalibrationResult
-    problem: ResidualProblem
-    x: Array
-    selection: Selection
-
-
-def fit_once(nominal: SerialModel, data: MeasurementSet, settings: IdentifySettings,
-             warm: WarmStart | None = None, richer: RicherFit | None = None) -> SingleFit:
-    """One fit of all the poses given. `warm`: the poses are those an earlier fit kept; its
-    start, frames and identifiable parameters are kept, and the solve (LM with the noise
-    levels) starts from the rounds' estimate and levels instead of the start's Gauss-Newton
-    step and the priors. `richer`: a fit of the same model with a compliance, on these poses:
-    this fit's candidates are its without the compliance (the same start, the same Jacobian
-    columns), its noise levels start from the richer fit's (the solve as from scratch)."""
-    started = time.perf_counter()
+def select(state: FitState, below: Plan = ()) -> FitState:
+    """Stage: the candidate parameters at the start and the identifiable ones among them, with
+    where the solve starts: the poses kept after outlier rounds (`state.earlier`), when the
+    noise levels are estimated by LM, keep the earlier fit's start and parameters and start
+    from the rounds' estimate and levels; a fit nested in a richer one (`state.richer`, this
+    fit without the compliance) takes its candidates without the compliance (the same start,
+    the same Jacobian columns) and starts its noise levels from the richer fit's, found on
+    its linearisation (the solve as from scratch); else from scratch."""
+    settings, data = state.settings, state.data
     residual = resolved_residual(settings, data.full_pose)
-    levels, at = None, None  # the variance components to start from, a linearisation
-    if warm is not None and settings.solver == "lm" and _estimates_noise(settings, residual):
-        chosen, levels = warm.selection.rows(warm.kept, data, residual), warm.theta
-    elif richer is not None and settings.compliance == "none":
-        chosen, warm = richer.selection.without_compliance(data, residual, settings), None
-        levels, at = richer.theta, richer.linearised_for(chosen)
+    x_start = levels = at = None
+    if state.earlier is not None and state.rows is not None and settings.solver == "lm" \
+            and _estimates_noise(settings, residual):
+        chosen = state.earlier.rows(state.rows, data, residual)
+        x_start, levels = state.rounds_x, state.rounds_theta
+    elif state.richer is not None and settings.compliance == "none":
+        chosen = _selection_of(state.richer).without_compliance(data, residual, settings)
+        levels, at = _nested_start(state.richer, chosen)
     else:
-        chosen, warm = _select(nominal, data, residual, settings), None
-    problem, solution, noise = _solve(chosen, data, residual, settings, warm, levels, at)
+        chosen = _select(state.nominal, data, residual, settings)
+    return replace(state, selection=chosen, x_start=x_start, levels=levels, at=at)
+
+
+def solve(state: FitState, below: Plan = ()) -> FitState:
+    """Stage: the estimate from where `select` put the start, with the noise levels as asked,
+    and the result with its statistics."""
+    started = time.perf_counter()
+    settings, data, chosen = state.settings, state.data, _selection_of(state)
+    residual = resolved_residual(settings, data.full_pose)
+    solved = _solve(chosen, data, residual, settings, state.x_start, state.levels, state.at)
+    solution = solved.solution
     converged, message = solution.converged, solution.message
-    if not converged and stationary(problem, solution.x):
+    if not converged and stationary(solved.problem, solution.x):
         converged, message = True, f"{message}; at a stationary point of the cost (the " \
             "solver's own tolerances were not met, its steps no longer lower the cost)"
     elif not converged:
         message += NOT_CONVERGED_HINT
     solution = Solution(solution.x, converged, message, solution.nfev)
-    result = _result(chosen, data, residual, settings, problem, solution, noise, started)
-    return SingleFit(result, problem, solution.x, chosen)
+    result = _result(chosen, data, residual, settings, solved.problem, solution, solved.noise,
+                     started)
+    return replace(state, problem=solved.problem, x=solution.x, result=result, tested=None,
+                   residuals=None, diagnosed=False)
+
+
+def noise_components(noise: NoiseEstimate | None) -> tuple[Array, Index]:
+    """The variance components (3,) a fit used and which of them it estimated."""
+    if noise is None:  # not statistical: no rounds are asked for
+        raise ValueError("outlier rounds need the statistical weighting's noise levels")
+    levels = (noise.position_mm, noise.orientation_deg, noise.joint_deg)
+    theta = np.nan_to_num(variance_from_levels(levels))
+    stds = (noise.position_std_mm, noise.orientation_std_deg, noise.joint_std_deg)
+    return theta, np.flatnonzero([s is not None for s in stds])
+
+
+def _selection_of(state: FitState) -> Selection:
+    if state.selection is None:
+        raise ValueError("no selection yet: the plan selects before it solves")
+    return state.selection
+
+
+def _nested_start(richer: FitState, chosen: Selection) -> tuple[Array | None,
+                                                                 Linearised | None]:
+    """The variance components (3,) a nested fit (`chosen`) starts its noise levels from and
+    the linearisation they are found on: the richer fit's levels, and its linearisation at its
+    estimate for the nested fit's parameters (their columns, the residuals less what the
+    left-out compliance columns' values put in them, their values; None when the nested fit
+    keeps a parameter the richer fit did not). None, None: the richer fit estimated none."""
+    result, problem, x = richer.fitted, richer.problem, richer.x
+    if result.residual_kind == "distance" or not richer.settings.statistical \
+            or problem is None or x is None:
+        return None, None
+    theta = noise_components(result.noise)[0]
+    columns = {name: k for k, name in enumerate(problem.errors.names)}  # the Jacobian's own
+    if any(name not in columns for name in chosen.errors.names):
+        return theta, None
+    cols = [columns[name] for name in chosen.errors.names]
+    out = np.setdiff1d(np.arange(len(x)), cols)
+    e, A = problem.raw(x)
+    return theta, Linearised(x[cols], e - A[..., out] @ x[out], A[..., cols],
+                             problem.components(x))
+
+
+@dataclass(frozen=True)
+class Solved:
+    """The solve's outcome: the final problem (weighted as solved), the solution (nfev: every
+    evaluation) and the noise levels used (None: not statistical)."""
+
+    problem: ResidualProblem
+    solution: Solution
+    noise: NoiseEstimate | None
 
 
 def _estimates_noise(settings: IdentifySettings, residual: Residual) -> bool:
@@ -250,19 +269,17 @@ def _choose(start: SerialModel, cands: tuple[Param, ...], whiten: Array, r0: Arr
 
 
 def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
-           settings: IdentifySettings, warm: WarmStart | None = None,
-           levels: Array | None = None, at: Linearised | None = None
-           ) -> tuple[ResidualProblem, Solution, NoiseEstimate | None]:
-    """The estimate from the start (`warm`: from the rounds' estimate; `at`: from a richer
+           settings: IdentifySettings, x_start: Array | None = None,
+           levels: Array | None = None, at: Linearised | None = None) -> Solved:
+    """The estimate from the start (`x_start`: from the rounds' estimate; `at`: from a richer
     fit's, its levels found on that fit's linearisation), re-weighted and with the noise
-    levels as asked (estimated from the variance components `levels` when given); the final
-    problem, the solution (nfev: every evaluation) and the noise levels used."""
+    levels as asked (estimated from the variance components `levels` when given)."""
     problem, statistical, noise = chosen.problem, settings.statistical, settings.noise
     estimate_noise = _estimates_noise(settings, residual)
     reweighted = False
-    if warm is not None:  # (LM, noise estimated: fit_once)
-        solution = Solution(warm.x, True, "", 0)
-    elif at is not None and estimate_noise:  # (LM: fit_once)
+    if x_start is not None:  # (LM, noise estimated: select)
+        solution = Solution(x_start, True, "", 0)
+    elif at is not None and estimate_noise:  # (LM: select)
         solution = Solution(at.x, True, "", 0)
     elif settings.solver == "lm":
         problem, solution, reweighted = _solve_lm_from_start(chosen, data, residual, settings,
@@ -294,7 +311,7 @@ def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
                             solution.nfev + again.nfev)
     if statistical and noise_used is None:
         noise_used = fixed_levels(noise, problem.rows)
-    return problem, solution, noise_used
+    return Solved(problem, solution, noise_used)
 
 
 def _solve_lm_from_start(chosen: Selection, data: MeasurementSet, residual: Residual,
@@ -355,6 +372,7 @@ def _result(chosen: Selection, data: MeasurementSet, residual: Residual,
         implausible=tuple(outside_ranges(errors.params, to_if(x), to_if(std), ranges)
                           if ranges is not None else ()),
         orientation_unknown=orientation_unknown(residual, calibrated),
+        compliance=settings.compliance,
         converged=bool(solution.converged), message=str(solution.message),
         n_evaluations=solution.nfev, seconds=time.perf_counter() - started)
 

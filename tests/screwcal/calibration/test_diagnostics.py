@@ -101,13 +101,13 @@ def test_gross_errors_over_two_decades_are_each_named_with_two_fits(rng, monkeyp
     (and no clean pose), by rounds on the fit's linearisation: one fit of all the poses, one
     of those kept (a refit per round was 16 fits at 5000 poses); the estimate is the clean
     fit's."""
-    import screwcal.calibration.identify as identify_module
+    import screwcal.calibration.single_fit as single_fit_module
     data, positions, bad = _gross_errors(rng)
     dirty = MeasurementSet(data.q, positions)
     fits = []
-    real_fit = identify_module.fit_once
-    monkeypatch.setattr(identify_module, "fit_once",
-                        lambda *a, **k: fits.append(1) or real_fit(*a, **k))
+    real_solve = single_fit_module._solve
+    monkeypatch.setattr(single_fit_module, "_solve",
+                        lambda *a, **k: fits.append(1) or real_solve(*a, **k))
     r = identify(irb1600(), dirty)
     assert len(fits) == 2
     assert {o.id for o in r.outliers if o.rejected} == {data.ids[k] for k in bad}

@@ -107,11 +107,11 @@ def test_identification_recovers_the_compliance_and_auto_keeps_it_only_when_supp
 def test_auto_diagnoses_only_the_fit_it_returns(monkeypatch):
     """The joint-2/3 fit that "auto" sets aside is not diagnosed (its data-quality figures were
     computed and thrown away); the fit returned carries them, as the one kept fit always did."""
-    import screwcal.calibration.identify as identify_module
+    import screwcal.calibration.identify_stages as stages_module
 
     calls = []
-    real = identify_module.data_quality
-    monkeypatch.setattr(identify_module, "data_quality",
+    real = stages_module.data_quality
+    monkeypatch.setattr(stages_module, "data_quality",
                         lambda *a, **k: calls.append(1) or real(*a, **k))
     rng = np.random.default_rng(3)
     stiff = simulate_measurements(irb120(), random_configurations(80, rng), rng)
