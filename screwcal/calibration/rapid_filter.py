@@ -74,6 +74,8 @@ class FilterReport:
     not_static: list[Note] = field(default_factory=list)  # targets only the program knows
     residual: str = ""  # the residual model's corrections, when one was given
     uncorrected: list[Note] = field(default_factory=list)  # beyond the residual model's reach
+    # targets no instruction of the task moves to: compensated in --tool and --wobj
+    unmoved: list[Note] = field(default_factory=list)
 
     def summary(self) -> str:
         lines = [f"{self.path}: {self.compensated} robtargets compensated; largest change "
@@ -82,6 +84,8 @@ class FilterReport:
             lines.append(f"  {self.residual}")
         for title, notes in (("compensated without the residual's correction",
                               self.uncorrected),
+                             ("moved to by no instruction (compensated in the --tool and "
+                              "--wobj given)", self.unmoved),
                              ("refused (left unchanged)", self.refused),
                              ("not compensated statically", self.not_static)):
             if notes:
@@ -251,10 +255,12 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
             continue
         for t in _static_targets(module, d, report):
             if t.name == d.name:  # a robtarget declared alone: most of every module
-                combos = uses.get(t.name.lower()) or {default}
+                combos = uses.get(t.name.lower(), set())
             else:
-                combos = set().union(*(uses.get(k, ()) for k in _use_keys(t.name))) or \
-                    {default}
+                combos = set().union(*(uses.get(k, ()) for k in _use_keys(t.name)))
+            if not combos:
+                combos = {default}
+                report.unmoved.append(Note(t.line, t.name, f"{tool} and {wobj}"))
             if len(combos) > 1:
                 pairs = "; ".join(f"{t} with {w}" for t, w in sorted(combos))
                 report.refused.append(Note(t.line, t.name, "used with several tools or work "

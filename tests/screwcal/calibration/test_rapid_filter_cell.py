@@ -318,3 +318,14 @@ def test_a_routine_moving_to_an_offset_of_its_parameter_counts_for_the_argument(
     out_direct, _ = filter_rapid(read_rapid_module("d.mod", direct), truth, nominal)
     out_routed, _ = filter_rapid(read_rapid_module("r.mod", routed), truth, nominal)
     assert _targets_by_name(out_routed)["pTo"] == _targets_by_name(out_direct)["pTo"]
+
+
+def test_a_target_nothing_moves_to_is_said_to_be_compensated_in_the_default_frames():
+    text = ("MODULE m\n  CONST robtarget pSpare:=[[900,0,900],[0,0,1,0],[0,0,0,0],"
+            "[9E9,9E9,9E9,9E9,9E9,9E9]];\nENDMODULE\n")
+    _, report = filter_rapid(read_rapid_module("m.mod", text),
+                             apply_virtual_joints(irb1600(), THESIS_TABLE11), irb1600())
+    assert report.compensated == 1 and [(n.line, n.name) for n in report.unmoved] == \
+        [(2, "pSpare")]
+    assert "1 moved to by no instruction (compensated in the --tool and --wobj given):\n" \
+        "    m.mod:2: pSpare: tool0 and wobj0" in report.summary()
