@@ -33,6 +33,8 @@ class Evaluator:
     errno: float
 
     def __init__(self) -> None:
+        # the task's keys of names that mean a module's LOCAL datum or routine, by node id
+        self.local_names: dict[int, str] = {}
         # each expression node's closure (frame -> value), made at its first evaluation
         self._fns: dict[int, Callable[[Frame], Any]] = {}
         self._compilers: dict[type, Callable[[Any], Callable[[Frame], Any]]] = {
@@ -58,7 +60,7 @@ class Evaluator:
         how each argument is passed: a VAR/INOUT parameter (a routine's) or a built-in's
         reference argument by reference, the others by value."""
         key = node.key
-        r = self.routines.get(key)
+        r = self.routines.get(self.local_names.get(id(node), key))
         plan: list[tuple[int, str, Any, int]] = []
         if r is not None and r.kind == kind:
             required = [p for p in r.params if not p.optional]
@@ -162,8 +164,7 @@ class Evaluator:
     def ref(self, e: Any, frame: Frame) -> Any:
         """The storage an expression names: a Var, an array element, a record component."""
         if isinstance(e, A.Name):
-            var = self._lookup(e.key, frame, e.line)
-            return var
+            return self._lookup(e.key, frame, e.line, self.local_names.get(id(e)))
         if isinstance(e, A.Index):
             arr = self.eval(e.base, frame)
             for k, ie in enumerate(e.indices):
@@ -180,10 +181,12 @@ class Evaluator:
             return FieldRef(rec, e.name.lower())
         raise RapidError("ERR_ARGNOTVAR", "this argument must be a variable", e.line)
 
-    def _lookup(self, key: str, frame: Frame, line: int) -> Any:
+    def _lookup(self, key: str, frame: Frame, line: int, data_key: str | None = None) -> Any:
+        """The storage of a name: the routine's own, the task's (`data_key` for a module's
+        LOCAL datum), the system's."""
         v = frame.vars.get(key)
         if v is None:
-            v = self.data.get(key)
+            v = self.data.get(data_key or key)
             if v is None:
                 v = self.system.get(key)
                 if v is None:
@@ -201,12 +204,13 @@ class Evaluator:
 
     def _name(self, e: A.Name) -> Callable[[Frame], Any]:
         key, line = e.key, e.line
+        data_key = self.local_names.get(id(e), key)
 
         def name(frame: Frame) -> Any:
             v = frame.vars.get(key)
             if v is not None:
                 return v.value
-            v = self.data.get(key)
+            v = self.data.get(data_key)
             if v is not None:
                 return v.value
             if key == "true":
@@ -215,7 +219,7 @@ class Evaluator:
                 return False
             if key == "errno":
                 return self.errno
-            return self._lookup(key, frame, line).value
+            return self._lookup(key, frame, line, data_key).value
         return name
 
     def _index(self, e: A.Index) -> Callable[[Frame], Any]:

@@ -41,6 +41,7 @@ from simulators.rapid.loading import (
     TaskScope,
     check_module,
     loaded_module,
+    local_names,
     task_names,
     task_types,
 )
@@ -81,6 +82,7 @@ class Task(Evaluator):
         self.overrides = {k.lower(): v for k, v in (overrides or {}).items()}
         self.routines, self.declared, self._paths = task_names(self.modules)
         self.types = task_types(self.modules)
+        self.local_names = local_names(self.modules, self.routines, self.declared)
         main = self.routines.get("main")
         self.path = path if main is None else self._paths[id(main)]
         self.system = {k: Var("any", v, const=True) for k, v in predefined().items()}
@@ -125,18 +127,18 @@ class Task(Evaluator):
         A declaration whose value names data of a module further on is evaluated after it."""
         frame = Frame(A.Routine(0, 0, 0, 0, "PROC", "<load>", False, None, (), (), ()), {})
         self.data = {}
-        waiting = list(self.declared.values())
+        waiting = list(self.declared.items())
         while waiting:
-            later: list[A.DataDecl] = []
-            for d in waiting:
+            later: list[tuple[str, A.DataDecl]] = []
+            for key, d in waiting:
                 try:
-                    self.data[d.key] = self._initial(d, frame)
+                    self.data[key] = self._initial(d, frame)
                 except RapidError as err:
                     if err.name != "ERR_REFUNKDAT":
                         raise
-                    later.append(d)
+                    later.append((key, d))
             if len(later) == len(waiting):  # nothing more resolves: the first one's error
-                self.data[later[0].key] = self._initial(later[0], frame)
+                self.data[later[0][0]] = self._initial(later[0][1], frame)
             waiting = later
 
     def _initial(self, d: A.DataDecl, frame: Frame) -> Any:

@@ -23,7 +23,7 @@ from simulators.rapid.control import ExitCycle, Stopped
 from simulators.rapid.errors import RapidError
 from simulators.rapid.frames import unit_wxyz
 from simulators.rapid.strings import valtostr
-from simulators.rapid.values import RArray, Record, convert, num, record, string
+from simulators.rapid.values import RArray, Record, convert, is_integer, num, record, string
 
 # ------------------------------------------------------------------ arithmetic
 
@@ -58,6 +58,38 @@ def _sqrt(task: Any, pos: list, opt: dict) -> float:
 @builtin("ATan2", "func")
 def _atan2(task: Any, pos: list, opt: dict) -> float:
     return num(math.degrees(math.atan2(pos[0], pos[1])))
+
+
+def _math(name: str, fn: Any, domain: str = "") -> None:
+    """A one-argument function of RAPID's arithmetic (angles in degrees); outside its domain
+    ERR_ARGVALERR."""
+    def call(task: Any, pos: list, opt: dict) -> float:
+        try:
+            return num(fn(pos[0]))
+        except (ValueError, OverflowError):
+            raise RapidError("ERR_ARGVALERR", f"{name}({pos[0]:g}): outside {domain}") from None
+    builtin(name, "func")(call)
+
+
+_math("Sin", lambda a: math.sin(math.radians(a)))
+_math("Cos", lambda a: math.cos(math.radians(a)))
+_math("Tan", lambda a: math.tan(math.radians(a)))
+_math("ASin", lambda v: math.degrees(math.asin(v)), "-1..1")
+_math("ACos", lambda v: math.degrees(math.acos(v)), "-1..1")
+_math("ATan", lambda v: math.degrees(math.atan(v)))
+_math("Exp", math.exp, "what a num holds")
+
+
+@builtin("Pow", "func")
+def _pow(task: Any, pos: list, opt: dict) -> float:
+    """Base ^ Exponent (a negative base with a whole exponent only)."""
+    base, exponent = pos
+    if base < 0 and not is_integer(exponent):
+        raise RapidError("ERR_ARGVALERR", f"Pow({base:g}, {exponent:g}): no real value")
+    try:
+        return num(math.pow(base, exponent))
+    except (ValueError, OverflowError, ZeroDivisionError):
+        raise RapidError("ERR_ARGVALERR", f"Pow({base:g}, {exponent:g})") from None
 
 
 @builtin("Incr", "proc", refs=(0,))

@@ -46,7 +46,7 @@ class TaskScope:
 def check_module(module: A.Module, path: str, scope: TaskScope) -> None:
     """What a controller refuses when it loads a module of the task: unknown instructions,
     functions, names, types, optional arguments; a GOTO to no label around it."""
-    module_names = set(scope.data)
+    module_names, routines = module_view(module, scope)
     own = scope.types
     for rec in module.records:
         for f in rec.fields:
@@ -67,7 +67,7 @@ def check_module(module: A.Module, path: str, scope: TaskScope) -> None:
                 local.add(node.var.lower())
         names = local | module_names | set(scope.system) | {"true", "false", "errno"}
         for node in _walk(r):
-            _check_node(node, names, path, scope.routines)
+            _check_node(node, names, path, routines)
         for section in (r.body, r.error, r.undo, r.backward):
             if section:
                 _check_gotos(path, section, frozenset())
@@ -96,33 +96,81 @@ def _check_node(node: Any, names: set[str], path: str,
 
 
 
+def local_key(module: A.Module, key: str) -> str:
+    """Where a module's LOCAL datum or routine is kept among the task's names ("module:name":
+    no RAPID name holds a colon)."""
+    return f"{module.name.lower()}:{key}"
+
+
 def task_names(modules: list[tuple[A.Module, str]]) -> tuple[
         dict[str, A.Routine], dict[str, A.DataDecl], dict[int, str]]:
-    """A task's routines and data by name, and each routine's file. A name declared in two
-    modules is refused (its second declaration's line), but for a PERS declared alike in
-    both (persistents are shared: the one with a value initialises it)."""
+    """A task's routines and data by name (a LOCAL one under `local_key`), and each routine's
+    file. A global name declared in two modules, or any name twice in one, is refused (its
+    second declaration's line), but for a PERS declared alike in both (persistents are
+    shared: the one with a value initialises it); a LOCAL name hides a global one in its
+    module."""
     routines: dict[str, A.Routine] = {}
     data: dict[str, A.DataDecl] = {}
     paths: dict[int, str] = {}
     where: dict[str, str] = {}
+
+    def clash(key: str, plain: str, module: A.Module, path: str) -> bool:
+        other = local_key(module, plain) if key == plain else plain
+        return key in routines or (other in where and where[other] == path)
+
     for module, path in modules:
         for d in module.data:
-            first = data.get(d.key)
-            if first is not None or d.key in routines:
+            key = local_key(module, d.key) if d.scope == "LOCAL" else d.key
+            first = data.get(key)
+            if first is not None or clash(key, d.key, module, path):
                 if first is not None and first.storage == d.storage == "PERS" and \
                         first.type.lower() == d.type.lower():
                     if first.value is None:
-                        data[d.key] = d
+                        data[key] = d
                     continue
                 raise LoadError(path, d.line, f"{d.name} is declared again (first in "
-                                f"{where[d.key]})")
-            data[d.key], where[d.key] = d, path
+                                f"{where.get(key) or path})")
+            data[key], where[key] = d, path
         for r in module.routines:
-            if r.key in routines or r.key in data:
+            key = local_key(module, r.key) if r.local else r.key
+            if key in data or clash(key, r.key, module, path):
                 raise LoadError(path, r.line, f"{r.name} is declared again (first in "
-                                f"{where[r.key]})")
-            routines[r.key], where[r.key], paths[id(r)] = r, path, path
+                                f"{where.get(key) or path})")
+            routines[key], where[key], paths[id(r)] = r, path, path
     return routines, data, paths
+
+
+def local_names(modules: list[tuple[A.Module, str]], routines: dict[str, A.Routine],
+                data: dict[str, A.DataDecl]) -> dict[int, str]:
+    """The task's keys of the names its modules use for their LOCAL data and routines, by
+    the id of the using node (a routine's own parameters and data hide them)."""
+    out: dict[int, str] = {}
+    for module, _ in modules:
+        prefix = local_key(module, "")
+        mine = {k[len(prefix):] for k in (*routines, *data) if k.startswith(prefix)}
+        if not mine:
+            continue
+        tops: list[Any] = [*(e for d in module.data for e in (d.value, *d.dims) if e)]
+        tops.extend(module.routines)
+        for top in tops:
+            hidden = {p.name.lower() for p in top.params} | {d.key for d in top.data} \
+                if isinstance(top, A.Routine) else set()
+            for node in _walk(top):
+                if isinstance(node, A.Name | A.Call | A.ProcCall) and node.key in mine \
+                        and node.key not in hidden:
+                    out[id(node)] = prefix + node.key
+    return out
+
+
+def module_view(module: A.Module, scope: TaskScope) -> tuple[set[str], dict[str, A.Routine]]:
+    """The data names and routines a module sees: the task's global ones, its own LOCAL ones
+    over them."""
+    prefix = local_key(module, "")
+    names = {k for k in scope.data if ":" not in k} | \
+        {k[len(prefix):] for k in scope.data if k.startswith(prefix)}
+    routines = {k: r for k, r in scope.routines.items() if ":" not in k} | \
+        {k[len(prefix):]: r for k, r in scope.routines.items() if k.startswith(prefix)}
+    return names, routines
 
 
 def _check_options(path: str, node: A.Call | A.ProcCall, b: Builtin) -> None:

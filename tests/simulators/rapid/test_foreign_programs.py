@@ -643,3 +643,32 @@ def test_an_optional_argument_the_interpreter_does_not_implement_is_refused_at_l
              " v100 \\V:=300, z10 \\Z:=5, tool0 \\WObj:=wobj0;")  # timing and path: accepted
     t.run()
     assert t.stop_reason.startswith("program ended"), t.stop_reason
+
+
+def test_local_data_and_routines_are_their_modules_own():
+    main = ("MODULE Main\nVAR num posTemp := 1;\nVAR num got{4};\nPROC main()\n"
+            " got{1} := posTemp;\n got{2} := Other();\n Helper;\n got{4} := Twice(2);\nENDPROC\n"
+            "LOCAL FUNC num Twice(num x)\n RETURN 2 * x;\nENDFUNC\nENDMODULE\n")
+    other = ("MODULE Dummy\nLOCAL VAR num posTemp := 10;\nLOCAL CONST num stride := posTemp + 5;\n"
+             "FUNC num Other()\n RETURN posTemp + stride;\nENDFUNC\n"
+             "PROC Helper()\n VAR num posTemp := 100;\n got{3} := posTemp + Twice(1);\nENDPROC\n"
+             "LOCAL FUNC num Twice(num x)\n RETURN 3 * x;\nENDFUNC\nENDMODULE\n")
+    t = Task(main, "Main.mod", modules=[(other, "Dummy.mod")])
+    t.run()
+    assert t.stop_reason.startswith("program ended"), t.stop_reason
+    # the global posTemp; Dummy's own (10 + 15); Helper's own with Dummy's Twice; Main's Twice
+    assert list(value(t, "got").items) == [1, 25, 103, 4]
+    for twice in ("LOCAL VAR num x;\nLOCAL VAR num x;", "VAR num x;\nLOCAL VAR num x;",
+                  "LOCAL VAR num x;\nLOCAL PROC x()\nENDPROC"):
+        with pytest.raises(LoadError, match=r"Dummy\.mod:3: x is declared again"):
+            Task(main, "Main.mod", modules=[(f"MODULE Dummy\n{twice}\nENDMODULE\n",
+                                             "Dummy.mod")])
+
+
+def test_trigonometry_in_degrees_and_pow():
+    t = task("a{1} := Sin(30); a{2} := Cos(60); a{3} := Tan(45); a{4} := ASin(0.5);"
+             " a{5} := ACos(0.5); a{6} := ATan(1); a{7} := Exp(0); a{8} := Pow(2, 10);"
+             " a{9} := ASin(2);", "VAR num a{9};")
+    t.run()
+    assert list(value(t, "a").items)[:8] == pytest.approx([0.5, 0.5, 1, 30, 60, 45, 1, 1024])
+    assert "ERR_ARGVALERR" in t.stop_reason and "ASin(2)" in t.stop_reason
