@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from screwcal.rapid import ast as A  # noqa: N812 - the node classes
 from simulators.rapid.errors import RapidError
 
 
@@ -51,3 +52,15 @@ class Jump(BaseException):
 
     def __init__(self, label: str):
         self.label = label
+
+
+def at_label(st: Any, frame: Any) -> None:
+    """A label does nothing where it stands."""
+
+
+def label_index(stmts: tuple[Any, ...], name: str) -> int | None:
+    """Where label `name` (lower case) stands in a statement list, if it does."""
+    for i, st in enumerate(stmts):
+        if isinstance(st, A.Label) and st.name.lower() == name:
+            return i
+    return None

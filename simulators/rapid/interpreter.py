@@ -9,8 +9,14 @@ the controller's error handling (RAPID reference, "Error recovery"):
 - a handled error still writes a warning to the event log, unless the handler runs SkipWarn;
 - UNDO handlers run when a routine is left early: PP to Main (`pp_to_main`), ExitCycle, or an
   error propagated out of it;
-- an instruction or function the interpreter does not have, or a name nothing declares, is a
-  LoadError naming its line when the module loads: nothing is ever skipped.
+- `ERROR (LONG_JMP_ALL_ERR)` handles every error that reaches the routine (from it or its
+  callees: intermediate routines' own handlers still see an error first);
+- GOTO goes on from its label in the same statement list or one around it;
+- a task may have several modules (their global data and routines shared, LOCAL ones each
+  module's own, a PERS declared in several one datum; `loading`);
+- an instruction or function the interpreter does not have, one of their optional arguments it
+  does not implement, or a name nothing declares, is a LoadError naming its line when the
+  module loads: nothing is ever skipped.
 """
 
 from __future__ import annotations
@@ -32,6 +38,8 @@ from simulators.rapid.control import (
     Return,
     Stopped,
     TryNext,
+    at_label,
+    label_index,
 )
 from simulators.rapid.errors import LONG_JMP_ALL_ERR, LoadError, RapidError
 from simulators.rapid.evaluation import Evaluator
@@ -109,7 +117,7 @@ class Task(Evaluator):
             A.Assign: self._assign, A.ProcCall: self._proc_call, A.If: self._if,
             A.While: self._while, A.For: self._for, A.Test: self._test,
             A.Return: self._return, A.Raise: self._raise, A.Simple: self._simple,
-            A.Goto: self._goto, A.Label: _label,
+            A.Goto: self._goto, A.Label: at_label,
         }
         self.data: dict[str, Any] = {}
         self.reset_data()
@@ -304,7 +312,7 @@ class Task(Evaluator):
                             break  # TRYNEXT
                 return
             except Jump as jump:
-                at = _label_index(stmts, jump.label)
+                at = label_index(stmts, jump.label)
                 if at is None:
                     raise
                 stmts = stmts[at:]
@@ -431,17 +439,6 @@ class Task(Evaluator):
         if v is not True and v is not False:
             raise RapidError("ERR_ARGVALERR", "a condition must be a bool", e.line)
         return v
-
-
-def _label(st: A.Label, frame: Frame) -> None:
-    """A label does nothing where it stands."""
-
-
-def _label_index(stmts: tuple[Any, ...], label: str) -> int | None:
-    for i, st in enumerate(stmts):
-        if isinstance(st, A.Label) and st.name.lower() == label:
-            return i
-    return None
 
 
 __all__ = ["LoadError", "RapidError", "Stopped", "Task"]

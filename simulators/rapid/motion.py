@@ -2,8 +2,16 @@
 nominal kinematics (`world.nominal`) is what CRobT and CalcJointT compute with; the world's
 true robot moves.
 
-- MoveAbsJ/MoveJ/MoveL move in joint space at `speed_deg_s` (times the time scale); a target
-  outside the controller's joint limits is ERR_ROBLIMIT, nothing moves.
+- MoveAbsJ/MoveJ/MoveL/MoveC move in joint space at `speed_deg_s` (times the time scale); a
+  target outside the controller's joint limits is ERR_ROBLIMIT, nothing moves. \\V, \\T, \\Z
+  and \\Conc change a real path's timing and shape, not where it ends: accepted, no effect
+  (nor has \\NoEOffs: there are no external axes).
+- Robtargets are the TCP in the work object (`frames`: tooldata and wobjdata, robhold either
+  side); the move's tool and work object stay active for CRobT, CPos, CTool and CWObj.
+  MoveC passes its CirPoint (three points too close or on a line are refused).
+- ConfL/ConfJ \\Off: the solution nearest the joints now; \\On (the default): the robtarget's
+  confdata. CalcJointT always takes the confdata. SingArea is kept, with no effect (no path
+  passes a singularity here).
 - A stop point (`fine`) ends the instruction when the path's reference arrives; the servo then
   settles for `settle_s` (times the time scale), the encoders lagging behind by up to
   `lag_deg` meanwhile. `\\Inpos` stop-point data, `WaitTime \\InPos` and `WaitRob \\InPos`
@@ -294,7 +302,7 @@ def _activate(m: Motion, tool: Record, opt: dict) -> Frames:
     return frames
 
 
-@builtin("MoveAbsJ", "proc", opts=("Conc", "V", "T", "Z", "Inpos", "WObj"))
+@builtin("MoveAbsJ", "proc", opts=("Conc", "V", "T", "Z", "Inpos", "WObj", "NoEOffs"))
 def _moveabsj(task: Any, pos: list, opt: dict) -> None:
     jt, _speed, zone, tool = pos
     m = _motion(task)
