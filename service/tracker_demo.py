@@ -28,6 +28,7 @@ import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -382,3 +383,42 @@ def summary_lines(done: TrackerDemo, stand_mm: Sequence[float]) -> list[str]:
             lines.append(f"  {name}: {len(run.points) - run.skipped} poses measured, "
                          f"{run.skipped} skipped (beam broken); tracker faults {run.faults}")
     return lines
+
+
+def result_json(done: TrackerDemo, stand_mm: Sequence[float]) -> dict[str, Any]:
+    """The run's result document: the instrument, its uncertainty, the conditions measured in,
+    the accuracy figures, the poses measured or skipped, and the calibration's own result."""
+    from screwcal.calibration.resultfile import result_document
+    from screwcal.instrument import (
+        SMR_ACCEPTANCE_DEG,
+        TRACKER_MPE_CONSTANT_MM,
+        TRACKER_MPE_PER_M_MM,
+        TRACKER_RADIAL_NOISE_MM,
+    )
+
+    points = [p for r in done.runs.values() for p in r.points if p is not None]
+    weather = np.array([(p.temperature_c, p.pressure_mbar, p.humidity_pct) for p in points])
+    conditions = {name: {"mean": float(weather[:, k].mean()), "min": float(weather[:, k].min()),
+                         "max": float(weather[:, k].max())}
+                  for k, name in enumerate(("temperature_c", "pressure_mbar", "humidity_pct"))}
+    settings = {"model": "full", "frames": "unknown", "compliance": "auto", "lag": "auto",
+                "weighting": "the tracker's reported covariances plus the excess along and "
+                "across the beam (screwcal.calibration.beam_weighting)",
+                "poses": len(done.runs["calibration"].points)}
+    return {
+        "instrument": {"kind": "laser tracker", "protocol": "Leica emScon TPI",
+                       "reflectors": done.smr_words, "stand_mm": [float(v) for v in stand_mm],
+                       "uncertainty": {"mpe_mm": f"{TRACKER_MPE_CONSTANT_MM:g} + "
+                                       f"{TRACKER_MPE_PER_M_MM:g} per m (k = 2, across the "
+                                       "beam)", "radial_sigma_mm": TRACKER_RADIAL_NOISE_MM,
+                                       "acceptance_deg": SMR_ACCEPTANCE_DEG}},
+        "conditions": conditions,
+        "ap_mean_mm": {"before": done.ap_before_mm, "after": done.ap_after_mm,
+                       "after_geometric_only": done.ap_after_geometric_mm},
+        "noise_mm": {"along_beam": done.levels.radial_mm, "across_beam": done.levels.lateral_mm,
+                     "excess_along_beam": done.excess.radial_mm,
+                     "excess_across_beam": done.excess.lateral_mm},
+        "poses": {name: {"measured": len(r.points) - r.skipped, "skipped_beam_broken": r.skipped,
+                         "tracker_faults": r.faults} for name, r in done.runs.items()},
+        "calibration": result_document(done.calibration, "irb1600", settings),
+    }

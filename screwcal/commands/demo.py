@@ -36,14 +36,19 @@ def run(args: argparse.Namespace) -> int:
     realism = PRESETS[args.realism]
     poses = args.poses or (DEFAULT_POSES if realism.is_ideal else DEFAULT_POSES_REAL)
     if args.instrument == "tracker":
-        from service.tracker_demo import run_demo, summary_lines
+        from screwcal.tables import write_json_atomic
+        from service.tracker_demo import result_json, run_demo, summary_lines
 
         done_t = run_demo(seed=args.seed, poses=poses, cycles=args.cycles,
                           time_scale=args.time_scale, realism=args.realism,
                           stand_mm=args.stand_mm, smrs=args.smrs)
         for line in summary_lines(done_t, args.stand_mm):
             print(line)
-        print(f"  done in {time.perf_counter() - started:.1f} s")
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(out / "result.json", result_json(done_t, args.stand_mm))
+        print(f"  result: {out / 'result.json'} (the instrument, its uncertainty, the "
+              f"conditions) · done in {time.perf_counter() - started:.1f} s")
         return 0
     emulation = ["geometric errors " + ("of the thesis's Table 11" if args.seed is None else
                                         f"drawn from seed {args.seed}")

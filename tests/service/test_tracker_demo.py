@@ -66,3 +66,24 @@ def test_three_smrs_give_full_poses_through_faults():
     assert cal.faults == {"LinkLostError": 1}
     assert done.calibration.residual_kind == "pose"
     assert done.ap_after_mm <= 0.10
+
+
+@pytest.mark.slow
+def test_the_demo_command_writes_a_result_naming_the_instrument(tmp_path, capsys):
+    import json
+
+    from screwcal.commands.main import main
+
+    assert main(["demo", "--instrument", "tracker", "--poses", "50", "--cycles", "2",
+                 "--realism", "ideal", "--time-scale", "0", "--out", str(tmp_path)]) == 0
+    doc = json.loads((tmp_path / "result.json").read_text())
+    assert doc["instrument"]["protocol"] == "Leica emScon TPI"
+    assert doc["instrument"]["uncertainty"]["radial_sigma_mm"] == 0.005
+    assert doc["conditions"]["temperature_c"]["mean"] == 20.0
+    assert doc["ap_mean_mm"]["after"] <= 0.10
+    assert doc["poses"]["calibration"] == {"measured": 50, "skipped_beam_broken": 0,
+                                           "tracker_faults": {}}
+    assert doc["calibration"]["parameters"]
+    out = capsys.readouterr().out
+    assert "instrument: laser tracker (emScon TPI), one SMR (positions)" in out
+    assert "AP mean after" in out
