@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import re
 import secrets
 import subprocess
@@ -31,6 +30,7 @@ from screwcal.instrument import STAND_MM
 from service.errors import ServiceError
 
 if TYPE_CHECKING:
+    from service.operator import Operator
     from service.schemas import JobResult
     from service.settings import ServiceSettings
 
@@ -132,9 +132,7 @@ def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool,
                       "calibration, correction, performance")
                 state = op.watch(job["id"], out=_quiet_progress())
                 result = op.result(job["id"])
-                (out_dir / "report.html").write_text(op.report(job["id"]), encoding="utf-8")
-                (out_dir / "result.json").write_text(
-                    json.dumps(result.model_dump(mode="json"), indent=1), encoding="utf-8")
+                write_outputs(op, job["id"], result, out_dir)
                 geometric = None
                 if geometric_too:
                     geo = op.start(robot_id=robot["id"], kind="procedure", mode="AUTO",
@@ -144,6 +142,43 @@ def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool,
                     if op.watch(geo["id"], out=lambda _: None) == "done":
                         geometric = op.result(geo["id"])
     return DemoRun(state, result, geometric, options)
+
+
+# What the demo writes in its folder, each file with what it is and the command that takes it
+# (the demo's closing lines print them: screwcal/commands/demo.py)
+OUTPUTS = {
+    "report.html": "the report: open it in a browser",
+    "result.json": "the calibrated model, as `screwcal calibrate` writes it: screwcal predict "
+                   "--result {out}/result.json --joints joints.csv --out predicted.csv; screwcal "
+                   "compensate --result {out}/result.json --rapid IN.mod --out OUT.mod; screwcal "
+                   "robot export {out}/result.json --format urdf --out robot.urdf",
+    "measurements.csv": "the calibration poses as measured: screwcal calibrate --robot irb1600 "
+                        "--data {out}/measurements.csv --out result.json",
+    "job.json": "the job's whole result (before and after, each phase), for your own scripts: "
+                "no command reads it",
+}
+
+
+def write_outputs(op: Operator, job_id: int, result: JobResult, out_dir: Path) -> None:
+    """The files of OUTPUTS: the report, the calibrated model document (GET /jobs/ID/model,
+    format screwcal-calibration), the calibration list's measurements as the measurement file
+    and the job's result. Without a calibration (the job failed before it) the model and the
+    measurements are not written."""
+    from screwcal.calibration.measurements import write_measurements_csv
+    from screwcal.kinematics.robots import irb1600
+    from screwcal.tables import write_json_atomic, write_text_atomic
+    from service.analysis import measurement_set
+
+    write_text_atomic(out_dir / "report.html", op.report(job_id).encode("utf-8"))
+    write_json_atomic(out_dir / "job.json", result.model_dump(mode="json"))
+    for name in ("result.json", "measurements.csv"):
+        (out_dir / name).unlink(missing_ok=True)  # an earlier run's: never beside this one's
+    if result.estimation is None:  # no calibration: GET /jobs/ID/model would be 404
+        return
+    write_json_atomic(out_dir / "result.json", op.model(job_id))
+    rows = op.measurements(job_id, "cal")
+    if rows:
+        write_measurements_csv(out_dir / "measurements.csv", measurement_set(rows), irb1600())
 
 
 def _quiet_progress() -> Callable[[str], None]:

@@ -88,6 +88,11 @@ class Operator:
 
         return JobResult.model_validate(self._check(self.http.get(f"/jobs/{job_id}/result")))
 
+    def measurements(self, job_id: int, phase: str | None = None) -> list[dict]:
+        """The job's committed poses (of one phase: cal, perf_before, ...), in order."""
+        params = {} if phase is None else {"phase": phase}
+        return self._check(self.http.get(f"/jobs/{job_id}/measurements", params=params))
+
     def model(self, job_id: int, round_: int = 1) -> dict:
         return self._check(self.http.get(f"/jobs/{job_id}/model", params={"round": round_}))
 

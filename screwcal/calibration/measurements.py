@@ -15,10 +15,15 @@ from numpy.typing import ArrayLike
 
 from screwcal.errors import DataFileError, InputError
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.pose import rotation_from_euler_zyx_deg
+from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, rotation_from_euler_zyx_deg
 from screwcal.kinematics.readings import JointConvention, serial_from_readings
 from screwcal.kinematics.se3 import Array, transform_points
-from screwcal.tables import direction_columns, joint_columns, read_numeric_csv
+from screwcal.tables import (
+    direction_columns,
+    joint_columns,
+    read_numeric_csv,
+    write_csv_atomic,
+)
 
 
 def check_covariances(cov: Array, n: int) -> None:
@@ -157,6 +162,21 @@ def read_measurements_csv(path: str | Path, model: SerialModel, *, joint_unit: s
     return MeasurementSet(q, positions, rotations, table.ids, table.lines,
                           previous_rows(q),  # the file's rows are in acquisition order
                           table.take(directions) if directions[0] in table.columns else None)
+
+
+def write_measurements_csv(path: str | Path, data: MeasurementSet, model: SerialModel) -> None:
+    """The measurement file `read_measurements_csv` reads (what `screwcal calibrate --data`
+    takes): id, q1..qn (deg; mm for prismatic joints), x, y, z (mm), and rx, ry, rz (deg) for
+    full-pose data, one row per pose in the set's order (the order measured)."""
+    q_deg = model.joints_to_deg(data.q)
+    header = ["id", *joint_columns(model.n_joints), "x", "y", "z"]
+    columns = [q_deg, data.positions_mm]
+    if data.rotations is not None:
+        header += ["rx", "ry", "rz"]
+        columns.append(euler_zyx_deg_from_rotation(data.rotations))
+    values = np.hstack(columns)
+    write_csv_atomic(path, header, ([pose_id, *(f"{v:.6f}" for v in row)]
+                                    for pose_id, row in zip(data.ids, values, strict=True)))
 
 
 def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array,

@@ -10,8 +10,11 @@ its geometric errors it bends under its own masses, has backlash, read-back lag,
 repeatability error (simulators/realism.py); `--realism ideal` is the robot with its geometric
 errors only. Prints the before/after table, what the robot carries and what was identified of
 it, and the AP after of our route beside the geometric-only route on the same robot (a second
-job) and the oracle floor (the true model compensated: what no model removes); writes the report
-(HTML and PNG) and result.json to a folder. The same `--seed` prints the same table.
+job) and the oracle floor (the true model compensated: what no model removes). Writes to a folder
+(--out) the report (one HTML page, its charts inline), the calibrated model as `calibrate` writes
+it (result.json: for predict, compensate, robot export), the calibration poses as measured
+(measurements.csv: for calibrate --data) and the job's whole result (job.json); its closing
+lines say which command takes which file. The same `--seed` prints the same table.
 """
 
 from __future__ import annotations
@@ -59,9 +62,20 @@ def run(args: argparse.Namespace) -> int:
     for line in honest_lines(args.seed, args.realism, done.options,
                              done.result.model_dump(mode="json"), geometric):
         print(line)
-    print(f"  report: {Path(args.out) / 'report.html'} (charts inline; and result.json) · done in "
-          f"{time.perf_counter() - started:.1f} s")
+    for line in closing_lines(Path(args.out)):
+        print(line)
+    print(f"  done in {time.perf_counter() - started:.1f} s")
     return 0 if done.state == "done" else 1
+
+
+def closing_lines(out_dir: Path) -> list[str]:
+    """Which file the demo wrote is for what, and the command that takes it."""
+    from service.demo import OUTPUTS
+
+    written = [name for name in OUTPUTS if (out_dir / name).is_file()]
+    width = max(map(len, written), default=0)
+    return [f"  files in {out_dir}:"] + [
+        f"    {name:<{width}}  {OUTPUTS[name].format(out=out_dir)}" for name in written]
 
 
 def honest_lines(seed: int | None, realism_name: str, options: dict, result: dict,

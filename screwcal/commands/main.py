@@ -65,6 +65,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     args = parser.parse_args(old_vector_words(argv, vector_options(parser)))
     try:
+        from screwcal.commands.file_kinds import refuse_wrong_kinds
+
+        wrong = refuse_wrong_kinds(args)  # a demo's job.json given to predict, ...
+        if wrong is not None:
+            return _refused(args.command, wrong)
         code = int(args.func(args))
         sys.stdout.flush()  # a reader gone shows here (a pipe buffers), not at exit
         return code

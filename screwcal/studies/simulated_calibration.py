@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from screwcal.calibration.identify import CalibrationResult, identify
+from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import (
     THESIS_TABLE11,
@@ -31,6 +32,7 @@ class DemoResult:
     before_deg: Array
     after_deg: Array
     seconds: float
+    measurements: MeasurementSet | None = None  # the calibration poses as measured
 
 
 def true_robot(seed: int | None) -> SerialModel:
@@ -47,8 +49,8 @@ def run_demo(seed: int | None = None, n_poses: int = 40, n_validation: int = 200
     truth = true_robot(seed)
     nominal = irb1600()
     q_cal = random_configurations(n_poses, rng)
-    fit = identify(nominal, simulate_measurements(truth, q_cal, rng), kind="full",
-                   frames="known")
+    measured = simulate_measurements(truth, q_cal, rng)
+    fit = identify(nominal, measured, kind="full", frames="known")
     q_val = random_configurations(n_validation, rng)
     T_true = forward_kinematics(truth, q_val)
 
@@ -60,7 +62,7 @@ def run_demo(seed: int | None = None, n_poses: int = 40, n_validation: int = 200
     before_mm, before_deg = errors(nominal)
     after_mm, after_deg = errors(fit.model)
     return DemoResult(truth, fit, before_mm, after_mm, before_deg, after_deg,
-                      time.perf_counter() - start)
+                      time.perf_counter() - start, measured)
 
 
 def format_report(r: DemoResult, n_poses: int, n_validation: int) -> str:

@@ -65,6 +65,21 @@ def test_demo_runs_the_whole_procedure(tmp_path, capsys):
     assert float(geo.group(1)) > float(ours.group(1)) >= float(floor.group(1)) * 0.9, out
     page = (tmp_path / "report.html").read_text()
     assert page.count("<svg class='chart'") >= 4  # AP, RP, orientation, residual, straightness
+    # issue 38: what it writes is what the next commands take, and it says which takes which
+    for name in ("report.html", "result.json", "measurements.csv", "job.json"):
+        assert re.search(rf"^    {re.escape(name)} +\S", out, re.M), out
+    joints = tmp_path / "joints.csv"
+    joints.write_text("q1,q2,q3,q4,q5,q6\n0,10,10,0,30,0\n")
+    assert main(["predict", "--result", str(tmp_path / "result.json"), "--joints", str(joints),
+                 "--out", str(tmp_path / "predicted.csv")]) == 0
+    assert main(["robot", "export", str(tmp_path / "result.json"), "--format", "urdf",
+                 "--out", str(tmp_path / "robot.urdf")]) == 0
+    assert main(["calibrate", "--robot", "irb1600", "--data", str(tmp_path / "measurements.csv"),
+                 "--out", str(tmp_path / "again.json")]) == 0
+    capsys.readouterr()
+    assert main(["predict", "--result", str(tmp_path / "job.json"), "--joints", str(joints),
+                 "--out", str(tmp_path / "predicted.csv")]) == 2
+    assert "result.json" in capsys.readouterr().err
 
 
 async def test_watch_reattaches_to_a_step_job_at_the_pose_it_waits_for(tmp_path, rig):
@@ -127,6 +142,6 @@ def test_the_same_seed_prints_the_same_table(tmp_path, capsys):
         assert main(["demo", "--seed", "5", "--cycles", "2", "--poses", "30", "--out",
                      str(tmp_path)]) == 0
         out = capsys.readouterr().out
-        return out[out.index("ISO 9283"):out.index("report:")]
+        return out[out.index("ISO 9283"):out.index("files in")]
 
     assert table() == table()
