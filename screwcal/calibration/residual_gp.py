@@ -80,6 +80,12 @@ def _profile(eigenvalues: Array, z2: Array, outputs: int) -> tuple[float, float,
 def fit_hyperparameters(X: Array, Y: Array) -> Hyperparameters:
     """The length scale, signal and noise that maximise the marginal likelihood of the outputs
     Y (N, m) at the features X (N, d) (zero-mean process, outputs independent)."""
+    return fit_with_evidence(X, Y)[0]
+
+
+def fit_with_evidence(X: Array, Y: Array) -> tuple[Hyperparameters, float]:
+    """`fit_hyperparameters`, and the negative log marginal likelihood they reach (up to the
+    constant N m log(2 pi) / 2): features are compared by it."""
     from scipy.optimize import minimize_scalar
 
     D2 = squared_distances(X, X)
@@ -97,7 +103,7 @@ def fit_hyperparameters(X: Array, Y: Array) -> Hyperparameters:
                            options={"xatol": LENGTH_TOL})
     signal2, noise2 = found[float(best.x)]
     return Hyperparameters(float(np.exp(best.x)), float(np.sqrt(signal2)),
-                           float(np.sqrt(noise2)))
+                           float(np.sqrt(noise2))), float(best.fun)
 
 
 def kernel(A: Array, B: Array, h: Hyperparameters) -> Array:

@@ -11,10 +11,11 @@ program loads no optimiser).
 The physical model (geometry, compliance, lag) leaves a residual that, on a real robot, is no
 longer noise but a smooth function of the joints (unmodelled gear and bearing errors, the
 arm's bending beyond the compliance terms). A Gaussian process over sin/cos of the joints
-(`residual_gp`) learns it from the calibration poses the identification kept (outliers out, lag
-corrected): training inputs are those joints, targets the measured minus the predicted position
-in the measuring system's frame. Positions only: the orientation stays the physical model's
-(a compensated target's orientation is not corrected).
+(`residual_gp`; every joint, or all but joint 1 when the marginal likelihood prefers it:
+`fit_residual_model`) learns it from the calibration poses the identification kept (outliers
+out, lag corrected): training inputs are those joints, targets the measured minus the
+predicted position in the measuring system's frame. Positions only: the orientation stays the
+physical model's (a compensated target's orientation is not corrected).
 
 Choice (`mode`): "none" skips it; "gp" keeps it; "auto" keeps it only when 5-fold
 cross-validation on the calibration poses shows that the corrected positions beat the physical
@@ -49,7 +50,7 @@ import numpy as np
 from screwcal.calibration.residual_gp import (
     Hyperparameters,
     Posterior,
-    fit_hyperparameters,
+    fit_with_evidence,
     fold_predictions,
     joint_features,
     squared_distances,
@@ -171,12 +172,17 @@ class ResidualModel:
     cv: CrossValidation
     reach_lengths: float = REACH_LENGTHS
     trained: Posterior | None = field(default=None, repr=False, compare=False)  # when known
+    joints: tuple[int, ...] | None = None  # the joints (0-based) whose angles enter; None: all
+
+    def features(self, q_rad: Array) -> Array:
+        """The kernel's features of joints q_rad (M, n)."""
+        return _features(q_rad, self.joints)
 
     @cached_property
     def posterior(self) -> Posterior:
         if self.trained is not None:
             return self.trained
-        return Posterior.train(joint_features(self.q_rad), self.residuals_mm, self.h)
+        return Posterior.train(self.features(self.q_rad), self.residuals_mm, self.h)
 
     @property
     def std_scale(self) -> float:
@@ -188,7 +194,7 @@ class ResidualModel:
         if q.shape[1] != self.q_rad.shape[1]:
             raise ModelError(f"the residual model takes {self.q_rad.shape[1]} joints; got "
                              f"{q.shape[1]}")
-        mean, latent, nearest = self.posterior.predict(joint_features(q))
+        mean, latent, nearest = self.posterior.predict(self.features(q))
         beyond = nearest > self.reach_lengths
         mean[beyond] = 0.0  # no extrapolation: the physical model alone there
         latent[beyond] = self.h.signal_mm ** 2
@@ -213,6 +219,8 @@ class ResidualModel:
                 "hyperparameters": {"length_scale": self.h.length,
                                     "signal_mm": self.h.signal_mm,
                                     "noise_mm": self.h.noise_mm},
+                "joints": [j + 1 for j in (range(self.q_rad.shape[1]) if self.joints is None
+                                           else self.joints)],
                 "std_scale": self.std_scale, "reach_length_scales": self.reach_lengths,
                 "size_over_calibration_poses_mm": self.size_mm(),
                 "predictive_std_mm": {"per": "Cartesian component, 1 sigma",
@@ -276,18 +284,28 @@ def fit_residual_model(q_rad: Array, residuals_mm: Array, q_outliers: Array | No
                        residuals_outliers: Array | None = None) -> ResidualModel:
     """A residual model trained on joints q_rad (N, n) and residuals (N, 3), with its
     cross-validation figures; the outliers' joints and residuals (set aside by the
-    identification) widen its band where they must (`cross_validate`)."""
-    X = joint_features(q_rad)
-    h = fit_hyperparameters(X, residuals_mm)
+    identification) widen its band where they must (`cross_validate`). The features are
+    those of every joint, or of all but joint 1, whichever the marginal likelihood prefers:
+    on an arm standing on the floor (or hanging from the ceiling) joint 1 turns about gravity,
+    whose pull, behind most of what the physical model leaves, does not change with it."""
+    q_rad = np.asarray(q_rad, float)
+    candidates = [None] if q_rad.shape[1] < 2 else [None, tuple(range(1, q_rad.shape[1]))]
+    fits = [(fit_with_evidence(_features(q_rad, c), residuals_mm), c) for c in candidates]
+    (h, _), joints = min(fits, key=lambda f: f[0][1])
+    X = _features(q_rad, joints)
     D2 = squared_distances(X, X)
     np.fill_diagonal(D2, np.inf)
     widest_gap = float(np.sqrt(D2.min(axis=1).max()))
     reach = min(REACH_LENGTHS, REACH_GAPS * widest_gap / h.length)
-    X_out = None if q_outliers is None else joint_features(q_outliers)
+    X_out = None if q_outliers is None else _features(q_outliers, joints)
     posterior = Posterior.train(X, residuals_mm, h)
     cv = cross_validate(posterior, residuals_mm, X_out=X_out, Y_out=residuals_outliers)
-    return ResidualModel(np.asarray(q_rad, float), np.asarray(residuals_mm, float), h, cv,
-                         reach, posterior)
+    return ResidualModel(q_rad, np.asarray(residuals_mm, float), h, cv, reach, posterior,
+                         joints)
+
+
+def _features(q_rad: Array, joints: tuple[int, ...] | None) -> Array:
+    return joint_features(q_rad if joints is None else q_rad[:, list(joints)])
 
 
 def dropped_by_export(doc: object, form: str) -> str:
@@ -325,12 +343,15 @@ def residual_from_document(doc: object, source: str = "result") -> ResidualModel
                             float(hp["noise_mm"]))
         cv = CrossValidation.from_dict(member["cross_validation"])
         reach = float(member["reach_length_scales"])
+        used = member.get("joints")  # every joint when absent
+        joints = None if used is None else tuple(int(j) - 1 for j in used)
     except (KeyError, TypeError, ValueError) as err:
         raise ModelError(f"{source}: residual_model is incomplete or malformed ({err!r})"
                          ) from None
     if q.ndim != 2 or residuals.shape != (len(q), 3) or not np.isfinite(q).all() or \
-            not np.isfinite(residuals).all() or min(h.length, h.signal_mm, h.noise_mm) <= 0:
+            not np.isfinite(residuals).all() or min(h.length, h.signal_mm, h.noise_mm) <= 0 or \
+            (joints is not None and not all(0 <= j < q.shape[1] for j in joints)):
         raise ModelError(f"{source}: residual_model's training data or hyperparameters are "
                          "not valid (joints (N, n), residuals (N, 3), positive "
-                         "hyperparameters)")
-    return ResidualModel(q, residuals, h, cv, reach)
+                         "hyperparameters, joints numbered 1..n)")
+    return ResidualModel(q, residuals, h, cv, reach, joints=joints)

@@ -176,3 +176,25 @@ def test_a_large_set_trains_on_a_seeded_subset_and_says_so(rng, monkeypatch):
     assert outcome.model is not None and outcome.model.q_rad.shape == (40, 6)
     again = residual_stage.learn_residual(result, data, "gp")
     np.testing.assert_array_equal(again.model.q_rad, outcome.model.q_rad)
+
+
+def test_a_residual_that_ignores_joint_1_is_told_by_the_marginal_likelihood(rng):
+    """Gravity's pull does not change with joint 1 on a floor-mounted arm: a residual of the
+    other joints alone leaves joint 1 out of the features, and the file says which joints."""
+    q = _joints(rng, 200)
+    alone = 0.06 * np.c_[np.sin(q[:, 1] + q[:, 2]), np.cos(q[:, 4]), np.sin(2 * q[:, 3])]
+    model = fit_residual_model(q, alone + rng.normal(0, 0.01, (200, 3)))
+    assert model.joints == (1, 2, 3, 4, 5)
+    member = ResidualOutcome("gp", model, True, "kept").to_dict()
+    assert member["joints"] == [2, 3, 4, 5, 6]
+    loaded = residual_from_document(json.loads(json.dumps({"residual_model": member})))
+    assert loaded is not None and loaded.joints == (1, 2, 3, 4, 5)
+    q_new = _joints(rng, 5)
+    np.testing.assert_allclose(loaded.predict(q_new).correction_mm,
+                               model.predict(q_new).correction_mm, atol=1e-12)
+    turned = q_new.copy()
+    turned[:, 0] += 1.0  # joint 1 turned: the same correction
+    np.testing.assert_allclose(model.predict(turned).correction_mm,
+                               model.predict(q_new).correction_mm, atol=1e-12)
+    with_1 = fit_residual_model(q, _smooth(q) + rng.normal(0, 0.01, (200, 3)))
+    assert with_1.joints is None  # _smooth depends on joint 1
