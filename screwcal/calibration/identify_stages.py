@@ -1,8 +1,9 @@
 """The stages of an identification after its first fit: the outliers rejected, the readings'
 lag corrected (`lag="auto"`), the prior's scales learned on a small set, the data-quality
-diagnostics of the fit returned, a compliance below zero held at zero in its model. (The fit itself: `single_fit.select` and `solve`; the
-compliance chosen by the data: `model_choice`.) Each is `(state, below) -> state` over a
-`fit_state.FitState`; one that needs another fit runs the stages `below` it on that fit's start.
+diagnostics of the fit returned, a compliance below zero held at zero in its model. (The fit
+itself: `single_fit.select` and `solve`; the compliance chosen by the data: `model_choice`.)
+Each is `(state, below) -> state` over a `fit_state.FitState`; one that needs another fit runs
+the stages `below` it on that fit's start.
 """
 
 from __future__ import annotations
