@@ -45,6 +45,7 @@ from screwcal.calibration.beam_weighting import BeamLevels, identify_beam_weight
 from screwcal.calibration.correction import compensate
 from screwcal.calibration.flange import frame_from_holes
 from screwcal.calibration.identify import CalibrationResult, identify
+from screwcal.calibration.initial_frames import rigid_motion
 from screwcal.calibration.line_of_sight import (
     DEFAULT_SMR_MM,
     THREE_SMRS_MM,
@@ -65,6 +66,7 @@ FACING_TRACKER_DEG = (0.0, 90.0, 0.0)  # the cube's orientation: the flange towa
 CUBE_EDGE_MM = 300.0
 MAX_TRIES = 6  # a pose measured after at most this many link failures, else the run stops
 RIGIDITY_MM = 1.0  # the SMRs measured at a pose keep the nests' distances within this
+LOCATE_POSES = 6  # calibration poses whose first SMR locates the tracker (three SMRs)
 Point = tuple[float, float, float]
 SMRS: dict[int, tuple[Point, ...]] = {1: (DEFAULT_SMR_MM,), 3: THREE_SMRS_MM}
 SMR_WORDS = {1: "one SMR (positions)", 3: "three SMRs (full pose)"}
@@ -125,6 +127,7 @@ class Cell:
         self.tracker: TrackerClient | None = None
         self.nominal = irb1600()
         self._anchor: tuple[float, float, float] | None = None  # the first SMR at this pose
+        self.to_tracker = np.eye(3)  # the tracker's frame <- the robot's, once located
 
     async def _tracker(self, initialise: bool) -> TrackerClient:
         if self.tracker is None:
@@ -147,7 +150,7 @@ class Cell:
         points = [first]
         if len(self.smrs) == 1:
             return points
-        R = flange_kinematics(self.nominal, np.radians([joints_deg]))[0][:3, :3]
+        R = self.to_tracker @ flange_kinematics(self.nominal, np.radians([joints_deg]))[0][:3, :3]
         try:
             for smr in self.smrs[1:]:
                 tracker.go_position(np.asarray(first.xyz_mm) + R @ (smr - self.smrs[0]))
@@ -189,6 +192,25 @@ class Cell:
                 await asyncio.sleep(0.1)
         raise ServiceError(f"the tracker at {self.tracker_url} failed {MAX_TRIES} times on one "
                            "pose")
+
+    async def locate(self, q_list: Sequence[Sequence[float]], run: TrackerRun) -> Array:
+        """Where the tracker stands, roughly: the first SMR measured at `q_list` laid on the
+        nominal robot's (Kabsch); its frame's rotation then points the beam at the other SMRs.
+        Returns the tracker's place in the robot frame (mm)."""
+        smrs, self.smrs = self.smrs, self.smrs[:1]
+        try:
+            await self.visit(q_list, [True] * len(q_list), run)
+        finally:
+            self.smrs = smrs
+        keep = [k for k, p in enumerate(run.points) if p is not None]
+        if len(keep) < 3:
+            raise ServiceError(f"the tracker saw the SMR at {len(keep)} of {len(q_list)} "
+                               "poses: too few to locate it")
+        T = flange_kinematics(self.nominal, np.radians([run.joints_deg[k] for k in keep]))
+        nominal = T[:, :3, :3] @ self.smrs[0] + T[:, :3, 3]
+        measured = np.array([p.xyz_mm for p in run.points if p is not None])
+        self.to_tracker, t = rigid_motion(nominal, measured)
+        return np.asarray(-self.to_tracker.T @ t, dtype=float)
 
     async def visit(self, q_list: Sequence[Sequence[float]], measured: Sequence[bool],
                     run: TrackerRun) -> None:
@@ -304,6 +326,13 @@ async def procedure(host: str, port: int, tracker_url: str, *, poses: int, cycle
     async with ControllerClient(host, port) as robot:
         cell = Cell(robot, tracker_url, smrs_mm)
         try:
+            if len(smrs_mm) > 1:  # the beam is pointed at SMRs 2 and 3: locate the tracker
+                runs["locate"] = TrackerRun()
+                at = await cell.locate(cal_q[:LOCATE_POSES].tolist(), runs["locate"])
+                yaw = np.degrees(np.arctan2(cell.to_tracker[1, 0], cell.to_tracker[0, 0]))
+                print(f"  tracker located at {np.round(at).tolist()} mm, its frame turned "
+                      f"{-yaw:.1f} deg about the vertical (first SMR at {LOCATE_POSES} poses)",
+                      flush=True)
             await cell.visit([p.q_deg for p in perf], targets, runs["before"])
             await cell.visit(cal_q.tolist(), [True] * len(cal_q), runs["calibration"])
             data = measurement_set(runs["calibration"])
@@ -323,7 +352,7 @@ async def procedure(host: str, port: int, tracker_url: str, *, poses: int, cycle
 
 def run_demo(*, seed: int | None, poses: int, cycles: int, time_scale: float, realism: str,
              stand_mm: Sequence[float] = TRACKER_STAND_MM, tracker_faults: str = "",
-             smrs: int = 1) -> TrackerDemo:
+             smrs: int = 1, yaw_deg: float = 0.0) -> TrackerDemo:
     """The emulators (a process) and the procedure; prints what it does as it goes.
     `tracker_faults`: the emulated tracker's (`emulator irc5 --tracker-faults`); `smrs`: 1
     (positions) or 3 (full pose)."""
@@ -331,7 +360,7 @@ def run_demo(*, seed: int | None, poses: int, cycles: int, time_scale: float, re
     noise_seed = 2018 if seed is None else seed
     args_ = ["--time-scale", str(time_scale), "--realism", realism, "--noise-seed",
              str(noise_seed), "--stand-mm", *(f"{v:g}" for v in stand_mm), "--smrs",
-             str(smrs)]
+             str(smrs), "--stand-yaw-deg", f"{yaw_deg:g}"]
     if seed is not None:
         args_ += ["--seed", str(seed)]
     if tracker_faults:

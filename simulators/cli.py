@@ -94,7 +94,7 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
         from simulators.tracker import TrackerEmulator, WorldSource
 
         tracker = TrackerEmulator(WorldSource(world, smrs_of(args)), args.stand_mm,
-                                  faults=args.tracker_faults,
+                                  faults=args.tracker_faults, yaw_deg=args.stand_yaw_deg,
                                   seed=args.seed if args.noise_seed is None else args.noise_seed)
         tracker_host, tracker_port = await tracker.start(args.host, args.tracker_port)
         line += f"; laser tracker on emscon://{tracker_host}:{tracker_port}"
@@ -147,7 +147,7 @@ async def _serve_tracker(args: argparse.Namespace) -> None:
               "the world file the irc5 emulator printed", file=sys.stderr)
     world = args.world or str(Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "none.json")
     tracker = TrackerEmulator(WorldFileSource(world, smrs_of(args)), args.stand_mm,
-                              seed=args.seed,
+                              seed=args.seed, yaw_deg=args.stand_yaw_deg,
                               faults=args.tracker_faults)
     host, port = await tracker.start(args.host, args.port)
     stopped = stop_on_signals()
@@ -296,6 +296,9 @@ def _add_tracker(p: argparse.ArgumentParser) -> None:
     add_vector(p, "--stand-mm", default=TRACKER_STAND_MM,
                help="where the tracker stands, mm in the robot's base frame (default "
                f"{' '.join(f'{v:g}' for v in TRACKER_STAND_MM)})")
+    p.add_argument("--stand-yaw-deg", type=float, default=0.0,
+                   help="the tracker's frame turned about the vertical from the robot's (default "
+                   "0: its axes the robot base's)")
     p.add_argument("--smrs", type=int, choices=[1, 3], default=1,
                    help="SMRs on the flange: 1 (positions; default) or 3 over the measuring "
                    "flange's holes (full pose; GoPosition points at each)")

@@ -165,8 +165,12 @@ class TrackerEmulator:
                  seed: int | None = None,
                  faults: TrackerFaults | None = None,
                  air: tuple[float, float, float] = STANDARD_AIR, initialise_s: float = 0.05,
-                 measure_s: float = 0.02):
+                 measure_s: float = 0.02, yaw_deg: float = 0.0):
+        """`yaw_deg`: the tracker's frame turned about the vertical from the robot's (a
+        levelled tracker's zero direction is wherever it was set up)."""
         self.source, self.stand_mm = source, np.asarray(stand_mm, dtype=float)
+        c, s = np.cos(np.radians(yaw_deg)), np.sin(np.radians(yaw_deg))
+        self.turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])  # world <- tracker
         self.faults = faults or TrackerFaults()
         self.rng = np.random.default_rng(seed)
         self.air = air  # the true air: deg C, mbar, %RH
@@ -199,7 +203,7 @@ class TrackerEmulator:
             if isinstance(seen, str):
                 return False
             view, station = seen
-            if np.linalg.norm(view.smr_mm - station - xyz) <= CAPTURE_MM and \
+            if np.linalg.norm(view.smr_mm - station - self.turn @ xyz) <= CAPTURE_MM and \
                     beam_blocked(view, station) is None:
                 self.state.locked = k
                 return True
@@ -226,9 +230,10 @@ class TrackerEmulator:
         weather = self.weather()
         scale = refractive_index(*self.air) / refractive_index(*weather)
         noise = self.rng.normal(0.0, 1.0, 3) * (radial, lateral, lateral)
-        reported = u * (distance * scale + noise[0]) + e1 * noise[1] + e2 * noise[2]
-        self.state.measured.append((line.copy(), reported))
-        C = tracker_covariance_mm2(line[None])[0]
+        reported = self.turn.T @ (u * (distance * scale + noise[0]) + e1 * noise[1]
+                                  + e2 * noise[2])  # in the tracker's own frame
+        self.state.measured.append((self.turn.T @ line, reported))
+        C = tracker_covariance_mm2((self.turn.T @ line)[None])[0]
         k = _LENGTH_PER_MM[self.state.units[0]]
         std = np.sqrt(np.diag(C)) * k
         covar = (C[0, 1] * k * k, C[0, 2] * k * k, C[1, 2] * k * k)

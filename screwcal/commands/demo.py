@@ -44,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
 
         done_t = run_demo(seed=args.seed, poses=poses, cycles=args.cycles,
                           time_scale=args.time_scale, realism=args.realism,
-                          stand_mm=args.stand_mm, smrs=args.smrs)
+                          stand_mm=args.stand_mm, smrs=args.smrs,
+                          yaw_deg=args.stand_yaw_deg)
         for line in summary_lines(done_t, args.stand_mm):
             print(line)
         out = Path(args.out)
@@ -180,6 +181,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--instrument", choices=["arm", "tracker"], default="arm",
                    help="the measuring instrument: the measuring arm through the job service "
                    "(default), or a laser tracker over emScon (service/tracker_demo.py)")
+    p.add_argument("--stand-yaw-deg", type=float, default=0.0,
+                   help="the emulated tracker's frame turned about the vertical (default 0); "
+                   "with --smrs 3 the demo first locates it from the first SMR")
     p.add_argument("--smrs", type=int, choices=[1, 3], default=1,
                    help="SMRs on the flange with --instrument tracker: 1 (positions, default) "
                    "or 3 (full pose)")

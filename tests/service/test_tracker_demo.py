@@ -1,6 +1,8 @@
 """`screwcal demo --instrument tracker`: the procedure with the emulated laser tracker (a real
 process, real TCP, the emScon driver), its figures and its handling of the tracker's faults."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -87,3 +89,17 @@ def test_the_demo_command_writes_a_result_naming_the_instrument(tmp_path, capsys
     out = capsys.readouterr().out
     assert "instrument: laser tracker (emScon TPI), one SMR (positions)" in out
     assert "AP mean after" in out
+
+
+@pytest.mark.slow
+def test_a_turned_tracker_is_located_before_three_smrs_are_pointed_at(capsys):
+    """The tracker's frame turned 35 deg about the vertical: pointing from the robot's frame
+    would miss SMRs 2 and 3 (50 mm from the first, 25 mm capture); located first from the
+    first SMR at six poses, every triangle is found."""
+    done = run_demo(seed=None, poses=40, cycles=2, time_scale=0.0, realism="ideal", smrs=3,
+                    yaw_deg=35.0)
+    turned = re.search(r"its frame turned (-?[\d.]+) deg", capsys.readouterr().out)
+    assert 30.0 < float(turned.group(1)) < 40.0  # rough: the robot's own errors are in it
+    assert all(run.skipped == 0 for run in done.runs.values())
+    assert len(done.runs["locate"].points) == 6
+    assert done.ap_after_mm <= 0.10
