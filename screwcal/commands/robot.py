@@ -20,9 +20,13 @@ import argparse
 import sys
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from screwcal.commands.joint_convention import add_joint_convention
 from screwcal.errors import ModelError
+
+if TYPE_CHECKING:
+    from screwcal.kinematics.model import SerialModel
 
 FORMATS = ("json", "screws", "dh", "mdh", "urdf")
 
@@ -63,6 +67,9 @@ def run_show(args: argparse.Namespace) -> int:
         print(f"  {i + 1:>5}  {model.joint_types[i]:>4}  ({d[0]:+.4f}, {d[1]:+.4f}, {d[2]:+.4f})"
               f"  ({p[0]:9.3f}, {p[1]:9.3f}, {p[2]:9.3f})  [{lim[i, 0]:7.1f}, {lim[i, 1]:7.1f}]"
               f"  {zero[i]:+.4f}")
+    if model.ratings:
+        print("  joints as the description names them: "
+              + "; ".join(_rating_text(model, i) for i in range(model.n_joints)))
     fl = pose_from_transform(model.home_flange)
     print(f"  tool0 at home: x {fl[0]:.3f} y {fl[1]:.3f} z {fl[2]:.3f} mm, rx {fl[3]:.3f} "
           f"ry {fl[4]:.3f} rz {fl[5]:.3f} deg")
@@ -72,6 +79,21 @@ def run_show(args: argparse.Namespace) -> int:
             f"{m.home_mm[1]:.0f}, {m.home_mm[2]:.0f}) mm" for m in model.masses)
               + (f" (of the arm's {entry.total_kg:g} kg)" if entry else ""))
     return 0
+
+
+def _rating_text(model: SerialModel, i: int) -> str:
+    """Joint i's name, effort and speed as a description gave them, e.g. 'joint_a1 (150 N m,
+    180 deg/s)'."""
+    import math
+
+    r, revolute = model.ratings[i], model.joint_types[i] == "R"
+    parts = []
+    if r.effort:
+        parts.append(f"{r.effort:g} {'N m' if revolute else 'N'}")
+    if r.velocity:
+        parts.append(f"{math.degrees(r.velocity):.4g} deg/s" if revolute else
+                     f"{r.velocity:.4g} mm/s")
+    return f"{i + 1} {r.name or '-'}" + (f" ({', '.join(parts)})" if parts else "")
 
 
 def run_import(args: argparse.Namespace) -> int:

@@ -256,3 +256,6 @@ def test_joint_names_efforts_and_speeds_survive_import_calibrate_export(tmp_path
         pytest.approx(3.14159, abs=1e-12)
     assert float(joints["wrist_3_joint"].find("limit").get("effort")) == 10
     capsys.readouterr()
+    assert main(["robot", "show", str(robot)]) == 0
+    assert "1 shoulder_pan_joint (150 N m, 180 deg/s); 2 shoulder_lift_joint (10 N m, 171.9 " \
+        "deg/s)" in capsys.readouterr().out
