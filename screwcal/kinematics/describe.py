@@ -28,14 +28,21 @@ def read_description(path: str | Path, fmt: ImportFormat | None = None,
 
     from screwcal.kinematics.modelfile import parse_model
     from screwcal.kinematics.urdf import model_from_urdf
+    from screwcal.kinematics.urdf_tree import MAX_BYTES
 
     path = Path(path)
+    if path.exists() and not path.is_file():
+        raise ModelError(f"{path}: not a regular file (a robot description is a file)")
     try:
-        data = path.read_bytes()
+        with path.open("rb") as handle:
+            data = handle.read(MAX_BYTES + 1)
     except FileNotFoundError:
         raise ModelError(f"{path}: robot description not found") from None
     except OSError as err:
         raise ModelError(f"{path}: not readable ({err.strerror})") from None
+    if len(data) > MAX_BYTES:
+        raise ModelError(f"{path}: more than {MAX_BYTES // 2**20} MB, more than a robot "
+                         "description holds: not read")
     head = data[:64].lstrip(b"\xef\xbb\xbf \t\r\n")
     if fmt == "urdf" or (fmt is None and (head.startswith(b"<") or data[:2] in (
             b"\xff\xfe", b"\xfe\xff"))):

@@ -123,6 +123,8 @@ def read_model_document(path: str | Path) -> object:
     """The decoded JSON of a robot, model or result file (what `parse_model` reads; a command
     that needs the result's other members too reads it once)."""
     path = Path(path)
+    if path.exists() and not path.is_file():
+        raise ModelError(f"{path}: not a regular file (a model file is a JSON file)")
     try:
         data: object = json.loads(path.read_text(encoding="utf-8-sig"))
     except FileNotFoundError:

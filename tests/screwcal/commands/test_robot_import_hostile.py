@@ -197,6 +197,8 @@ CASES = [
             r"refused: the XML declares entities"),
     _refuse("unknown_encoding.urdf", arm(head='<?xml version="1.0" encoding="klingon"?>\n'),
             r"(not readable as XML|XML error)"),
+    _refuse("too_big.urdf", arm(extra="<!-- " + "x" * (17 * 2**20) + " -->\n"),
+            r"more than 16 MB, more than a robot description holds: not read"),
     _refuse("too_many_elements.urdf", arm(extra='<link name="s"/>\n' * 110000),
             r"more than 100000 elements"),
     _refuse("base_link_missing.urdf", arm(), r"--base-link 'nowhere' is not a link", "--base-link",
@@ -268,3 +270,13 @@ def test_hostile_urdf_is_refused_or_imported_with_its_note(tmp_path, capsys, cas
         assert code == 0, captured.err
         assert re.search(case.expect, captured.out), captured.out
         assert load_model(out).n_joints >= 5
+
+
+def test_a_device_or_folder_is_refused_before_it_is_read(tmp_path, capsys):
+    """`robot import /dev/zero` read forever; `robot show` of one too."""
+    for argv in (["robot", "import", "/dev/zero", "--out", str(tmp_path / "o.json")],
+                 ["robot", "import", str(tmp_path), "--out", str(tmp_path / "o.json")],
+                 ["robot", "show", "/dev/zero"]):
+        assert main(argv) == 2
+        assert "not a regular file" in capsys.readouterr().err
+    assert not (tmp_path / "o.json").exists()
