@@ -20,15 +20,16 @@ SIGNIFICANT_SIGMA = 3.0  # below zero by more standard errors: a warning that so
 
 
 def held_at_zero(result: CalibrationResult) -> CalibrationResult:
-    """The result with every negative compliance (per joint, per joint and mass) of its model
-    set to 0, and a warning naming each estimate held."""
+    """The result with every negative per-joint compliance of its model set to 0, and a
+    warning naming each estimate held. Coefficients per joint and arm mass
+    (`compliance_by_mass`, "j23-free") are left as they are: one below zero corrects the mass
+    table's proportions, the file takes it, and only their sum is a joint's compliance."""
     model = result.model
-    by_mass = model.compliance_by_mass
-    if not (model.compliance < 0).any() and (by_mass is None or not (by_mass < 0).any()):
+    if not (model.compliance < 0).any():
         return result
     held = []
     for p, v, s in zip(result.params, result.values, result.std_errors, strict=True):
-        if p.kind.startswith("compliance") and v < 0:
+        if p.kind == "compliance" and v < 0:
             sigmas = -v / s if s > 0 else np.inf
             held.append(f"{p.name} {v:.3g} +- {s:.2g} deg/kNm ("
                         + (f"{sigmas:.1f} standard errors below zero: check the masses, the "
@@ -39,6 +40,5 @@ def held_at_zero(result: CalibrationResult) -> CalibrationResult:
         held.append("the model's own compliance below zero")
     warning = ("joint compliance below zero held at 0 in the model (a joint cannot be stiffer "
                "than rigid; the parameter table keeps the estimate): " + "; ".join(held))
-    fixed = replace(model, compliance=np.maximum(model.compliance, 0.0),
-                    compliance_by_mass=None if by_mass is None else np.maximum(by_mass, 0.0))
+    fixed = replace(model, compliance=np.maximum(model.compliance, 0.0))
     return replace(result, model=fixed, data_warnings=(*result.data_warnings, warning))
