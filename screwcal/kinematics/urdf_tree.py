@@ -292,6 +292,10 @@ def read_tree(data: str | bytes, source: str = "URDF") -> UrdfTree:
     r = _Reader(source, lines)
     if root.tag != "robot":
         raise ModelError(f"{source}: not a URDF (root element <{root.tag}>, not <robot>)")
+    macro = next((e for e in root.iter() if "xacro" in e.tag), None)
+    if macro is not None:
+        raise ModelError(f"{r.at(macro)}: <{macro.tag.split('}')[-1]}> is xacro, not URDF: "
+                         "expand the file first (ROS's `xacro FILE > robot.urdf`)")
     links: dict[str, Link] = {}
     for e in root.findall("link"):
         name = r.name(e, "a")

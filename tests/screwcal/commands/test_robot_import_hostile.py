@@ -180,6 +180,10 @@ CASES = [
     _refuse("floating.urdf", arm(swap=(('name="joint_6" type="revolute"',
                                         'name="joint_6" type="floating"'),)),
             r"line \d+: joint 'joint_6' of type 'floating': not a serial arm"),
+    _refuse("unexpanded.xacro", '<?xml version="1.0"?>\n<robot name="m" xmlns:xacro='
+            '"http://www.ros.org/wiki/xacro">\n<xacro:include filename="$(find x)/m.xacro"/>\n'
+            '<xacro:m20ia prefix=""/>\n</robot>\n',
+            r"line 3: <include> is xacro, not URDF: expand the file first"),
     _refuse("not_robot.urdf", '<?xml version="1.0"?>\n<sdf version="1.6"/>\n',
             r"not a URDF \(root element <sdf>"),
     _refuse("unclosed.urdf", arm()[:-12], r"line \d+, column \d+: not a URDF \(XML error"),
