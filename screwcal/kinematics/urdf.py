@@ -7,8 +7,9 @@ Written as ROS-Industrial's robot packages name things: links `base_link`, `link
 carry the calibration (as robot_calibration writes them): link i's frame sits on joint i's axis
 where the chain stands when the controller reads 0 (the joint zeros folded in), so the URDF's
 joint values are the controller's (a FANUC arm's J2/J3 coupling written in as a mimic joint,
-`joint_3_coupling`, so that joint_3 takes FANUC's J3; read back as one serial joint). The measuring system's frame (`measuring_frame`, under
-`base_link`) and the measured point (`measured_point`, under `tool0`) are links of their own.
+`joint_3_coupling`, so that joint_3 takes FANUC's J3; read back as one serial joint). The
+measuring system's frame (`measuring_frame`, under `base_link`) and the measured point
+(`measured_point`, under `tool0`) are links of their own.
 Lumped masses become point-mass `inertial`s (one per link: masses of a link are merged). URDF has
 no joint compliance; a model with some is written without it, and says so.
 
