@@ -129,16 +129,90 @@ def explaining_joint_errors(e: Array, Jq: Array) -> Array:
     return dq
 
 
+@dataclass(frozen=True)
+class JointLag:
+    """One joint's readings against its previous move: the correlation of the joint error that
+    would explain each residual with the joint's previous move, and whether it is flagged."""
+
+    joint: int  # 1-based
+    correlation: float
+    flagged: bool
+
+
+@dataclass(frozen=True)
+class LagFinding:
+    """Joint readings that lag the motion (taken before the arm settled), or backlash."""
+
+    per_joint: tuple[JointLag, ...]
+    warning: str | None
+
+    @property
+    def flagged(self) -> list[int]:
+        """The joints (1-based) whose readings lag the motion."""
+        return [j.joint for j in self.per_joint if j.flagged]
+
+
+@dataclass(frozen=True)
+class DriftFinding:
+    """The residuals' size against the acquisition order (Spearman's rank correlation)."""
+
+    spearman: float
+    warning: str | None
+
+
+@dataclass(frozen=True)
+class LeverageFinding:
+    """Poses that add almost nothing to the fit: their ids, and the mean leverage."""
+
+    mean: float
+    low: tuple[str, ...]
+    warning: str | None
+
+
+@dataclass(frozen=True)
+class FitFinding:
+    """The measuring noise the residuals need against the instrument's stated noise (None:
+    the noise was fixed, not estimated)."""
+
+    position_noise_over_stated: float | None
+    warning: str | None
+
+
+@dataclass(frozen=True)
+class DataQuality:
+    """The diagnostics a user sees: each finding with a `warning` (a sentence, or None) and
+    its figures; `to_dict()` is the result file's `diagnostics` member."""
+
+    lag: LagFinding
+    drift: DriftFinding
+    leverage: LeverageFinding
+    fit: FitFinding
+
+    @property
+    def warnings(self) -> list[str]:
+        return [f.warning for f in (self.lag, self.drift, self.leverage, self.fit) if f.warning]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "lag": {"per_joint": [{"joint": j.joint, "correlation": j.correlation,
+                                   "flagged": j.flagged} for j in self.lag.per_joint],
+                    "warning": self.lag.warning},
+            "drift": {"spearman": self.drift.spearman, "warning": self.drift.warning},
+            "leverage": {"mean": self.leverage.mean, "low": list(self.leverage.low),
+                         "warning": self.leverage.warning},
+            "fit": {"position_noise_over_stated": self.fit.position_noise_over_stated,
+                    "warning": self.fit.warning}}
+
+
 def data_quality(e: Array, Jq: Array, q_deg: Array, test: PoseTest, ids: tuple[str, ...],
                  position_noise_mm: float | None, stated_noise_mm: float,
-                 follows: NDArray[np.bool_] | None = None) -> dict[str, Any]:
-    """The diagnostics a user sees: each with a `warning` (a sentence, or None) and its figures.
+                 follows: NDArray[np.bool_] | None = None) -> DataQuality:
+    """The diagnostics a user sees (`DataQuality`).
 
     e (N, k) residuals in acquisition order, Jq (N, k, n) their joint Jacobian, q_deg (N, n) the
     joint readings, the pose tests, the estimated position noise (None when fixed), the
     instrument's stated noise, and which poses directly follow the previous one (default: all).
     """
-    out: dict[str, Any] = {}
     # Joint readings that lag the motion: the joint error that would explain each residual,
     # against the previous move of that joint.
     dq = np.degrees(explaining_joint_errors(e, Jq))
@@ -148,33 +222,32 @@ def data_quality(e: Array, Jq: Array, q_deg: Array, test: PoseTest, ids: tuple[s
     lag = []
     for j in range(q_deg.shape[1]):
         r, flagged = _significant(step[:, j], dq[:, j], LAG_MIN_CORRELATION)
-        lag.append({"joint": j + 1, "correlation": r, "flagged": flagged})
-    lagging = [d["joint"] for d in lag if d["flagged"]]
-    out["lag"] = {"per_joint": lag, "warning": None if not lagging else (
+        lag.append(JointLag(j + 1, r, flagged))
+    lagging = [d.joint for d in lag if d.flagged]
+    lag_found = LagFinding(tuple(lag), None if not lagging else (
         f"the residual follows the previous move (joints {lagging}): joint readings taken "
         "before the arm settled (they lag the motion), or backlash; wait for the robot to "
-        "settle, approach each pose from the same direction, or use the commanded joints")}
+        "settle, approach each pose from the same direction, or use the commanded joints"))
     # Drift: residual size against acquisition order.
     size = np.linalg.norm(e[:, :3], axis=1)
     rho, drift = _significant(np.arange(len(size), dtype=float), _ranks(size),
                               DRIFT_MIN_CORRELATION)  # Spearman: Pearson on the ranks
-    out["drift"] = {"spearman": float(rho), "warning": None if not drift else (
+    drift_found = DriftFinding(float(rho), None if not drift else (
         f"the residuals {'grow' if rho > 0 else 'shrink'} with the acquisition order "
-        f"(Spearman {rho:+.2f}): the set-up drifted; check the base and the measuring system")}
+        f"(Spearman {rho:+.2f}): the set-up drifted; check the base and the measuring system"))
     # Poses that add nothing.
     mean = float(test.leverage.mean())
-    idle = [ids[k] for k in np.flatnonzero(test.leverage < LOW_LEVERAGE * mean)]
-    out["leverage"] = {"mean": mean, "low": idle, "warning": None if not idle else (
+    idle = tuple(ids[k] for k in np.flatnonzero(test.leverage < LOW_LEVERAGE * mean))
+    leverage = LeverageFinding(mean, idle, None if not idle else (
         f"{len(idle)} poses add almost nothing to the fit (leverage under "
-        f"{LOW_LEVERAGE:g} of the mean): {', '.join(idle[:10])}")}
+        f"{LOW_LEVERAGE:g} of the mean): {', '.join(idle[:10])}"))
     # A fit poorer than the instrument: the noise the data need against what is stated.
     ratio = None if position_noise_mm is None else position_noise_mm / stated_noise_mm
-    out["fit"] = {"position_noise_over_stated": ratio, "warning": None if ratio is None or
-                  ratio < 3.0 else (
+    fit = FitFinding(ratio, None if ratio is None or ratio < 3.0 else (
         f"the residuals need {position_noise_mm:.3g} mm of measuring noise, {ratio:.1f} times "
         f"the instrument's {stated_noise_mm:g} mm: the model misses something (joint "
-        "compliance, a loose flange, drift) or the instrument is worse than stated")}
-    return out
+        "compliance, a loose flange, drift) or the instrument is worse than stated"))
+    return DataQuality(lag_found, drift_found, leverage, fit)
 
 
 def loo_position_error(e: Array, A: Array, W: Array) -> float:

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from screwcal.calibration.diagnostics import DataQuality
 from screwcal.calibration.error_parameters import Param
 from screwcal.calibration.identifiability import Residual
 from screwcal.kinematics.model import SerialModel
@@ -97,7 +98,7 @@ class CalibrationResult:
     covariance: Array = field(default_factory=lambda: np.zeros((0, 0)))  # numeric units
     noise: NoiseEstimate | None = None  # the levels used (statistical weighting)
     outliers: tuple[Outlier, ...] = ()  # rejected (and, with outliers="keep", kept) poses
-    diagnostics: dict[str, Any] = field(default_factory=dict)  # data_quality(): lag, drift, fit
+    diagnostics: DataQuality | None = None  # data_quality(): lag, drift, leverage, fit
     compliance: str = "none"  # the joint compliance identified: none, j23, j23-free, wrist
     compliance_note: str = ""  # why (compliance="auto")
     unabsorbed: dict[str, float] = field(default_factory=dict)  # single_fit.unabsorbed
@@ -113,7 +114,7 @@ class CalibrationResult:
     def warnings(self) -> list[str]:
         """What the user must read: data-quality findings and the poses left out."""
         out = list(self.data_warnings)
-        out += [d["warning"] for d in self.diagnostics.values() if d.get("warning")]
+        out += self.diagnostics.warnings if self.diagnostics is not None else []
         if self.implausible:
             out.append("implausible parameters (check the data, the set-up and the nominal "
                        "model before using this one): " + "; ".join(self.implausible))

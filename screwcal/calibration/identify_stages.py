@@ -9,7 +9,6 @@ the stages `below` it on that fit's start.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 
@@ -17,6 +16,7 @@ from screwcal.calibration import empirical_prior
 from screwcal.calibration.compliance_floor import held_at_zero
 from screwcal.calibration.diagnostics import (
     MAX_OUTLIER_FRACTION,
+    DataQuality,
     acquisition_order,
     data_quality,
     pose_tests,
@@ -88,8 +88,7 @@ def correct_readings_lag(state: FitState, below: Plan) -> FitState:
     kept (its outliers are not searched for again; its compliance stands)."""
     state = diagnose(state, below)
     result = state.fitted
-    flagged = [d["joint"] for d in result.diagnostics.get("lag", {}).get("per_joint", [])
-               if d["flagged"]]
+    flagged = [] if result.diagnostics is None else result.diagnostics.lag.flagged
     if state.data.q_previous is None or not flagged:
         return state.with_result(lag_note="not corrected: " + (
             "the data do not say which pose came before which" if state.data.q_previous is None
@@ -158,13 +157,13 @@ def floor_compliance(state: FitState, below: Plan) -> FitState:
     return replace(state, result=held_at_zero(state.fitted))
 
 
-def _data_quality(state: FitState) -> dict[str, Any]:
-    """The data-quality diagnostics of a fit ({} without the statistical pose tests: distances,
-    or the thesis's weighting), from the pose tests its outliers were tested with."""
+def _data_quality(state: FitState) -> DataQuality | None:
+    """The data-quality diagnostics of a fit (None without the statistical pose tests:
+    distances, or the thesis's weighting), from the pose tests its outliers were tested with."""
     result, problem, x, current = state.fitted, state.problem, state.x, state.data
     if result.residual_kind == "distance" or not state.settings.statistical \
             or problem is None or x is None:
-        return {}
+        return None
     e, test = state.residuals, state.tested
     if e is None or test is None:
         e, A = problem.raw(x)

@@ -52,11 +52,11 @@ def test_joint_readings_that_lag_the_motion_are_reported(rng):
     data = MeasurementSet(readings, T[:, :3, 3] + rng.normal(0, 0.013, (150, 3)),
                           T[:, :3, :3])
     r = identify(irb1600(), data, kind="thesis", frames="known")
-    assert r.diagnostics["lag"]["warning"] and "commanded joints" in r.diagnostics["lag"][
-        "warning"]
+    assert r.diagnostics.lag.warning and "commanded joints" in r.diagnostics.lag.warning
+    assert r.diagnostics.lag.flagged
     settled = simulate_measurements(truth, q, rng, joint_noise_deg=0.0)
-    assert identify(irb1600(), settled, kind="thesis", frames="known").diagnostics["lag"][
-        "warning"] is None
+    assert identify(irb1600(), settled, kind="thesis", frames="known").diagnostics.lag.warning \
+        is None
 
 
 def test_drift_over_the_acquisition_is_reported(rng):
@@ -65,7 +65,7 @@ def test_drift_over_the_acquisition_is_reported(rng):
     drift = np.linspace(0, 0.3, 120)[:, None] * np.array([1.0, 0.5, 0.0])
     drifted = MeasurementSet(data.q, data.positions_mm + drift, data.rotations)
     r = identify(irb1600(), drifted, kind="thesis", frames="known", outliers="keep")
-    assert r.diagnostics["drift"]["warning"] and "drifted" in r.diagnostics["drift"]["warning"]
+    assert r.diagnostics.drift.warning and "drifted" in r.diagnostics.drift.warning
 
 
 def test_joint_noise_is_kept_when_it_is_noise(rng):

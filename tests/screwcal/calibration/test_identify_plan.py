@@ -50,7 +50,7 @@ def test_settings_and_keyword_options_are_one_identification(data):
     assert np.array_equal(by_options.values, by_settings.values)
     assert by_options.compliance_note == by_settings.compliance_note
     with pytest.raises(TypeError, match="not both"):
-        identify(irb1600(), data, IdentifySettings(), kind="thesis")  # type: ignore[misc]
+        identify(irb1600(), data, IdentifySettings(), kind="thesis")
 
 
 def test_a_stage_added_after_the_plan_gets_the_final_state_and_the_stages_before(data):

@@ -35,7 +35,7 @@ def test_auto_estimates_the_lag_and_corrects_the_readings():
     data = lagging_data(LAG)
     plain = identify(irb120(), data, kind="full", frames="known")
     fixed = identify(irb120(), data, kind="full", frames="known", lag="auto")
-    assert plain.diagnostics["lag"]["warning"]  # the diagnostics see it...
+    assert plain.diagnostics.lag.warning  # the diagnostics see it...
     assert fixed.reading_lag is not None and "corrected" in fixed.lag_note  # ...auto fixes it
     np.testing.assert_allclose(fixed.reading_lag[:3], LAG[:3], rtol=0.35, atol=2e-5)
     assert fixed.residuals_after.mean() < 0.5 * plain.residuals_after.mean()

@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from screwcal.calibration.diagnostics import JointLag
 from screwcal.calibration.identify import identify
 from screwcal.errors import DataFileError
 from screwcal.kinematics.robots import irb120
@@ -124,12 +125,13 @@ def test_commanded_joints_predict_better_and_the_lag_is_reported():
     assert both["measured"]["full+c+lag"]["mean"] < 0.30
     assert "corrected" in both["measured"]["full+c+lag"]["lag_note"]
 
-    def lag_of_joint_1(dataset) -> dict:
+    def lag_of_joint_1(dataset) -> JointLag:
         r = identify(irb120(), dataset.measurements(), kind="full")  # in acquisition order
-        return r.diagnostics["lag"]["per_joint"][0]
+        assert r.diagnostics is not None
+        return r.diagnostics.lag.per_joint[0]
 
-    assert lag_of_joint_1(measured)["flagged"]
-    assert not lag_of_joint_1(commanded)["flagged"]
+    assert lag_of_joint_1(measured).flagged
+    assert not lag_of_joint_1(commanded).flagged
 
 
 @needs_data
