@@ -57,9 +57,8 @@ async def _serve_irc5(args: argparse.Namespace) -> None:
 
     world = make_world(args.errors, args.seed, realism=realism_of(args),
                        realism_seed=args.realism_seed)
-    # One world per run, in a private folder (mkdtemp: mode 0700), unless --world names one.
-    world_file = Path(args.world) if args.world else \
-        Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "world.json"
+    # One world per run, in the run's private folder (mode 0700), unless --world names one.
+    world_file = Path(args.world) if args.world else args.private_dir / "world.json"
     writer = WorldFileWriter(world_file)
     if args.list_payload:  # the operator mounts each list's payload: before anything reads
         from simulators.realism import ListPayloads
@@ -119,8 +118,7 @@ async def _serve_arm(args: argparse.Namespace) -> None:
     if not args.world:
         print("warning: no --world: this arm knows no robot and answers NO_ROBOT; pass the "
               "world file the irc5 emulator printed", file=sys.stderr)
-    world = Path(args.world) if args.world else \
-        Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "none.json"
+    world = Path(args.world) if args.world else args.private_dir / "none.json"
     if world.is_dir():  # named with what --world expects by the CLI's boundary
         raise IsADirectoryError(errno.EISDIR, "is a folder", str(world))
     if not world.parent.is_dir():  # no irc5 emulator can write it there
@@ -145,7 +143,7 @@ async def _serve_tracker(args: argparse.Namespace) -> None:
     if not args.world:
         print("warning: no --world: this tracker knows no robot and finds no reflector; pass "
               "the world file the irc5 emulator printed", file=sys.stderr)
-    world = args.world or str(Path(tempfile.mkdtemp(prefix="screwcal-world-")) / "none.json")
+    world = args.world or str(args.private_dir / "none.json")
     tracker = TrackerEmulator(WorldFileSource(world, smrs_of(args)), args.stand_mm,
                               seed=args.seed, yaw_deg=args.stand_yaw_deg,
                               faults=args.tracker_faults)
@@ -189,17 +187,27 @@ def stop_on_signals() -> asyncio.Event:
     return stop
 
 
+def _interrupted(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 def run(args: argparse.Namespace) -> int:
     import asyncio  # here, not at the top: `screwcal --help` builds this parser too
     import errno
+    import signal
 
     from screwcal.rapid import RapidSyntaxError
     from simulators.irc5 import ProgramStoppedError
     from simulators.rapid.errors import LoadError
 
+    # A signal before the servers' own handlers are in place ends the run as Ctrl-C does, so
+    # that the private folder is removed whenever the run ends (stop_on_signals after)
+    signal.signal(signal.SIGTERM, _interrupted)
     try:
         serve = {"irc5": _serve_irc5, "arm": _serve_arm, "tracker": _serve_tracker}
-        asyncio.run(serve[args.which](args))
+        with tempfile.TemporaryDirectory(prefix="screwcal-world-") as private:
+            args.private_dir = Path(private)  # the world file when no --world names one
+            asyncio.run(serve[args.which](args))
     except KeyboardInterrupt:
         pass
     except (LoadError, RapidSyntaxError, ProgramStoppedError) as err:

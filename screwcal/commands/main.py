@@ -60,10 +60,14 @@ def _command_named(argv: Sequence[str]) -> str | None:
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     for_command_line()  # BLAS threads, heap, collector: the process's (screwcal.runtime.policy)
-    parser = build_parser(_command_named(argv))
-    from screwcal.commands.options import old_vector_words, vector_options
+    try:
+        parser = build_parser(_command_named(argv))
+        from screwcal.commands.options import old_vector_words, vector_options
 
-    args = parser.parse_args(old_vector_words(argv, vector_options(parser)))
+        args = parser.parse_args(old_vector_words(argv, vector_options(parser)))
+    except KeyboardInterrupt:  # Ctrl-C while the command's modules load
+        print("screwcal: interrupted", file=sys.stderr)
+        return 130
     try:
         from screwcal.commands.file_kinds import refuse_wrong_kinds
 

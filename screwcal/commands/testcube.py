@@ -25,7 +25,6 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from screwcal.kinematics.modelfile import resolve_model
-    from screwcal.performance import plots
     from screwcal.performance.testcube import (
         FLANGE_DOWN_DEG,
         ArmSphere,
@@ -53,6 +52,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {label}: ({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}) mm")
     if args.plot:
         q_p1 = np.radians(next(p.q_deg for p in plans if p.point == "P1" and p.role == "target"))
+        from screwcal.performance import plots  # matplotlib: 2 s of imports, for --plot only
+
         print(f"  plot -> {plots.test_cube(model, cube, q_p1, args.plot, arm)}")
     return 0
 
