@@ -4,6 +4,7 @@ its chart beside it, a number as a person reads it."""
 from __future__ import annotations
 
 import html
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -16,6 +17,7 @@ table{border-collapse:collapse;margin:.6em 0}td,th{border:1px solid #bbb;padding
  text-align:left}td.text,th.text{text-align:left;max-width:32em}
 caption{text-align:left;font-weight:bold;padding:.2em 0}
 .warning{background:#fff3cd;border:1px solid #e0b000;padding:6px}
+.verdict{font-size:1.15em;border-left:4px solid #2a7d4f;padding:4px 10px}
 .pair{display:flex;flex-wrap:wrap;gap:1em 2em;align-items:flex-start;margin:.8em 0}
 .pair>.table{flex:0 1 auto;min-width:16em;max-width:100%;overflow-x:auto}
 .pair>.table>table{width:100%}
@@ -42,16 +44,16 @@ def sentence(text: str) -> str:
 
 
 def number(v: Any, digits: int = 3) -> str:
-    """A figure with `digits` decimals, more for a small one (0.0006 stays readable); '-' for
-    a missing one; other values as text."""
+    """A figure with `digits` decimals, more for a small one (0.0006 and 0.000055 stay
+    readable, never 5.5e-05); '-' for a missing one; other values as text."""
     if v is None:
         return "-"
     if isinstance(v, bool) or not isinstance(v, int | float):
         return esc(v)
     if isinstance(v, int):
         return str(v)
-    if v != 0 and abs(v) < 10.0 ** -digits * 10:
-        return f"{v:.{digits + 1}g}" if abs(v) < 1e-4 else f"{v:.{digits + 1}f}"
+    if v != 0 and abs(v) < 10.0 ** -digits * 10:  # fixed notation: two figures shown
+        return f"{v:.{max(digits + 1, 1 - math.floor(math.log10(abs(v))))}f}"
     return f"{v:.{digits}f}"
 
 

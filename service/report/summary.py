@@ -98,6 +98,33 @@ def reading(result: ResultDocument, phases: tuple[str, ...]) -> list[str]:
     return out
 
 
+def verdict(result: ResultDocument, phases: tuple[str, ...]) -> str | None:
+    """Whether it worked, in one sentence a manager can read: ISO 9283 position accuracy
+    before and after, the factor, and what is left beside the robot's repeatability; None
+    without a performance list before and after."""
+    if len(phases) < 2:
+        return None
+    before = result.overall(phases[0], "ap_mm_mean")
+    after = result.overall(phases[-1], "ap_mm_mean")
+    rp = result.overall(phases[-1], "rp_mm_max")
+    if before is None or after is None or after <= 0:
+        return None
+    factor = before / after
+    if factor < 1.2:
+        return (f"The calibration did not make the robot more accurate: position error "
+                f"{number(before)} mm before, {number(after)} mm after (ISO 9283 AP, mean)")
+    left = "" if rp is None else (
+        f"; what is left ({number(after)} mm) is within twice the robot's own scatter "
+        f"(repeatability RP max {number(rp)} mm): about as good as this robot can be"
+        if after <= 2 * rp else
+        f"; what is left ({number(after)} mm) is above twice the robot's own scatter "
+        f"(repeatability RP max {number(rp)} mm): something the model does not hold remains "
+        "(see the warnings and the residuals below)")
+    return (f"It worked: the robot is {factor:,.0f}x more accurate, its position error "
+            f"{number(before)} mm before and {number(after)} mm after (ISO 9283 AP, mean over "
+            f"the test points){left}")
+
+
 def summary_section(ctx: ReportContext) -> str | None:
     """The figures that belong together, what each measures, how they read together, the
     warnings."""
@@ -108,7 +135,9 @@ def summary_section(ctx: ReportContext) -> str | None:
         return None
     names = [PERF_PHASE_NAMES[p] for p in phases] if phases else ["before", "after"]
     emulated = ctx.robot.get("emulation") or []
-    body = [sentence(f"These figures come from an emulated robot ({emulated[0].rstrip(':')}): "
+    said = verdict(result, phases)
+    body = [f"<p class='verdict'><b>{esc(said)}.</b></p>"] if said else []
+    body += [sentence(f"These figures come from an emulated robot ({emulated[0].rstrip(':')}): "
                      "what it carries is listed under the robot below")] if emulated else []
     body += [table(["figure", "unit", *names, "factor", "what it measures"], figures,
                   text_columns=(len(names) + 3,), cls="summary")] if figures else []

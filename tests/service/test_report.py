@@ -74,3 +74,27 @@ def test_chi2_of_estimated_noise_levels_is_one_by_construction_and_the_report_sa
     stated = fit_words(_estimation({"position": {"value": 0.013, "estimated": False}}, 0.95))
     assert "as large as the stated measuring noise" in stated
     assert "larger than" in fit_words(_estimation(None, 4.0))
+
+
+def test_the_first_screen_says_whether_it_worked_in_one_sentence():
+    """Issue 38: a verdict before any table: the factor, before and after, and what is left
+    beside the robot's repeatability; numbers in fixed notation."""
+    from service.document import PerformanceSection, ResultDocument
+    from service.report.markup import number
+    from service.report.summary import verdict
+
+    def doc(before: float, after: float, rp: float) -> ResultDocument:
+        return ResultDocument(performance={
+            "perf_before": PerformanceSection(overall={"ap_mm_mean": before, "rp_mm_max": rp}),
+            "perf_after": PerformanceSection(overall={"ap_mm_mean": after, "rp_mm_max": rp})})
+
+    phases = ("perf_before", "perf_after")
+    good = verdict(doc(53.925, 0.084, 0.05), phases)
+    assert good is not None and good.startswith("It worked: the robot is 642x more accurate")
+    assert "53.925 mm before and 0.084 mm after" in good and "as good as this robot" in good
+    left = verdict(doc(53.925, 0.5, 0.05), phases)
+    assert left is not None and "something the model does not hold remains" in left
+    poor = verdict(doc(1.0, 0.95, 0.05), phases)
+    assert poor is not None and poor.startswith("The calibration did not make the robot")
+    assert verdict(doc(1.0, 0.5, 0.05), ("perf_before",)) is None
+    assert number(5.54e-05) == "0.000055" and "e-" not in number(1.2e-7)
