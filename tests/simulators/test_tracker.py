@@ -18,6 +18,7 @@ from protocol.errors import (
     LinkError,
     LinkLostError,
     TrackerNotInitialisedError,
+    TrackerRefusedError,
     TrackerWarmingUpError,
 )
 from protocol.tracker import TrackerClient, parse_tracker_url
@@ -246,3 +247,27 @@ def test_three_smrs_each_found_by_pointing_at_it():
                 tracker.go_position(truth[0] + np.array([0.0, 0.0, 60.0]))  # nothing there
             tracker.initialise()  # back home, then onto the first SMR
             assert np.linalg.norm(np.asarray(tracker.measure().xyz_mm) - truth[0]) < 0.1
+
+
+def test_the_emulator_answers_what_it_does_not_know_and_drops_garbage():
+    import socket
+
+    world = make_world(None, None)
+    world.q_deg = SEEN
+    with running(world, seed=8) as emu:
+        host, port = parse_tracker_url(emu.url)
+        with socket.create_connection((host, port), timeout=5) as sock:
+            sock.sendall(es.HEADER.pack(12, es.DT_COMMAND) + (999).to_bytes(4, "little"))
+            sock.sendall(es.encode_command(es.C_GET_TRACKER_STATUS))
+            reader, got = es.PacketReader(), []
+            while len(got) < 2:
+                got += reader.feed(sock.recv(4096))
+            assert got == [es.Answer(999, es.RS_NOT_IMPLEMENTED, ()),
+                           es.Answer(es.C_GET_TRACKER_STATUS, 0, (es.TS_NOT_READY,))]
+            sock.sendall(es.HEADER.pack(1 << 20, 0) + bytes(8))  # a size no packet has
+            assert sock.recv(4096) == b""  # dropped
+        with TrackerClient.open(emu.url) as tracker:  # and the next client is served
+            tracker.setup()
+            assert tracker.command(es.C_GET_TRACKER_STATUS).values == (es.TS_READY,)
+            with pytest.raises(TrackerRefusedError, match="status 3"):
+                tracker.set_environment(20.0, 3000.0, 50.0)  # no air at 3 bar
