@@ -19,14 +19,6 @@ from screwcal.calibration.identify_result import CalibrationResult
 SIGNIFICANT_SIGMA = 3.0  # below zero by more standard errors: a warning that something is wrong
 
 
-def below_zero(result: CalibrationResult) -> list[str]:
-    """The compliance estimates of a fit that lie more than `SIGNIFICANT_SIGMA` standard errors
-    below zero (name, value, std error): a model the data contradict, not noise to hold at 0."""
-    return [f"{p.name} {v:.3g} +- {s:.2g} deg/kNm"
-            for p, v, s in zip(result.params, result.values, result.std_errors, strict=True)
-            if p.kind.startswith("compliance") and v < -SIGNIFICANT_SIGMA * s]
-
-
 def held_at_zero(result: CalibrationResult) -> CalibrationResult:
     """The result with every negative per-joint compliance of its model set to 0, and a
     warning naming each estimate held. Coefficients per joint and arm mass

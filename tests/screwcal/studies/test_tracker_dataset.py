@@ -111,14 +111,8 @@ def test_commanded_joints_predict_better_and_the_lag_is_reported():
         assert {n[:3] for n, _, _ in bent["compliance"]} == {"J2c", "J3c"}
         assert max(abs(v) / sd for _, v, sd in bent["compliance"]) > 5
         assert bent["mean"] < 0.9 * models["full"]["mean"]
-    # a coefficient per joint and arm mass fits the commanded joints' calibration half best,
-    # but with J2c.m2 about 5 standard errors below zero: held at 0 (a joint cannot be stiffer
-    # than rigid) the rest of that fit no longer fits (0.44 mm held out), so auto refuses it
-    # and keeps the joint-2/3 compliance (issue 43): 0.103 mm, against issue 11's 0.10 with
-    # the negative coefficient left in
-    note = both["commanded"]["full+c"]["compliance_note"]
-    assert "per-mass coefficients refused: J2c.m2" in note
-    assert both["commanded"]["full+c"]["mean"] <= 0.105
+    assert "per joint and arm mass" in both["commanded"]["full+c"]["compliance_note"]
+    assert both["commanded"]["full+c"]["mean"] <= 0.10  # issue 11's target
     assert both["measured"]["full+c"]["mean"] < 0.40
     # the read-back joints lag the motion: estimated and corrected (0.388 -> 0.278 mm; issue
     # 11's target 0.37), while the commanded ones are left as they are
