@@ -128,6 +128,7 @@ class Cell:
         self.nominal = irb1600()
         self._anchor: tuple[float, float, float] | None = None  # the first SMR at this pose
         self.to_tracker = np.eye(3)  # the tracker's frame <- the robot's, once located
+        self.last_deg: Sequence[float] | None = None  # the joints read at the last move
 
     async def _tracker(self, initialise: bool) -> TrackerClient:
         if self.tracker is None:
@@ -215,16 +216,16 @@ class Cell:
     async def visit(self, q_list: Sequence[Sequence[float]], measured: Sequence[bool],
                     run: TrackerRun) -> None:
         """Move through `q_list`; measure the poses flagged in `measured`."""
-        last = None
         for q, measure in zip(q_list, measured, strict=True):
             pose = await self.robot.movj([float(v) for v in q])
+            last = self.last_deg  # where the robot came from, in this list or the one before
             if measure:
                 run.previous_deg.append(list(last) if last is not None else [np.nan] * 6)
                 run.joints_deg.append(list(pose.joints_deg))
                 got = await self.measure(run, pose.joints_deg)
                 run.points.append(None if got is None else got[0])
                 run.others.append(None if got is None else got[1:])
-            last = pose.joints_deg
+            self.last_deg = pose.joints_deg
 
 
 def _triangle_mismatch_mm(measured: Array, nests: Array) -> float:
