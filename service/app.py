@@ -1,9 +1,10 @@
 """The job service (FastAPI): robots, jobs, progress as server-sent events, the operator's
 go-ahead, abort, measurements, results and a report page.
 
-`create_app(settings)` builds the app; nothing is created at import. Requests that can move a
-robot or change data need `Authorization: Bearer <token>` (401 without, 403 with a wrong one,
-and 403 always when no token is configured). The routes are in `service/api/`, one router per
+`create_app(settings)` builds the app; nothing is created at import. Every request but signing
+in carries `Authorization: Bearer <token>` (401 without, 403 with one nobody has or whose user's
+role lacks the route's grant: service/roles.py); every change and refusal is audited
+(service/audit.py). The routes are in `service/api/`, one router per
 resource.
 """
 
@@ -20,10 +21,14 @@ from fastapi.staticfiles import StaticFiles
 from swagger_ui_bundle import swagger_ui_path
 
 from screwcal.runtime.policy import held_for_service
-from service.api import events, history, jobs, robots
+from service.api import events, history, jobs, people, robots
+from service.api.audit_middleware import AuditMiddleware
 from service.api.errors import install_error_handlers
+from service.audit import AuditTrail
 from service.manager import JobManager
+from service.people import People
 from service.settings import ServiceSettings
+from service.sign_in_limit import SignInLimit
 from service.store import Store, open_store
 
 
@@ -38,6 +43,8 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
         own = store if store is not None else await asyncio.to_thread(open_store, settings)
         manager = JobManager(own, settings, on_fatal=on_fatal)
         app.state.store, app.state.manager, app.state.settings = own, manager, settings
+        app.state.people, app.state.audit = People(own.db), AuditTrail(own.db)
+        app.state.sign_in_limit = SignInLimit()
         app.state.planning = set()  # robots whose job is being planned by a request now
         app.state.plans = asyncio.Semaphore(settings.max_concurrent_plans)
         await manager.resume_unfinished()
@@ -58,6 +65,8 @@ def create_app(settings: ServiceSettings, store: Store | None = None,
     app.include_router(history.router)
     app.include_router(jobs.router)
     app.include_router(events.router)
+    app.include_router(people.router)
+    app.add_middleware(AuditMiddleware)
     return app
 
 

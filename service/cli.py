@@ -51,7 +51,8 @@ def serve(settings: ServiceSettings, announce: Callable[[str], None] = print) ->
 
     server = bind(settings)
     host, port = server.address
-    announce(f"screwcal service on http://{host}:{port} (database {server.store.label})")
+    scheme = "https" if settings.tls_cert is not None else "http"
+    announce(f"screwcal service on {scheme}://{host}:{port} (database {server.store.label})")
     sys.stdout.flush()
     asyncio.run(server.serve())
     return 1 if server.fatal else 0
@@ -65,13 +66,21 @@ def run_serve(args: argparse.Namespace) -> int:
         check_outputs([args.db], [])  # a folder, or a missing folder: refused before binding
         _check_sqlite_file(Path(args.db))
     overrides = {k: v for k, v in ((db_key, args.db), ("host", args.host),
-                                   ("port", args.port), ("token", args.token)) if v is not None}
+                                   ("port", args.port), ("token", args.token),
+                                   ("tls_cert", args.tls_cert), ("tls_key", args.tls_key),
+                                   ("insecure_http", args.insecure_http or None))
+                 if v is not None}
     from service.settings import ServiceSettings
 
     settings = ServiceSettings(**overrides)
-    if not settings.token:
-        print("warning: no token (--token or SCREWCAL_TOKEN): every request that moves a robot "
-              "or changes data will be refused", file=sys.stderr)
+    if args.admin:
+        from service.people_cli import bootstrap_administrator
+
+        bootstrap_administrator(settings, args.admin)
+    if settings.token:
+        print("warning: the shared token (--token or SCREWCAL_TOKEN) is deprecated: it acts as "
+              "an administrator nobody is named as; give people users (`screwcal user add`)",
+              file=sys.stderr)
     try:
         return serve(settings)
     except KeyboardInterrupt:
@@ -211,13 +220,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     s = sub.add_parser("serve", help="run the job service (REST; SQLite or PostgreSQL)",
                        description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
-    s.add_argument("--db", default=None, help="SQLite file (default screwcal.db), or a "
-                   "postgresql://user@host/name URL: several services may share a PostgreSQL "
-                   "database, each job held by one of them (SCREWCAL_LEASE_S)")
-    s.add_argument("--host", default=None, help="bind address (default 127.0.0.1)")
-    s.add_argument("--port", type=int, default=None, help="TCP port (default 8080; 0: a free "
-                   "one)")
-    s.add_argument("--token", default=None, help="bearer token (or SCREWCAL_TOKEN)")
+    _add_serve_arguments(s)
     s.set_defaults(func=run_serve)
 
     j = sub.add_parser("job", help="operate jobs on a running service", description=__doc__,
@@ -284,6 +287,24 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     rep.add_argument("--out", required=True, help="HTML file to write")
     for a in actions.choices.values():
         a.set_defaults(func=run_job)
+
+
+def _add_serve_arguments(s: argparse.ArgumentParser) -> None:
+    s.add_argument("--db", default=None, help="SQLite file (default screwcal.db), or a "
+                   "postgresql://user@host/name URL: several services may share a PostgreSQL "
+                   "database, each job held by one of them (SCREWCAL_LEASE_S)")
+    s.add_argument("--host", default=None, help="bind address (default 127.0.0.1)")
+    s.add_argument("--port", type=int, default=None, help="TCP port (default 8080; 0: a free "
+                   "one)")
+    s.add_argument("--token", default=None, help="deprecated: a shared administrator token "
+                   "(or SCREWCAL_TOKEN); give people users instead")
+    s.add_argument("--admin", default=None, metavar="NAME", help="the first administrator, "
+                   "made when the database has no user yet (password from "
+                   "SCREWCAL_ADMIN_PASSWORD or asked for)")
+    s.add_argument("--tls-cert", default=None, help="certificate (PEM): serve HTTPS")
+    s.add_argument("--tls-key", default=None, help="its private key (PEM)")
+    s.add_argument("--insecure-http", action="store_true", help="listen beyond loopback "
+                   "without TLS (refused otherwise)")
 
 
 def _add_model_options(p: argparse.ArgumentParser) -> None:

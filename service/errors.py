@@ -5,6 +5,8 @@
     ├── ConflictError      the request does not fit the job's state (HTTP 409)
     │   └── LeaseLostError     another service holds the job now (its lease expired here)
     ├── SafetyError        a target or correction refused before anything is sent (HTTP 422)
+    ├── AccountError       a user name or password that breaks the rules (HTTP 422)
+    ├── CredentialsError   a name and password that do not sign in (HTTP 401; never says which)
     └── StoreError         the database cannot be used (HTTP 503)
         ├── StoreBusyError     another live service holds the database file
         ├── StoreUnavailableError  the database cannot be written for now (an I/O error, a
@@ -59,3 +61,11 @@ class StoreLostError(StoreError):
 
 class SchemaTooNewError(StoreError):
     pass
+
+
+class AccountError(ServiceError):
+    """A user name or a password that breaks the rules (length, characters)."""
+
+
+class CredentialsError(ServiceError):
+    """A name, password or token that does not sign in (the message never says which)."""

@@ -4,7 +4,7 @@ service/database.py). A database records the last one it ran; a newer release ad
 never edits one that was released, so a database written by this version opens in the next.
 """
 
-SCHEMA_VERSION = 6
+SCHEMA_VERSION = 7
 # Each migration is written once for both databases: {pk}, {int} and {real} are the column
 # types of the database it runs on (service/database.py). Never edit one that was released:
 # add the next.
@@ -66,5 +66,24 @@ MIGRATIONS = {
     # empty list for a real robot and for the robots of older databases.
     6: """
     ALTER TABLE robots ADD COLUMN emulation TEXT NOT NULL DEFAULT '[]';
+    """,
+    # Version 7: people (users with a role, their tokens kept as digests) and the audit trail,
+    # each record chained to the one before by its hash (service/audit.py).
+    7: """
+    CREATE TABLE users (
+        id {pk}, name TEXT NOT NULL UNIQUE, role TEXT NOT NULL, password_hash TEXT NOT NULL,
+        created {real} NOT NULL, disabled {int} NOT NULL DEFAULT 0);
+    CREATE TABLE api_tokens (
+        id {pk}, user_id {int} NOT NULL REFERENCES users(id), label TEXT NOT NULL,
+        digest TEXT NOT NULL UNIQUE, created {real} NOT NULL, expires {real} NOT NULL,
+        revoked {int} NOT NULL DEFAULT 0);
+    CREATE TABLE audit (
+        id {pk}, at {real} NOT NULL, actor TEXT NOT NULL, source TEXT NOT NULL,
+        action TEXT NOT NULL, target TEXT NOT NULL, outcome TEXT NOT NULL, detail TEXT NOT NULL,
+        prev TEXT NOT NULL UNIQUE, hash TEXT NOT NULL);
+    CREATE TABLE audit_head (
+        one {int} PRIMARY KEY CHECK (one = 1), last_id {int} NOT NULL, last_hash TEXT NOT NULL);
+    INSERT INTO audit_head (one, last_id, last_hash) VALUES
+        (1, 0, '0000000000000000000000000000000000000000000000000000000000000000');
     """,
 }

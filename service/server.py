@@ -36,7 +36,9 @@ class Server:
         self.uvicorn = uvicorn.Server(uvicorn.Config(
             BodyTimeout(app, s.header_timeout_s), log_level="warning", lifespan="on",
             http=guarded_protocol(s.header_timeout_s, s.max_connections),
-            timeout_keep_alive=5))
+            timeout_keep_alive=5,
+            ssl_certfile=str(s.tls_cert) if s.tls_cert is not None else None,
+            ssl_keyfile=str(s.tls_key) if s.tls_key is not None else None))
 
     @property
     def address(self) -> tuple[str, int]:
@@ -60,9 +62,27 @@ def raise_descriptor_limit(wanted: int = DESCRIPTORS_WANTED) -> int:
     return target
 
 
+LOOPBACK = ("127.0.0.1", "::1", "localhost")
+
+
+def check_transport(settings: ServiceSettings) -> None:
+    """TLS needs both files; beyond loopback the service speaks HTTPS unless told otherwise
+    (IEC 62443-3-3 SR 3.1: tokens and passwords must not cross a cell network in clear)."""
+    if (settings.tls_cert is None) != (settings.tls_key is None):
+        raise ServiceError("TLS needs both --tls-cert and --tls-key")
+    for path in (settings.tls_cert, settings.tls_key):
+        if path is not None and not path.is_file():
+            raise ServiceError(f"{path}: no such file (a PEM certificate or key)")
+    if settings.host not in LOOPBACK and settings.tls_cert is None and not settings.insecure_http:
+        raise ServiceError(f"listening on {settings.host} (beyond loopback) without TLS: give "
+                           "--tls-cert and --tls-key, or --insecure-http to accept tokens and "
+                           "passwords in clear on that network")
+
+
 def bind(settings: ServiceSettings, port: int | None = None) -> Server:
     """Open the store (StoreBusyError when another service holds it), then bind the port
     (ServiceError saying so when it is taken)."""
+    check_transport(settings)
     raise_descriptor_limit()
     store = open_store(settings)
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)

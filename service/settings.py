@@ -31,6 +31,10 @@ class ServiceSettings(BaseSettings):
     read_token: str = Field("", description="a second token that may only read (jobs, "
                                             "measurements, results, reports), e.g. for a "
                                             "dashboard; empty: none")
+    tls_cert: Path | None = Field(None, description="the service's certificate (PEM): HTTPS")
+    tls_key: Path | None = Field(None, description="its private key (PEM)")
+    insecure_http: bool = Field(False, description="listen beyond loopback without TLS (tokens "
+                                "and passwords then cross the network in clear)")
     reconnect_interval_s: float = 0.5  # a paused job retries its links and its store this often
     arm_timeout_s: float = 10.0  # waiting for the three holes of one pose
     pose_timeout_s: float = 120.0  # waiting for one pose of a running list

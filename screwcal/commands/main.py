@@ -35,6 +35,8 @@ COMMANDS = {
     "emulator": "simulators.cli",
     "serve": "service.cli",
     "job": "service.cli",
+    "user": "service.people_cli",
+    "audit": "service.people_cli",
 }
 
 

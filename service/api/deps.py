@@ -1,48 +1,17 @@
-"""What a request depends on: the bearer tokens, the store, the job manager, ids in paths."""
+"""What a request depends on: who makes it (`auth`), the store, the job manager, ids in paths."""
 
 from __future__ import annotations
 
-import secrets
 from typing import Annotated
 
-from fastapi import Depends, HTTPException, Path, Request, status
-from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from fastapi import Depends, Path, Request
 
+from service.api.auth import Who
 from service.document import SQLITE_MAX_ID, JobRecord
 from service.job_state import JobState
 from service.manager import JobManager
 from service.schemas import JobPublic
 from service.store import Store
-
-BEARER = HTTPBearer(auto_error=False, description="the service's token (--token or "
-                    "SCREWCAL_TOKEN)")
-
-
-def _check_token(request: Request, credentials: HTTPAuthorizationCredentials | None,
-                 accepted: tuple[str, ...]) -> None:
-    if credentials is None or credentials.scheme.lower() != "bearer":
-        raise HTTPException(status.HTTP_401_UNAUTHORIZED, "bearer token required",
-                            headers={"WWW-Authenticate": "Bearer"})
-    given = credentials.credentials.encode()
-    if not any(t and secrets.compare_digest(given, t.encode()) for t in accepted):
-        raise HTTPException(status.HTTP_403_FORBIDDEN, "token refused")
-
-
-def authorised(request: Request,
-               credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(BEARER)]
-               ) -> None:
-    """Requests that move a robot or change data carry the settings' bearer token (declared in
-    the OpenAPI, so that /docs' "Authorize" works)."""
-    _check_token(request, credentials, (request.app.state.settings.token,))
-
-
-def may_read(request: Request,
-             credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(BEARER)]
-             ) -> None:
-    """Reads (hosts, arm URLs, every measurement) need a token too: the service's, or the
-    read-only one."""
-    settings = request.app.state.settings
-    _check_token(request, credentials, (settings.token, settings.read_token))
 
 
 def store_of(request: Request) -> Store:
@@ -67,8 +36,9 @@ def public(job: JobRecord, manager: JobManager) -> JobPublic:
     return JobPublic.of(job, runner.gate.waiting_for)
 
 
-Auth = Annotated[None, Depends(authorised)]
-Read = Annotated[None, Depends(may_read)]
+# Every route's grant is declared once, in service/roles.py: both names check it.
+Auth = Who
+Read = Who
 # Ids in paths are SQLite integers: a larger number names nothing, and gets a 422, not a 500.
 JobId = Annotated[int, Path(ge=1, le=SQLITE_MAX_ID, description="a job's id")]
 RobotId = Annotated[int, Path(ge=1, le=SQLITE_MAX_ID, description="a robot's id")]

@@ -8,7 +8,9 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 
 from service.errors import (
+    AccountError,
     ConflictError,
+    CredentialsError,
     NotFoundError,
     SafetyError,
     ServiceError,
@@ -20,6 +22,8 @@ HTTP_STATUS: dict[type[ServiceError], int] = {
     NotFoundError: 404,
     ConflictError: 409,
     SafetyError: 422,
+    AccountError: 422,
+    CredentialsError: 401,
     StoreError: 503,  # a lost database also stops the service
 }
 

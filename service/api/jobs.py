@@ -11,11 +11,14 @@ from fastapi.responses import HTMLResponse
 
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.modelfile import parse_model
+from service.api.auth import require
 from service.api.deps import Auth, JobId, ManagerDep, Read, StoreDep, public
 from service.errors import ConflictError, NotFoundError
 from service.manager import JobManager
+from service.phases import STEP_OF, Action
 from service.plans import LISTS_OF_KIND, plan_for
 from service.report import report_html
+from service.roles import OPERATOR_JOB_KINDS, Grant
 from service.schemas import GoAhead, JobCreate, JobPublic, JobResult, MeasurementPublic
 from service.store import Store
 from service.verify import verify_options
@@ -24,11 +27,14 @@ router = APIRouter(prefix="/jobs", tags=["jobs"])
 
 
 @router.post("", status_code=202, response_model=JobPublic)
-async def create_job(body: JobCreate, _: Auth, request: Request, store: StoreDep,
+async def create_job(body: JobCreate, who: Auth, request: Request, store: StoreDep,
                      manager: ManagerDep) -> JobPublic:
     """One unfinished job per robot: refused at once when the robot has one or another
     request is planning one for it; the database's unique index decides in the end (a
-    second service on a server database included)."""
+    second service on a server database included). An operator may start performance and
+    verify jobs; the other kinds calibrate the robot and need an engineer."""
+    if body.kind not in OPERATOR_JOB_KINDS:
+        require(who, Grant.CALIBRATE)
     robot, body = await asyncio.to_thread(_admit, store, body)
     planning: set[int] = request.app.state.planning
     if body.robot_id in planning:
@@ -84,8 +90,16 @@ def get_job(job_id: JobId, _: Read, store: StoreDep, manager: ManagerDep) -> Job
     return public(store.job(job_id), manager)
 
 @router.post("/{job_id}/go", status_code=204)
-async def go_ahead(job_id: JobId, body: GoAhead, _: Auth, manager: ManagerDep) -> None:
-    await manager.go(job_id, body.index, body.operator)
+async def go_ahead(job_id: JobId, body: GoAhead, who: Auth, manager: ManagerDep) -> None:
+    """The go-ahead, given by the signed-in user (the name kept in the job's provenance); the
+    go-ahead of a ZERO needs the ZERO grant (an engineer)."""
+    runner = manager.runners.get(job_id)
+    waiting = runner.gate.waiting_for if runner is not None else None
+    step = STEP_OF.get(waiting[0]) if waiting is not None else None
+    if step is not None and step.action is Action.CORRECT:
+        require(who, Grant.ZERO)
+    name = (body.operator or who.name) if who.legacy else who.name
+    await manager.go(job_id, body.index, name)
 
 @router.post("/{job_id}/abort", status_code=204)
 async def abort(job_id: JobId, _: Auth, manager: ManagerDep) -> None:
