@@ -27,6 +27,7 @@ from screwcal.errors import ModelError
 
 if TYPE_CHECKING:
     from screwcal.kinematics.model import SerialModel
+    from screwcal.kinematics.robots import RobotEntry
 
 FORMATS = ("json", "screws", "dh", "mdh", "urdf")
 
@@ -130,6 +131,27 @@ def run_import(args: argparse.Namespace) -> int:
     return 0
 
 
+def _library_robot(given: str, document: object) -> RobotEntry | None:
+    """The library robot an export is of: named, or the nominal a result was calibrated
+    against when that is the library's own geometry (a robot file named like one is not)."""
+    import numpy as np
+
+    from screwcal.kinematics.modelfile import parse_model
+    from screwcal.kinematics.robots import LIBRARY
+
+    if given in LIBRARY:
+        return LIBRARY[given]
+    if not isinstance(document, dict) or document.get("robot") not in LIBRARY or \
+            not isinstance(document.get("nominal_model"), dict):
+        return None
+    entry = LIBRARY[document["robot"]]
+    nominal, library = parse_model(document["nominal_model"]), entry.model()
+    same = nominal.n_joints == library.n_joints and all(
+        np.allclose(getattr(nominal, a), getattr(library, a), atol=1e-9)
+        for a in ("axis_dirs", "axis_points_mm", "home_flange"))
+    return entry if same else None
+
+
 def run_export(args: argparse.Namespace) -> int:
     from screwcal.commands.joint_convention import joint_convention
     from screwcal.kinematics.describe import description_text
@@ -139,7 +161,8 @@ def run_export(args: argparse.Namespace) -> int:
 
     model = resolve_model(args.result)
     document = None if args.result in LIBRARY else read_model_document(args.result)
-    text, said = description_text(model, args.format, joint_convention(args, document, model))
+    text, said = description_text(model, args.format, joint_convention(args, document, model),
+                                  _library_robot(args.result, document))
     write_text_atomic(args.out, text.encode("utf-8"))
     from screwcal.calibration.residual_model import dropped_by_export
 

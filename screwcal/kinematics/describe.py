@@ -6,11 +6,16 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
+
+import numpy as np
 
 from screwcal.errors import ModelError
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.readings import JointConvention
+
+if TYPE_CHECKING:
+    from screwcal.kinematics.robots import RobotEntry
 
 ImportFormat = Literal["json", "dh", "mdh", "screws", "urdf"]
 ExportFormat = Literal["json", "screws", "dh", "mdh", "urdf"]
@@ -74,19 +79,43 @@ def read_description(path: str | Path, fmt: ImportFormat | None = None,
     return (replace(model, name=name) if name else model), str(form)
 
 
+def _in_ros_frames(model: SerialModel, entry: RobotEntry
+                   ) -> tuple[SerialModel, list[tuple[str, np.ndarray]]]:
+    """The model re-expressed in the entry's base_link, and its other frames' poses there."""
+    from screwcal.kinematics.pose import transform_from_pose
+    from screwcal.kinematics.robots import in_frame
+
+    poses = {name: transform_from_pose(pose) for name, pose in entry.frames}
+    F = poses["base_link"]
+    return in_frame(model, F), [(name, np.linalg.inv(F) @ T) for name, T in poses.items()
+                                if name != "base_link"]
+
+
 def description_text(model: SerialModel, fmt: ExportFormat,
-                     convention: JointConvention = "serial") -> tuple[str, list[str]]:
+                     convention: JointConvention = "serial", library: RobotEntry | None = None
+                     ) -> tuple[str, list[str]]:
     """The model written as `fmt`, and what the user must know about it: "warning: ..." for
     what the form cannot carry, "note: ..." for how its joint values read. `convention`: how
     the robot's controller reports its joints; a FANUC arm's URDF carries the J2/J3 coupling
-    (a mimic joint) so that its joint_3 takes the controller's J3."""
+    (a mimic joint) so that its joint_3 takes the controller's J3. `library`: the library
+    robot the model is (or was calibrated from): its URDF is written in ROS-Industrial's
+    base_link with the entry's other frames as links (UR's `base`, FANUC's World)."""
     from screwcal.kinematics.modelfile import model_document
 
     said = []
     if fmt == "urdf":
         from screwcal.kinematics.urdf import urdf_from_model
 
-        text = urdf_from_model(model, j23_coupling=convention == "fanuc")
+        frames: list[tuple[str, np.ndarray]] = []
+        if library is not None:
+            model, frames = _in_ros_frames(model, library)
+            from screwcal.kinematics.pose import pose_from_transform
+            from screwcal.kinematics.robots import pose_words
+
+            said.append("note: the root is ROS-Industrial's base_link" + "".join(
+                f"; link '{name}' (the frame the controller reports in) at "
+                f"{pose_words(pose_from_transform(T).tolist())}" for name, T in frames))
+        text = urdf_from_model(model, j23_coupling=convention == "fanuc", more_links=frames)
         if convention == "fanuc":
             said.append("note: FANUC's J2/J3 coupling is in the URDF: joint_3_coupling turns "
                         "joint 3's axis with joint_2 (a mimic joint), so joint_1 .. joint_6 "

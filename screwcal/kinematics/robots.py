@@ -97,9 +97,10 @@ class RobotEntry:
 
 def pose_words(pose: Sequence[float]) -> str:
     """A pose (x, y, z mm, rx, ry, rz deg) for people: its non-zero parts, e.g. 'z 330 mm'."""
-    parts = [f"{k} {round(float(v), 6) + 0.0:g} {'mm' if k in 'xyz' else 'deg'}"
-             for k, v in zip(("x", "y", "z", "rx", "ry", "rz"), pose, strict=True)
-             if abs(v) > 1e-9]
+    rounded = [round(float(v), 6) + 0.0 for v in pose]
+    rounded[3:] = [180.0 if v == -180.0 else v for v in rounded[3:]]  # angles in (-180, 180]
+    parts = [f"{k} {v:g} {'mm' if k in 'xyz' else 'deg'}"
+             for k, v in zip(("x", "y", "z", "rx", "ry", "rz"), rounded, strict=True) if v]
     return ", ".join(parts) or "the same place"
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -92,11 +93,13 @@ def link_frames(model: SerialModel) -> tuple[list[Array], Array]:
     return frames, A @ model.home_flange
 
 
-def urdf_from_model(model: SerialModel, j23_coupling: bool = False) -> str:
+def urdf_from_model(model: SerialModel, j23_coupling: bool = False,
+                    more_links: Sequence[tuple[str, Array]] = ()) -> str:
     """The URDF document of a model (see the module docstring). `j23_coupling`: FANUC's J2/J3
     coupling written in, so that joint_3 takes the controller's J3 reading (J3 = q3 - q2): a
     joint `joint_3_coupling` on joint 3's axis that mimics joint_2, then joint_3 on the same
-    axis."""
+    axis. `more_links`: links fixed to base_link, by name and pose in it (mm), e.g.
+    ROS-Industrial's `base`, the frame the controller reports in."""
     if j23_coupling and (model.n_joints < 3 or model.joint_types[1:3] != ("R", "R")):
         raise ModelError(f"model '{model.name}': FANUC's J2/J3 coupling needs revolute joints 2 "
                          "and 3")
@@ -157,6 +160,9 @@ def urdf_from_model(model: SerialModel, j23_coupling: bool = False) -> str:
               '  <link name="measuring_frame"/>',
               '  <joint name="base_link-measuring_frame" type="fixed"><parent link="base_link"/>'
               f'<child link="measuring_frame"/>{_origin(invert_transform(model.base))}</joint>',
+              *(f'  <link name="{name}"/><joint name="base_link-{name}" type="fixed"><parent '
+                f'link="base_link"/><child link="{name}"/>{_origin(T)}</joint>'
+                for name, T in more_links),
               '  <link name="measured_point"/>',
               '  <joint name="tool0-measured_point" type="fixed"><parent link="tool0"/>'
               f'<child link="measured_point"/>{_origin(model.tool)}</joint>',

@@ -259,3 +259,23 @@ def test_joint_names_efforts_and_speeds_survive_import_calibrate_export(tmp_path
     assert main(["robot", "show", str(robot)]) == 0
     assert "1 shoulder_pan_joint (150 N m, 180 deg/s); 2 shoulder_lift_joint (10 N m, 171.9 " \
         "deg/s)" in capsys.readouterr().out
+
+
+def test_library_urdf_export_names_frames_as_ros_industrial(tmp_path, rng, capsys):
+    """An exported UR5e's base_link was UR's controller base (180 deg from ROS-I's base_link);
+    now the root is ROS-I's base_link and `base` a link of its own, so the export reads like
+    ROS-I's file: imported from base (or base_link) it is the library robot (or ROS-I's)."""
+    for name, said in (("ur5e", "link 'base' (the frame the controller reports in) at rz 180"),
+                       ("lrmate200id", "link 'base' (the frame the controller reports in) at "
+                                       "z 330 mm")):
+        path, out = tmp_path / f"{name}.urdf", tmp_path / f"{name}.json"
+        assert main(["robot", "export", name, "--format", "urdf", "--out", str(path)]) == 0
+        assert said in capsys.readouterr().out
+        entry = LIBRARY[name]
+        q = random_q(entry.model(), rng, 50)
+        for link in ("base", "base_link"):
+            assert main(["robot", "import", str(path), "--base-link", link, "--out",
+                         str(out)]) == 0
+            np.testing.assert_allclose(
+                forward_kinematics(load_model(out).with_frames(np.eye(4)), q),
+                forward_kinematics(entry.model_in(link).with_frames(np.eye(4)), q), atol=1e-9)
