@@ -253,7 +253,14 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
     for d in module.declarations:
         if d.kind not in ("robtarget", "record"):
             continue
+        written = next((m.assigned[d.name.lower()] for m in (module, *task)
+                        if d.name.lower() in m.assigned), None)
         for t in _static_targets(module, d, report):
+            if written is not None:
+                report.refused.append(Note(t.line, t.name, f"{written[1]} when the program "
+                                           f"runs (line {written[0]}): its declared value is "
+                                           "not what the robot moves to"))
+                continue
             if t.name == d.name:  # a robtarget declared alone: most of every module
                 combos = uses.get(t.name.lower(), set())
             else:

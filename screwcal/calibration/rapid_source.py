@@ -113,6 +113,9 @@ class RapidModule:
     params: dict[str, list[tuple[str, bool]]] = field(default_factory=dict)
     calls: list[RoutineCall] = field(default_factory=list)
     unreadable: str = ""  # why the module's text cannot be read (an encrypted module)
+    # data the program writes (`p := ...`, `p.trans.z := ...`, a search's result): lower-case
+    # declared name -> (line, how), the first place
+    assigned: dict[str, tuple[int, str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self._lines = _Lines(self.text)
@@ -244,11 +247,19 @@ def module_of(parsed: rapid.Module, path: str, text: str,
         found += [(n, r.key) for n in _calls((r,))]
         if r.params:
             module.params[r.key] = [(p.name.lower(), p.optional) for p in r.params]
+    for r in parsed.routines:
+        for target, node in _assignments(r.body):
+            module.assigned.setdefault(target, (node.line, "assigned"))
     for node, routine in sorted(found, key=lambda f: f[0].start):
         if type(node) is rapid.ProcCall and node.key in MOTIONS:
             motion = _motion(node, text, line_of(node.start))
             motion.routine = routine
             module.motions.append(motion)
+            result = [a.value for a in node.args if not a.optional and a.value is not None]
+            if node.key.startswith("search") and len(result) > 1:
+                name = _base_name(result[1])
+                if name:
+                    module.assigned.setdefault(name, (node.line, f"{node.name}'s result"))
         elif type(node) is rapid.Call and node.key in RUNTIME_FUNCTIONS:
             module.runtime.append((line_of(node.start), node.name))
         elif type(node) is rapid.ProcCall and node.args:
@@ -259,6 +270,35 @@ def module_of(parsed: rapid.Module, path: str, text: str,
                 tuple((a.name.lower(), text[a.value.start:a.value.end].strip())
                       for a in node.args if a.optional and a.name and a.value is not None)))
     return module
+
+
+def _base_name(e: rapid.Expr) -> str:
+    """The datum an expression writes to (`p`, `p{2}`, `p.trans.z`: p), lower case; else ''."""
+    while isinstance(e, (rapid.Index, rapid.Component)):
+        e = e.base
+    return e.key if isinstance(e, rapid.Name) else ""
+
+
+def _assignments(body: tuple) -> list[tuple[str, rapid.Node]]:
+    """(written datum, statement) of the assignments in a routine's statements."""
+    out: list[tuple[str, rapid.Node]] = []
+    stack = list(body)
+    while stack:
+        stmt = stack.pop()
+        kind = type(stmt)
+        if kind is rapid.ProcCall:
+            continue
+        if kind is rapid.Assign:
+            name = _base_name(stmt.target)
+            if name:
+                out.append((name, stmt))
+        elif kind is rapid.If:
+            stack += [s for _, branch in stmt.branches for s in branch] + list(stmt.orelse)
+        elif kind in (rapid.While, rapid.For):
+            stack += list(stmt.body)
+        elif kind is rapid.Test:
+            stack += [s for c in stmt.cases for s in c.body] + list(stmt.default or ())
+    return sorted(out, key=lambda a: a[1].start)
 
 
 def _argument(call: RoutineCall, params: list[tuple[str, bool]], name: str,

@@ -94,6 +94,13 @@ def _cell(rng) -> tuple[str, dict[str, np.ndarray]]:
     return module, wanted
 
 
+def _without_search(text: str) -> str:
+    """The cell with its SearchL (whose result, pFound, the program writes) a MoveL."""
+    return text.replace("  VAR robtarget pFound;\r\n", "").replace(
+        "SearchL \\Stop, diProbe \\PosFlank, pFound, wpSearch.p, v100,", "MoveL wpSearch.p, v100, "
+        "fine,")
+
+
 def _reached(text: str, truth, nominal) -> dict[str, float]:
     """Position error (mm) of the true robot at each target of `text`, solved by the nominal
     controller in the target's own tool and work object."""
@@ -173,8 +180,7 @@ def test_the_command_lists_what_it_did_not_compensate_and_exits_3(tmp_path, rng)
     assert out.read_bytes().startswith(HEADER.encode())
     # every target declared with a value and moved to statically: exit 0
     clean = tmp_path / "clean.mod"
-    clean.write_bytes(text.replace("  VAR robtarget pFound;\r\n", "").replace(
-        "pFound", "wpSearch.p").encode("latin-1"))
+    clean.write_bytes(_without_search(text).encode("latin-1"))
     done = subprocess.run([sys.executable, "-m", "screwcal", "compensate", "--result",
                            str(model), "--robot", "irb1600", "--rapid", str(clean), "--out",
                            str(tmp_path / "clean_out.mod")], capture_output=True, text=True)
@@ -270,8 +276,7 @@ def test_an_encrypted_module_of_the_task_is_written_as_it_is_and_listed(tmp_path
     text, _ = _cell(rng)
     task = tmp_path / "RAPID" / "TASK1" / "PROGMOD"
     task.mkdir(parents=True)
-    (task / "Cell.mod").write_bytes(text.replace("  VAR robtarget pFound;\r\n", "").replace(
-        "pFound", "wpSearch.p").encode("latin-1"))
+    (task / "Cell.mod").write_bytes(_without_search(text).encode("latin-1"))
     secret = bytes([0xFE, 0xC0, 0x01, 0x10, 0x3E, 0x1D, 0x09, 0x84]) * 64
     (task / "Lib.mod").write_bytes(secret)
     out = tmp_path / "out"
@@ -329,3 +334,25 @@ def test_a_target_nothing_moves_to_is_said_to_be_compensated_in_the_default_fram
         [(2, "pSpare")]
     assert "1 moved to by no instruction (compensated in the --tool and --wobj given):\n" \
         "    m.mod:2: pSpare: tool0 and wobj0" in report.summary()
+
+
+def test_a_target_the_program_writes_is_listed_not_compensated(rng):
+    """A declared robtarget the program assigns (`p := ...`, `p.trans.z := ...`) or a search
+    writes its result into: its declared value is not what the robot moves to."""
+    text = ("MODULE m\n"
+            "  PERS robtarget pLast:=[[900,0,900],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  PERS robtarget pHigh:=[[900,0,900],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  PERS robtarget pSeen:=[[900,0,900],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  CONST robtarget pTo:=[[900,50,900],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  PROC main()\n    pLast := CRobT();\n    IF TRUE THEN\n      pHigh.trans.z := 1000;\n"
+            "    ENDIF\n    SearchL \\Stop, di1, pSeen, pTo, v100, tool0;\n"
+            "    MoveL pLast, v100, fine, tool0;\n    MoveL pHigh, v100, fine, tool0;\n"
+            "  ENDPROC\nENDMODULE\n")
+    _, report = filter_rapid(read_rapid_module("m.mod", text),
+                             apply_virtual_joints(irb1600(), THESIS_TABLE11), irb1600())
+    refused = {n.name: n.reason for n in report.refused}
+    assert set(refused) == {"pLast", "pHigh", "pSeen"}
+    assert refused["pLast"].startswith("assigned when the program runs (line 7)")
+    assert refused["pHigh"].startswith("assigned when the program runs (line 9)")
+    assert refused["pSeen"].startswith("SearchL's result when the program runs (line 11)")
+    assert report.compensated == 1  # pTo
