@@ -184,7 +184,9 @@ def _rapid_outputs(given: list[str], out: str) -> dict[str, Path]:
             files += [str(m) for m in tasks[0].modules]
         else:
             files.append(name)
-    if len(files) > 1 and not Path(out).exists():
+    if len(files) == 1:
+        return {files[0]: Path(out)}  # a file: checked as every output file is
+    if not Path(out).exists():
         Path(out).mkdir()
     return outputs(files, out)
 
@@ -213,7 +215,10 @@ def _compensate_rapid(args: argparse.Namespace, calibrated: SerialModel,
         modules = read_rapid_task(sources)  # in them, nothing for passes over them
         results = [filter_rapid(m, calibrated, nominal, tool=args.tool, wobj=args.wobj,
                                 residual=residual, task=modules) for m in modules]
+        unreadable = [(m.path, m.unreadable) for m in modules if m.unreadable]
         del modules  # freed here, not gone through once more by the collector it resumes
+    if len(unreadable) == len(outs):  # nothing but encrypted modules: one line says so
+        raise DataFileError(*unreadable[0])
     if sum(report.compensated for _, report in results) == 0:
         for _, report in results:
             print(report.summary(), file=sys.stderr)

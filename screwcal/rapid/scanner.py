@@ -116,9 +116,10 @@ class Scanner:
 
     def not_text(self, offset: int) -> None:
         """Fail with RapidEncryptedError when the text from `offset` on is not source text:
-        control characters, or mostly bytes outside ASCII."""
+        over a quarter of control characters or bytes outside ASCII (a stray one in a text is
+        a syntax error, not an encrypted module)."""
         sample = self.text[offset:offset + 512]
-        if _BINARY.search(sample) or sum(c > "\x7e" for c in sample) > len(sample) // 4:
+        if len(_BINARY.findall(sample)) + sum(c > "\x7e" for c in sample) > len(sample) // 4:
             line, col = self.where(offset)
             raise RapidEncryptedError(self.path, line, col, "an encrypted or binary module, not "
                                       "RAPID source text: it cannot be read here (the "
