@@ -28,6 +28,7 @@ from screwcal.commands.options import (
     ERROR_MODELS,
     add_option,
     add_vector,
+    bounded_int,
     check_outputs,
     non_negative_float,
     positive_int,
@@ -133,6 +134,28 @@ def _operator(args: argparse.Namespace) -> Operator:
                     token)
 
 
+# The exit status of `job start` (watching) and `job watch`, one meaning each, by where the job
+# stands when the command ends (docs/service.md has the table); 2 is a refused command;
+# "waiting": for the operator (a move declined in STEP, a ZERO to confirm)
+JOB_EXIT_STATUS = {"done": 0, "failed": 1, "waiting": 3, "aborted": 4}
+STILL_GOING = 5  # the command ended while the job goes on (paused, running)
+
+
+def job_exit_status(state: str) -> int:
+    return JOB_EXIT_STATUS.get(state, STILL_GOING)
+
+
+def _watched(op: Operator, job_id: int) -> str:
+    """Follow the job; the state it is in when the watch ends: a watch left at a prompt (the
+    move declined, an abort asked for) ends with the job waiting or aborted, as the service
+    says, not as the prompt left it."""
+    state = op.watch(job_id)
+    if state == "waiting":  # an abort asked for at the prompt may have ended it
+        now = op.job(job_id)["state"]
+        return now if JobState(now).finished else "waiting"
+    return state
+
+
 def run_job(args: argparse.Namespace) -> int:
     if args.action in ("model", "report"):
         check_outputs([args.out], [])  # before the service is asked
@@ -183,15 +206,14 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                            options=options)
             print(f"job {job['id']} started ({job['kind']}, {job['mode']})")
             if not args.no_watch:
-                state = op.watch(job["id"])
+                state = _watched(op, job["id"])
                 print(result_table(op.result(job["id"])))
-                return 0 if state in ("done", "waiting") else 1
+                return job_exit_status(state)
         elif args.action == "watch":
             if JobState(op.job(args.id)["state"]).finished:
                 print(result_table(op.result(args.id)))  # finished: its summary, no replay
-                return 0 if op.job(args.id)["state"] == "done" else 1
-            state = op.watch(args.id)
-            return 0 if state in ("done", "waiting") else 1
+                return job_exit_status(op.job(args.id)["state"])
+            return job_exit_status(_watched(op, args.id))
         elif args.action == "history":
             from service.history import RobotHistory, history_text
 
@@ -212,7 +234,9 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
             _write(args.out, op.report(args.id))
             print(f"report -> {args.out}")
     except httpx.HTTPError as err:
-        raise ServiceError(f"cannot reach the service: {err}") from None
+        raise ServiceError(f"cannot reach the service at {op.http.base_url} ({err}): start it "
+                           "with `screwcal serve`, or name where it runs with --service or "
+                           "SCREWCAL_SERVICE") from None
     return 0
 
 
@@ -256,9 +280,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "newest model (10 cycles unless --cycles), no estimation")
     st.add_argument("--mode", choices=["AUTO", "STEP"], default="AUTO",
                     help="AUTO (default) runs through; STEP asks before every move")
-    st.add_argument("--cycles", type=positive_int, default=30,
+    st.add_argument("--cycles", type=bounded_int(2, 60), default=30,
                     help="ISO 9283 cycles (default 30)")
-    st.add_argument("--poses", type=positive_int, default=40,
+    st.add_argument("--poses", type=bounded_int(10, 400), default=40,
                     help="calibration poses (default 40)")
     add_option(st, "--error-model", renamed=["--model"], choices=ERROR_MODELS, default="full",
                help="error model identified (default full)")
@@ -267,7 +291,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     "compensate: the later lists' joint targets; zero: ZERO, thesis 4.5)")
     add_vector(st, "--arm-position-mm", renamed=["--arm-position"],
                help="the measuring arm's base in the robot base frame (default: the plan's)")
-    st.add_argument("--frame-from-job", type=int, metavar="JOB",
+    st.add_argument("--frame-from-job", type=positive_int, metavar="JOB",
                     help="performance: measure in the base frame an earlier job identified")
     _add_model_options(st)
     st.add_argument("--no-watch", action="store_true",
@@ -275,15 +299,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     for name, text in (("watch", "follow a job (STEP: answer the prompts)"),
                        ("abort", "abort a job"), ("result", "print a job's result table")):
         a = actions.add_parser(name, parents=[common], help=text)
-        a.add_argument("id", type=int, help="the job's id (screwcal job list)")
+        a.add_argument("id", type=positive_int, help="the job's id (screwcal job list)")
     mod = actions.add_parser("model", parents=[common],
                              help="save a job's calibrated model (result document)")
-    mod.add_argument("id", type=int, help="the job's id (screwcal job list)")
+    mod.add_argument("id", type=positive_int, help="the job's id (screwcal job list)")
     mod.add_argument("--out", required=True, help="JSON file to write")
     mod.add_argument("--round", type=int, choices=[1, 2], default=1,
                      help="the second calibration round's model (procedure with rounds 2)")
     rep = actions.add_parser("report", parents=[common], help="save a job's report page")
-    rep.add_argument("id", type=int, help="the job's id (screwcal job list)")
+    rep.add_argument("id", type=positive_int, help="the job's id (screwcal job list)")
     rep.add_argument("--out", required=True, help="HTML file to write")
     for a in actions.choices.values():
         a.set_defaults(func=run_job)
@@ -294,8 +318,8 @@ def _add_serve_arguments(s: argparse.ArgumentParser) -> None:
                    "postgresql://user@host/name URL: several services may share a PostgreSQL "
                    "database, each job held by one of them (SCREWCAL_LEASE_S)")
     s.add_argument("--host", default=None, help="bind address (default 127.0.0.1)")
-    s.add_argument("--port", type=int, default=None, help="TCP port (default 8080; 0: a free "
-                   "one)")
+    s.add_argument("--port", type=bounded_int(0, 65535), default=None,
+                   help="TCP port (default 8080; 0: a free one)")
     s.add_argument("--token", default=None, help="deprecated: a shared administrator token "
                    "(or SCREWCAL_TOKEN); give people users instead")
     s.add_argument("--admin", default=None, metavar="NAME", help="the first administrator, "
@@ -310,7 +334,7 @@ def _add_serve_arguments(s: argparse.ArgumentParser) -> None:
 def _add_model_options(p: argparse.ArgumentParser) -> None:
     """`job start`'s options of what the calibration identifies, what the robot carries, and
     the warm-up."""
-    p.add_argument("--warmup-cycles", type=int, default=0,
+    p.add_argument("--warmup-cycles", type=bounded_int(0, 60), default=0,
                    help="ISO 9283 warm-up: test cycles run unmeasured before the first "
                    "performance list (default 0)")
     p.add_argument("--compliance", choices=["auto", "none", "j23", "j23-free", "wrist"],
@@ -329,14 +353,14 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
                     help="mass on the flange during the calibration list (kg)")
     add_vector(p, "--calibration-payload-cog-mm", default=(0.0, 0.0, 0.0),
                help="its centre of gravity in the flange frame (default 0 0 0)")
-    p.add_argument("--backlash-poses", type=int, default=0, metavar="N",
+    p.add_argument("--backlash-poses", type=bounded_int(0, 20), default=0, metavar="N",
                    help="calibration: N calibration poses measured again approached from 1 deg "
                    "below and 1 deg above on every joint, to identify each joint's lost motion "
                    "(deg; default 0: none)")
-    p.add_argument("--drift-poses", type=int, default=0, metavar="N",
+    p.add_argument("--drift-poses", type=bounded_int(0, 5), default=0, metavar="N",
                    help="ISO 9283 drift: N reference poses (the cube's P1, P2, P4, P3, P5) "
                    "re-measured during the job (default 0: none)")
-    p.add_argument("--drift-period-poses", type=int, default=40, metavar="N",
+    p.add_argument("--drift-period-poses", type=bounded_int(5, 1000), default=40, metavar="N",
                    help="drift: re-measure them every N measured poses (count, default 40)")
     p.add_argument("--drift-period-s", type=non_negative_float, default=None, metavar="S",
                    help="drift: re-measure them every S seconds of the job instead (s)")

@@ -114,7 +114,8 @@ class Operator:
             if key in asked:
                 return True
             asked.add(key)
-            where = f" (joints {joints})" if joints is not None else ""
+            where = "" if joints is None else " (joints " + ", ".join(
+                f"{round(float(v), 3) + 0.0:g}" for v in joints) + " deg)"
             prompt = (f"{note + '. ' if note else ''}robot will move to {key[0]} pose "
                       f"{key[1]}{where}: go? [y/N] ")
             try:
@@ -143,7 +144,10 @@ class Operator:
                 event = json.loads(line[len("data: "):])
                 kind = event["kind"]
                 if kind == "state":  # where the job stands when we attach
-                    out(f"job {job_id}: {event['state']} {event.get('reason', '')}".rstrip())
+                    reason = event.get("reason") or ""
+                    said = reason if reason.startswith(event["state"]) else \
+                        f"{event['state']} {reason}".rstrip()
+                    out(f"job {job_id}: {said}")
                     waiting = event.get("waiting_for")
                     if waiting and not ask_for(waiting, None):
                         out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")
@@ -161,11 +165,20 @@ class Operator:
                         return "waiting"
                 elif kind in ("phase", "paused", "resumed", "corrected", "failed", "warning",
                               "discarded", "stale"):
-                    out(f"{kind}: " + ", ".join(f"{k}={v}" for k, v in event.items()
+                    out(f"{kind}: " + ", ".join(f"{k} {_shown(v)}" for k, v in event.items()
                                                if k not in ("kind", "seq", "time")))
                 elif kind == "end":
                     return event["state"]
         return self.job(job_id)["state"]
+
+
+def _shown(value: object) -> str:
+    """An event's value as a person reads it: 1.35, not 1.3487892850002936."""
+    if isinstance(value, float):
+        return f"{value:.3g}" if abs(value) < 1000 else f"{value:.0f}"
+    if isinstance(value, list):
+        return "[" + ", ".join(_shown(v) for v in value) + "]"
+    return str(value)
 
 
 def _invalid(error: dict) -> str:

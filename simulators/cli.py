@@ -42,10 +42,20 @@ import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from screwcal.commands.options import (
+    bounded_int,
+    finite_float,
+    non_negative_float,
+    positive_float,
+)
+
 if TYPE_CHECKING:
     import asyncio
 
     from simulators.realism import Realism
+
+
+PORT = bounded_int(0, 65535)  # a TCP port; 0: a free one
 
 
 async def _serve_irc5(args: argparse.Namespace) -> None:
@@ -232,14 +242,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                             description=__doc__,
                             formatter_class=argparse.RawDescriptionHelpFormatter)
     irc5.add_argument("--host", default="127.0.0.1", help="bind address (default 127.0.0.1)")
-    irc5.add_argument("--port", type=int, default=None,
+    irc5.add_argument("--port", type=PORT, default=None,
                       help="TCP port of the wire protocol (default 4012; 0: a free one)")
     errors = irc5.add_mutually_exclusive_group()
     errors.add_argument("--errors", help="JSON of virtual-joint errors, or a true model file")
     errors.add_argument("--seed", type=int, default=None, help="random true errors")
-    irc5.add_argument("--time-scale", type=float, default=1.0,
+    irc5.add_argument("--time-scale", type=non_negative_float, default=1.0,
                       help="motion time factor (0: instant)")
-    irc5.add_argument("--speed-deg-s", type=float, default=60.0,
+    irc5.add_argument("--speed-deg-s", type=positive_float, default=60.0,
                       help="joint speed (default 60)")
     irc5.add_argument("--program", type=Path, action="append", default=None,
                       metavar="FILE.mod|DIR",
@@ -253,18 +263,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                       "own address and port otherwise: --host/--port set ScrewcalServer's)")
     irc5.add_argument("--verbose", action="store_true",
                       help="print the controller's event log as it is written")
-    irc5.add_argument("--idle-timeout-s", type=float, default=60.0,
+    irc5.add_argument("--idle-timeout-s", type=positive_float, default=60.0,
                       help="drop an owner that sends nothing (STAT counts) for this long")
-    irc5.add_argument("--send-timeout-s", type=float, default=10.0,
+    irc5.add_argument("--send-timeout-s", type=positive_float, default=10.0,
                       help="drop an owner that reads nothing of what is sent for this long")
     irc5.add_argument("--noise-seed", type=int, default=None,
                       help="seed of the in-process arm's noise (default: --seed; none: random)")
     irc5.add_argument("--world", help="keep this world file up to date for an arm process "
                       "(default: a new private folder per run, printed on start)")
-    irc5.add_argument("--arm-port", type=int, default=None,
+    irc5.add_argument("--arm-port", type=PORT, default=None,
                       help="also serve the measuring arm on this TCP port")
     _add_arm_faults(irc5)
-    irc5.add_argument("--tracker-port", type=int, default=None,
+    irc5.add_argument("--tracker-port", type=PORT, default=None,
                       help="also serve a laser tracker (emScon TPI) on this TCP port")
     _add_tracker(irc5)
     _add_realism(irc5)
@@ -272,7 +282,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     arm = which.add_parser("arm", help="the measuring arm ($PT lines)", description=__doc__,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
     arm.add_argument("--host", default="127.0.0.1", help="bind address (default 127.0.0.1)")
-    arm.add_argument("--port", type=int, required=True, help="TCP port of the $PT lines")
+    arm.add_argument("--port", type=PORT, required=True, help="TCP port of the $PT lines")
     arm.add_argument("--world", help="the world file a running irc5 emulator printed")
     arm.add_argument("--pty", action="store_true", help="also serve a pty (a serial device)")
     arm.add_argument("--seed", type=int, default=None, help="noise seed")
@@ -282,7 +292,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                description=__doc__,
                                formatter_class=argparse.RawDescriptionHelpFormatter)
     tracker.add_argument("--host", default="127.0.0.1", help="bind address (default 127.0.0.1)")
-    tracker.add_argument("--port", type=int, required=True,
+    tracker.add_argument("--port", type=PORT, required=True,
                          help="TCP port of the TPI (a real tracker's is 700; 0: a free one)")
     tracker.add_argument("--world", help="the world file a running irc5 emulator printed")
     tracker.add_argument("--seed", type=int, default=None, help="noise seed")
@@ -304,7 +314,7 @@ def _add_tracker(p: argparse.ArgumentParser) -> None:
     add_vector(p, "--stand-mm", default=TRACKER_STAND_MM,
                help="where the tracker stands, mm in the robot's base frame (default "
                f"{' '.join(f'{v:g}' for v in TRACKER_STAND_MM)})")
-    p.add_argument("--stand-yaw-deg", type=float, default=0.0,
+    p.add_argument("--stand-yaw-deg", type=finite_float, default=0.0,
                    help="the tracker's frame turned about the vertical from the robot's (default "
                    "0: its axes the robot base's)")
     p.add_argument("--smrs", type=int, choices=[1, 3], default=1,

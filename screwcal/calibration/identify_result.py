@@ -123,7 +123,8 @@ class CalibrationResult:
                        "targets with an orientation")
         rejected = [o for o in self.outliers if o.rejected]
         if rejected:
-            out.append(f"{len(rejected)} poses rejected as outliers: " + ", ".join(
+            poses = "pose" if len(rejected) == 1 else "poses"
+            out.append(f"{len(rejected)} {poses} rejected as outliers: " + ", ".join(
                 o.describe() for o in rejected[:10]))
         kept = [o for o in self.outliers if not o.rejected]
         if kept:

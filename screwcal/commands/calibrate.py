@@ -1,5 +1,4 @@
-"""`screwcal calibrate` (this docstring is its --help) and `align` (ALIGN_DOC);
-docs/formats.md. `compensate` is in commands/compensate.py.
+"""`screwcal calibrate`: identify a robot's errors from measured poses (files: docs/formats.md).
 
     screwcal calibrate --robot irb1600 --data measurements.csv --out result.json
                        [--error-model full|thesis|joints|frames] [--solver lm|de]

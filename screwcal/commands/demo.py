@@ -24,7 +24,14 @@ import time
 from pathlib import Path
 from typing import Any
 
-from screwcal.commands.options import ERROR_MODELS, add_option, add_vector, make_output_folder
+from screwcal.commands.options import (
+    ERROR_MODELS,
+    add_option,
+    add_vector,
+    bounded_int,
+    make_output_folder,
+    non_negative_float,
+)
 from screwcal.instrument import TRACKER_STAND_MM
 from service.demo import DEFAULT_POSES, DEFAULT_POSES_REAL, NOISE_SEED
 
@@ -166,15 +173,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="random true errors (default: the thesis's Table 11)")
     p.add_argument("--out", default="demo-output", help="folder for the report (default "
                    "./demo-output)")
-    p.add_argument("--cycles", type=int, default=30, help="ISO 9283 cycles (30)")
-    p.add_argument("--poses", type=int, default=None,
+    p.add_argument("--cycles", type=bounded_int(2, 60), default=30,
+                   help="ISO 9283 cycles (30)")
+    p.add_argument("--poses", type=bounded_int(10, 400), default=None,
                    help=f"calibration poses (default {DEFAULT_POSES} for the ideal robot, "
                    f"{DEFAULT_POSES_REAL} otherwise)")
     p.add_argument("--correction", choices=["compensate", "zero", "zero+compensate"],
                    default="compensate", help="correction route (default compensate)")
     add_option(p, "--error-model", renamed=["--model"], choices=ERROR_MODELS, default="full",
                help="error model identified (default full)")
-    p.add_argument("--time-scale", type=float, default=0.002,
+    p.add_argument("--time-scale", type=non_negative_float, default=0.002,
                    help="motion time factor of the emulated robot")
     p.add_argument("--realism", choices=["ideal", "typical", "harsh"], default="typical",
                    help="what the emulated robot has beyond its geometry (default typical)")

@@ -66,7 +66,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser = build_parser(_command_named(argv))
         from screwcal.commands.options import old_vector_words, vector_options
 
-        args = parser.parse_args(old_vector_words(argv, vector_options(parser)))
+        args, unknown = parser.parse_known_args(old_vector_words(argv, vector_options(parser)))
+        if unknown:  # said by the command's own parser: its usage, not the top level's
+            _chosen_parser(parser, args).error(f"unrecognized arguments: {' '.join(unknown)}")
     except KeyboardInterrupt:  # Ctrl-C while the command's modules load
         print("screwcal: interrupted", file=sys.stderr)
         return 130
@@ -99,6 +101,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not isinstance(err, ServiceError):
             raise
         return _refused(args.command, err)
+
+
+def _chosen_parser(parser: argparse.ArgumentParser, args: argparse.Namespace
+                   ) -> argparse.ArgumentParser:
+    """The innermost subcommand parser the parsed `args` went through."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            chosen = action.choices.get(getattr(args, action.dest, None) or "")
+            if chosen is not None:
+                return _chosen_parser(chosen, args)
+    return parser
 
 
 def _refused(command: str, err: Exception | str) -> int:

@@ -17,4 +17,5 @@ def markdown_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list
 
 
 def _row(cells: Sequence[str]) -> str:
-    return "| " + " | ".join(cells) + " |"
+    """One line; a `|` inside a cell (|error|) is escaped, or it would split the cell."""
+    return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"

@@ -1,0 +1,71 @@
+"""Issue 38: where a new user goes wrong in the first hour: numbers refused at the parser with
+the service's own bounds (not after the start-up), one exit status per job outcome across
+`job start` and `job watch`, documented; help that opens with what the command does."""
+
+import re
+from pathlib import Path
+
+import pytest
+
+from screwcal.commands.main import main
+from service.cli import JOB_EXIT_STATUS, STILL_GOING, job_exit_status
+
+SERVICE_MD = Path(__file__).resolve().parents[3] / "docs" / "service.md"
+
+
+@pytest.mark.parametrize(("argv", "option"), [
+    (["demo", "--poses", "3"], "--poses"),
+    (["demo", "--cycles", "1"], "--cycles"),
+    (["demo", "--time-scale", "-1"], "--time-scale"),
+    (["emulator", "irc5", "--time-scale", "-1"], "--time-scale"),
+    (["emulator", "irc5", "--speed-deg-s", "0"], "--speed-deg-s"),
+    (["emulator", "arm", "--port", "70000"], "--port"),
+    (["serve", "--port", "-1"], "--port"),
+    (["job", "start", "--robot", "c", "--cycles", "61"], "--cycles"),
+    (["job", "start", "--robot", "c", "--poses", "9"], "--poses"),
+    (["job", "watch", "0"], "id"),
+])
+def test_numbers_are_refused_at_the_parser_with_their_bounds(capsys, argv, option):
+    with pytest.raises(SystemExit) as done:
+        main(argv)
+    assert done.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {option}" in err and "Traceback" not in err, err
+
+
+def test_job_outcomes_have_one_exit_status_each_and_the_table_says_them():
+    assert [job_exit_status(s) for s in ("done", "failed", "waiting", "aborted")] == [0, 1, 3, 4]
+    assert job_exit_status("running") == job_exit_status("paused") == STILL_GOING == 5
+    rows = dict(re.findall(r"^\| (\d) \| (\w+)", SERVICE_MD.read_text(), re.M))
+    said = {"done": "done", "failed": "failed", "waiting": "waiting", "aborted": "aborted"}
+    assert {int(k): v for k, v in rows.items() if v in said} == {
+        code: state for state, code in JOB_EXIT_STATUS.items()}
+    assert rows["5"] == "still" and rows["2"] == "nothing"
+
+
+def test_calibrate_help_opens_with_what_it_does(capsys):
+    with pytest.raises(SystemExit):
+        main(["calibrate", "--help"])
+    description = capsys.readouterr().out.split("\n\n")[1]
+    assert description.startswith("`screwcal calibrate`: identify a robot's errors")
+    assert "docstring" not in description and "ALIGN_DOC" not in description
+
+
+def test_an_unreachable_service_is_named_with_how_to_start_it(capsys, monkeypatch):
+    monkeypatch.setenv("SCREWCAL_TOKEN", "t")
+    assert main(["job", "--service", "http://127.0.0.1:9", "list"]) == 2
+    err = capsys.readouterr().err
+    assert "http://127.0.0.1:9" in err and "screwcal serve" in err, err
+
+
+@pytest.mark.parametrize(("argv", "usage"), [
+    (["calibrate", "--robot", "irb1600", "--data", "m.csv", "--out", "r.json", "--nosuch"],
+     "usage: screwcal calibrate"),
+    (["robot", "export", "x.json", "--format", "urdf", "--out", "y", "--bad"],
+     "usage: screwcal robot export"),
+])
+def test_an_unknown_option_shows_the_commands_usage(capsys, argv, usage):
+    with pytest.raises(SystemExit) as done:
+        main(argv)
+    err = capsys.readouterr().err
+    assert done.value.code == 2 and err.startswith(usage) and "unrecognized" in err, err
