@@ -130,7 +130,8 @@ def test_careless_cli_use_gets_a_message_not_a_traceback(argv, message, capsys, 
 def test_report_to_a_folder_that_does_not_exist(capsys, monkeypatch):
     monkeypatch.setattr("service.operator.Operator.report", lambda self, job_id: "<html/>")
     assert main(["job", "--token", "t", "report", "1", "--out", "/nonexistent/r.html"]) == 2
-    assert "cannot write /nonexistent/r.html" in capsys.readouterr().err
+    err = capsys.readouterr().err  # refused before the service is asked (issue 38)
+    assert "/nonexistent/r.html" in err and "/nonexistent does not exist" in err, err
 
 
 async def test_reads_need_a_token_too(tmp_path):
