@@ -4,7 +4,7 @@ API (an administrator's token; a user may make and revoke their own tokens).
     screwcal user add NAME --role viewer|operator|engineer|instrument|administrator
     screwcal user list
     screwcal user role NAME ROLE
-    screwcal user token NAME [--label L] [--days D]     # prints the token once
+    screwcal user token NAME [--label L] [--lifetime-s S]   # prints the token once
     screwcal user revoke TOKEN_ID
     screwcal user sign-in NAME                          # a token of one shift (8 h)
     screwcal audit [--after ID] [--check]
@@ -106,7 +106,7 @@ def run_user(args: argparse.Namespace) -> int:
         out = _call(args, "PUT", f"/users/{args.name}/role", {"role": args.role})
     elif a == "token":
         out = _call(args, "POST", f"/users/{args.name}/tokens",
-                    {"label": args.label, "days": args.days})
+                    {"label": args.label, "days": args.lifetime_s / 86400.0})
         print(out["token"])
         print(f"token {out['id']} of {out['user']}: shown once, keep it as a secret",
               file=sys.stderr)
@@ -148,24 +148,26 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     actions = u.add_subparsers(dest="action", metavar="ACTION", required=True)
     roles = [r.value for r in Role]
     p = actions.add_parser("add", parents=[common], help="a new user")
-    p.add_argument("name")
-    p.add_argument("--role", required=True, choices=roles)
+    p.add_argument("name", help="the user's name (letters, digits, _ . @ -)")
+    p.add_argument("--role", required=True, choices=roles, help="what they may do "
+                   "(docs/service.md: the grants of each role)")
     actions.add_parser("list", parents=[common], help="the users and their roles")
     p = actions.add_parser("role", parents=[common], help="change a user's role")
-    p.add_argument("name")
-    p.add_argument("role", choices=roles)
+    p.add_argument("name", help="the user")
+    p.add_argument("role", choices=roles, help="the new role: in force at their next request")
     p = actions.add_parser("token", parents=[common], help="a new API token (printed once)")
-    p.add_argument("name")
+    p.add_argument("name", help="whose token (one's own, or anyone's for an administrator)")
     p.add_argument("--label", default="", help="what it is for")
-    p.add_argument("--days", type=float, default=90.0, help="how long it lives (default 90)")
+    p.add_argument("--lifetime-s", type=float, default=90 * 86400.0, help="how long it lives "
+                   "(default 90 days)")
     p = actions.add_parser("revoke", parents=[common], help="revoke a token at once")
-    p.add_argument("token_id", type=int)
+    p.add_argument("token_id", type=int, help="the token's id (`user token` prints it)")
     p = actions.add_parser("sign-in", parents=[common], help="a token of one shift")
-    p.add_argument("name")
+    p.add_argument("name", help="who signs in")
     u.set_defaults(func=run_user)
     a = sub.add_parser("audit", parents=[common], help="the audit trail (administrators)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    a.add_argument("--after", type=int, default=0, help="records after this id")
+    a.add_argument("--after", type=int, default=0, help="records after this id")  # an id
     a.add_argument("--check", action="store_true", help="check the chain: exit 1 and the "
                    "first broken record when one was edited or deleted")
     a.set_defaults(func=run_audit)
