@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from enum import Enum, StrEnum
 from functools import cached_property
 from typing import Any, Literal
 
@@ -46,10 +47,10 @@ from screwcal.kinematics.compliance import (
     gravity_torques_by_mass,
 )
 from screwcal.kinematics.forward import (
-    _chain,
-    _check_q,
-    _to_homogeneous,
+    checked_joints,
+    homogeneous,
     joint_torques_by_mass,
+    screw_chain,
 )
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import (
@@ -66,16 +67,72 @@ THESIS_LINK_OFFSETS = ("J1pz", "J1px", "J2pz", "J4px")
 THESIS_JOINT_OFFSETS = ("J1rz", "J2ry", "J3rz", "J4rx", "J5ry", "J6rx")
 
 
+class Carrier(Enum):
+    """The frame that carries a parameter's local twist to the world (`ErrorModel.
+    linearisation`): the partial products of the chain A_0..A_n, the flange pose, the world."""
+
+    JOINT = "its joint's partial product (the chain up to the joint)"
+    NEXT_JOINT = "the partial product after its joint"
+    AXIS = "its joint's partial product less the next one's (the axis itself moves)"
+    HOME = "the last partial product (the home flange rides on every joint)"
+    TOOL = "the flange pose (the tool is expressed in the flange frame)"
+    WORLD = "the world (the measuring system's frame)"
+
+
+class ParamKind(StrEnum):
+    """How a parameter acts on the model, and the frame that carries it (`carrier`)."""
+
+    ZERO = "zero"  # a joint's zero (rad, or mm for a prismatic joint)
+    LINK = "link"  # a virtual prismatic joint after a joint, along a home-frame axis (thesis)
+    DIR = "dir"  # a joint axis' direction, turned about one of its two normals
+    POINT = "point"  # a revolute axis' location, moved along one of its normals
+    COMPLIANCE = "compliance"  # a joint's compliance under the gravity torque of every mass
+    COMPLIANCE_MASS = "compliance_mass"  # ...under the torque of one arm mass (j23-free)
+    HOME_ROT = "home_rot"  # the home flange's rotation (rotation vector) and position
+    HOME_POS = "home_pos"
+    BASE_ROT = "base_rot"  # the measuring system's frame
+    BASE_POS = "base_pos"
+    TOOL_ROT = "tool_rot"  # the measured point's frame on the flange
+    TOOL_POS = "tool_pos"
+
+    @property
+    def carrier(self) -> Carrier:
+        return _CARRIERS[self]
+
+    @property
+    def frame(self) -> str | None:
+        """"home", "base" or "tool" for a frame's parameter, else None (the joints')."""
+        head, _, tail = self.value.partition("_")
+        return head if tail in ("rot", "pos") else None
+
+    @property
+    def is_compliance(self) -> bool:
+        return self in (ParamKind.COMPLIANCE, ParamKind.COMPLIANCE_MASS)
+
+
+_CARRIERS = {
+    ParamKind.ZERO: Carrier.JOINT, ParamKind.COMPLIANCE: Carrier.JOINT,
+    ParamKind.COMPLIANCE_MASS: Carrier.JOINT,  # compliance: a zero scaled by the torque
+    ParamKind.LINK: Carrier.NEXT_JOINT,  # a translation of the chain after the joint
+    ParamKind.DIR: Carrier.AXIS, ParamKind.POINT: Carrier.AXIS,
+    ParamKind.HOME_ROT: Carrier.HOME, ParamKind.HOME_POS: Carrier.HOME,
+    ParamKind.BASE_ROT: Carrier.WORLD, ParamKind.BASE_POS: Carrier.WORLD,
+    ParamKind.TOOL_ROT: Carrier.TOOL, ParamKind.TOOL_POS: Carrier.TOOL,
+}
+
+
 @dataclass(frozen=True)
 class Param:
     """One identifiable parameter. `kind` says how it acts; `index` the joint (0-based) or axis."""
 
     name: str
     unit: str  # "deg" or "mm" at the interface; values inside are rad or mm
-    kind: str  # zero | link | dir | point | compliance | home_rot | home_pos | base_rot |
-    # base_pos | tool_rot | tool_pos
+    kind: ParamKind  # (its value, e.g. "zero", is taken too)
     joint: int = -1
     axis: int = -1  # 0..2 for frames and link offsets, 0..1 for dir/point normals
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", ParamKind(self.kind))
 
     @property
     def is_angle(self) -> bool:
@@ -85,15 +142,18 @@ class Param:
     @property
     def group(self) -> str:
         """"robot" for the robot's own geometry, "base"/"tool" for the frames."""
-        return self.kind.split("_")[0] if self.kind.startswith(("base", "tool")) else "robot"
+        frame = self.kind.frame
+        return frame if frame in ("base", "tool") else "robot"
 
 
 def _frame_params(frame: str, rotation: bool, position: bool) -> list[Param]:
     out = []
     if rotation:
-        out += [Param(f"{frame}.r{c}", "deg", f"{frame}_rot", axis=k) for k, c in enumerate("xyz")]
+        out += [Param(f"{frame}.r{c}", "deg", ParamKind(f"{frame}_rot"), axis=k)
+                for k, c in enumerate("xyz")]
     if position:
-        out += [Param(f"{frame}.{c}", "mm", f"{frame}_pos", axis=k) for k, c in enumerate("xyz")]
+        out += [Param(f"{frame}.{c}", "mm", ParamKind(f"{frame}_pos"), axis=k)
+                for k, c in enumerate("xyz")]
     return out
 
 
@@ -108,9 +168,10 @@ def compliance_params(model: SerialModel, compliance: str) -> list[Param]:
         raise ModelError(f"model '{model.name}' has no masses to load its joints: joint "
                          "compliance needs a built-in robot's mass table or a payload")
     if compliance in FREE_COMPLIANCE:  # per joint and arm mass that loads it
-        return [Param(f"J{j + 1}c.m{k + 1}", COMPLIANCE_UNIT, "compliance_mass", joint=j, axis=k)
+        return [Param(f"J{j + 1}c.m{k + 1}", COMPLIANCE_UNIT, ParamKind.COMPLIANCE_MASS,
+                      joint=j, axis=k)
                 for j in joints for k, m in enumerate(model.masses) if m.link >= j]
-    return [Param(f"J{j + 1}c", COMPLIANCE_UNIT, "compliance", joint=j) for j in joints]
+    return [Param(f"J{j + 1}c", COMPLIANCE_UNIT, ParamKind.COMPLIANCE, joint=j) for j in joints]
 
 
 def candidate_params(model: SerialModel, kind: ModelKind, *, base: bool, tool_rotation: bool,
@@ -129,7 +190,8 @@ def _candidates(model: SerialModel, kind: ModelKind, base: bool, tool_rotation: 
     params = _frame_params("base", base, base)
     params += _frame_params("tool", tool_rotation, tool_position)
     n = model.n_joints
-    zeros = [Param(f"J{i + 1}", "deg" if model.joint_types[i] == "R" else "mm", "zero", joint=i)
+    zeros = [Param(f"J{i + 1}", "deg" if model.joint_types[i] == "R" else "mm", ParamKind.ZERO,
+                   joint=i)
              for i in range(n)]
     if kind == "thesis":  # named as the thesis names them (Tables 2, 11)
         zeros = [replace(z, name=_thesis_offset_name(model, z.joint)) for z in zeros]
@@ -143,14 +205,14 @@ def _candidates(model: SerialModel, kind: ModelKind, base: bool, tool_rotation: 
         links = []
         for name in (THESIS_LINK_OFFSETS if link_offsets is None else link_offsets):
             j, _, axis = parse_name(name)
-            links.append(Param(name, "mm", "link", joint=j, axis=axis))
+            links.append(Param(name, "mm", ParamKind.LINK, joint=j, axis=axis))
         return params + zeros + links
     robot: list[Param] = []
     for i in range(n):
-        robot += [Param(f"J{i + 1}.dir.{c}", "deg", "dir", joint=i, axis=k)
+        robot += [Param(f"J{i + 1}.dir.{c}", "deg", ParamKind.DIR, joint=i, axis=k)
                   for k, c in enumerate("uv")]
         if model.joint_types[i] == "R":
-            robot += [Param(f"J{i + 1}.pos.{c}", "mm", "point", joint=i, axis=k)
+            robot += [Param(f"J{i + 1}.pos.{c}", "mm", ParamKind.POINT, joint=i, axis=k)
                       for k, c in enumerate("uv")]
         robot.append(zeros[i])
     robot += _frame_params("home", True, True)
@@ -282,45 +344,37 @@ class ErrorModel:
 
     @cached_property
     def _layout(self) -> dict:
-        """Column indices by kind, and each column's carrier, fixed for this error model."""
-        n = self.reference.n_joints
+        """Column indices by kind, each column's joint and axis, fixed for this error model."""
         kinds: dict[str, list[int]] = {}
         for col, p in enumerate(self.params):
             kinds.setdefault(p.kind, []).append(col)
-        carriers: dict[tuple, list[int]] = {}
-        for col, p in enumerate(self.params):
-            if p.kind in ("zero", "compliance", "compliance_mass"):
-                key: tuple = ("partial", p.joint)
-            elif p.kind == "link":
-                key = ("partial", p.joint + 1)
-            elif p.kind in ("dir", "point"):
-                key = ("axis", p.joint)
-            else:
-                frame = p.kind.split("_")[0]
-                key = ("partial", n) if frame == "home" else (frame,)
-            carriers.setdefault(key, []).append(col)
         idx = {k: np.array(v, dtype=int) for k, v in kinds.items()}
         joint = np.array([p.joint for p in self.params], dtype=int)
         axis = np.array([p.axis for p in self.params], dtype=int)
-        return {"kinds": idx, "joint": joint, "axis": axis,
-                "carriers": {k: np.array(v, dtype=int) for k, v in carriers.items()}}
+        return {"kinds": idx, "joint": joint, "axis": axis}
 
     @cached_property
     def _carriers(self) -> tuple[Array, Array]:
         """Per column, the frame that carries its local twist to the world and the frame whose
         carried twist is subtracted (-1: none), among the frames `linearisation` stacks: the
-        partial products A_0..A_n, the flange pose (n + 1) and the identity (n + 2)."""
+        partial products A_0..A_n, the flange pose (n + 1) and the identity (n + 2); from
+        each kind's carrier (`ParamKind.carrier`)."""
         n, P = self.reference.n_joints, len(self.params)
         first, second = np.empty(P, dtype=int), np.full(P, -1)
-        for key, cols in self._layout["carriers"].items():
-            if key[0] == "base":
-                first[cols] = n + 2
-            elif key[0] == "partial":
-                first[cols] = key[1]
-            elif key[0] == "axis":  # a displacement of axis i: Ad_{A_i} - Ad_{A_i+1}
-                first[cols], second[cols] = key[1], key[1] + 1
-            else:  # tool: expressed in the flange frame, carried by the flange pose
-                first[cols] = n + 1
+        for col, p in enumerate(self.params):
+            carrier = p.kind.carrier
+            if carrier is Carrier.JOINT:
+                first[col] = p.joint
+            elif carrier is Carrier.NEXT_JOINT:
+                first[col] = p.joint + 1
+            elif carrier is Carrier.AXIS:  # a displacement of axis i: Ad_{A_i} - Ad_{A_i+1}
+                first[col], second[col] = p.joint, p.joint + 1
+            elif carrier is Carrier.HOME:
+                first[col] = n
+            elif carrier is Carrier.TOOL:
+                first[col] = n + 1
+            else:
+                first[col] = n + 2
         return first, second
 
     def linearisation(self, x: ArrayLike, q: ArrayLike) -> tuple[Array, Array, Array]:
@@ -336,11 +390,11 @@ class ErrorModel:
         joints' too, are two matrix products: no loop over parameters or carriers."""
         x = np.asarray(x, dtype=float)
         model = self.apply(x)
-        q = _check_q(model, q)
+        q = checked_joints(model, q)
         tau = None
         if model.has_compliance:  # the torques at the unbent configuration, once
             tau = joint_torques_by_mass(model, q)
-        A_end, partial = _chain(model, q, keep=True, tau=tau)
+        A_end, partial = screw_chain(model, q, keep=True, tau=tau)
         if tau is None and self._has_compliance_columns:  # unbent: the same chain
             tau = gravity_torques_by_mass(model.axis_dirs, model.axis_points_mm, partial,
                                           model.all_masses, model.base[:3, 2])
@@ -349,7 +403,7 @@ class ErrorModel:
         flange = (A_end.reshape(-1, 4) @ model.home_flange).reshape(N, 3, 4)
         world = np.zeros((N, 3, 4))
         world[:, :, :3] = np.eye(3)
-        T = _to_homogeneous((flange.reshape(-1, 4) @ model.tool).reshape(N, 3, 4))
+        T = homogeneous((flange.reshape(-1, 4) @ model.tool).reshape(N, 3, 4))
         sides = _frame_sides([*partial, flange, world], T[:, :3, 3])
         W, V = self._twist_tables(model, self._collect(x), C)
         J = np.empty((N, 6, W.shape[1]))

@@ -125,7 +125,7 @@ def compliance_t(result: CalibrationResult) -> dict[str, float]:
     """|value| / std error of each identifiable compliance coefficient of a result."""
     return {p.name: abs(v) / s for p, v, s in zip(result.params, result.values,
                                                    result.std_errors, strict=True)
-            if p.kind.startswith("compliance") and s > 0}
+            if p.kind.is_compliance and s > 0}
 
 
 def nested_f_test(simple: CalibrationResult, rich: CalibrationResult) -> float:

@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike
 
 from screwcal.calibration.error_parameters import ErrorModel
 from screwcal.errors import ModelError
-from screwcal.kinematics.forward import _check_q
+from screwcal.kinematics.forward import checked_joints
 from screwcal.kinematics.se3 import Array, rotation_from_rotvec, skew
 
 
@@ -38,7 +38,7 @@ def forward_batch(errors: ErrorModel, X: ArrayLike, q: ArrayLike) -> Array:
     if ref.has_compliance or any(p.kind.startswith("compliance") for p in errors.params):
         raise ModelError("joint compliance is identified by least squares, not by the "
                          "population solver: use solver='lm'")
-    q = _check_q(ref, q)
+    q = checked_joints(ref, q)
     P, n = len(X), ref.n_joints
     zero = np.broadcast_to(ref.joint_zero, (P, n)).copy()
     dirs = np.broadcast_to(ref.axis_dirs, (P, n, 3)).copy()

@@ -20,7 +20,12 @@ import numpy as np
 import scipy.linalg
 
 from screwcal.calibration.degenerate import NEAR_AXIS_MM, data_warnings, point_axis_distance_mm
-from screwcal.calibration.error_parameters import ErrorModel, Param, candidate_params
+from screwcal.calibration.error_parameters import (
+    ErrorModel,
+    Param,
+    ParamKind,
+    candidate_params,
+)
 from screwcal.calibration.fit_state import FitState, Plan
 from screwcal.calibration.identifiability import (
     GRAM_COND,
@@ -98,7 +103,7 @@ class Selection:
         """The selection of the same start and poses (`data`) with the compliance candidates
         left out (the nested model "auto" compares): their columns of J0 and of its triangle,
         chosen again; no frames aligned, no Jacobian built, no tall factorisation."""
-        cols = [k for k, p in enumerate(self.candidates) if not p.kind.startswith("compliance")]
+        cols = [k for k, p in enumerate(self.candidates) if not p.kind.is_compliance]
         return _choose(self.start, tuple(self.candidates[k] for k in cols), self.problem.whiten,
                        self.r0, self.J0[:, cols], self.T0, self.Rs[:, cols], data, residual,
                        settings)
@@ -243,8 +248,8 @@ def _choose(start: SerialModel, cands: tuple[Param, ...], whiten: Array, r0: Arr
     errors_all = ErrorModel(start, cands)
     # The frames are unknown whatever the robot: take them first, then the model's own
     # parameters (joint and link offsets: what a controller can correct), then axis terms.
-    priority = np.array([2 if p.group != "robot" else 1 if p.kind in ("zero", "link") else 0
-                         for p in cands])
+    own = (ParamKind.ZERO, ParamKind.LINK)
+    priority = np.array([2 if p.group != "robot" else 1 if p.kind in own else 0 for p in cands])
     needed = structural_rank(errors_all, residual)
     m = len(r0)
     if m <= needed:
@@ -404,7 +409,7 @@ def unabsorbed(Jw: Array, gram: Array, params: Sequence[Param], condition: float
     Schur complement), when the scaled columns' `condition` number is under `GRAM_COND`;
     else by least squares of the column on the others."""
     out = {}
-    cols = [k for k, p in enumerate(params) if p.kind == "compliance"]
+    cols = [k for k, p in enumerate(params) if p.kind is ParamKind.COMPLIANCE]
     if cols and condition < GRAM_COND:
         d = np.sqrt(np.diag(gram))
         inverse = scipy.linalg.inv(gram / np.outer(d, d))

@@ -43,7 +43,8 @@ def _generators(model: SerialModel) -> tuple[Array, Array, Array]:
     return (*_joint_generators(model), model.home_flange @ model.tool)
 
 
-def _check_q(model: SerialModel, q: ArrayLike) -> Array:
+def checked_joints(model: SerialModel, q: ArrayLike) -> Array:
+    """Joint values (N, n) for `model` as a float array; refuses another shape."""
     q = np.asarray(q, dtype=float)
     if q.ndim != 2 or q.shape[1] != model.n_joints:
         raise ValueError(f"joint values for model '{model.name}' must have shape "
@@ -51,8 +52,8 @@ def _check_q(model: SerialModel, q: ArrayLike) -> Array:
     return q
 
 
-def _chain(model: SerialModel, q: Array, keep: bool, joints: int | None = None,
-           tau: Array | None = None) -> tuple[Array, list[Array]]:
+def screw_chain(model: SerialModel, q: Array, keep: bool, joints: int | None = None,
+                tau: Array | None = None) -> tuple[Array, list[Array]]:
     """Successive screws from the base: returns A_n (N, 3, 4) = base . prod exp(...) [:3] and,
     if `keep`, the partial products A_0..A_n (each (N, 3, 4)), A_0 = base; only the first
     `joints` screws when given. A compliant model's joints stand at q + zero + c * tau(q), tau
@@ -74,7 +75,7 @@ def joint_torques(model: SerialModel, q: ArrayLike) -> Array:
 def joint_torques_by_mass(model: SerialModel, q: ArrayLike) -> Array:
     """(N, n, M) the torques of `joint_torques` per mass: the arm's masses, then the payload's
     (when it has one)."""
-    q = _check_q(model, q)
+    q = checked_joints(model, q)
     masses = model.all_masses
     carrying = max((m.link for m in masses), default=-1) + 1  # joints that carry a mass
     _, partial = _chain_theta(model, q + model.joint_zero, keep=True, joints=carrying)
@@ -118,7 +119,8 @@ def _chain_theta(model: SerialModel, theta: Array, keep: bool, joints: int | Non
     return A, partial
 
 
-def _to_homogeneous(A: Array) -> Array:
+def homogeneous(A: Array) -> Array:
+    """Poses (..., 4, 4) of their top rows (..., 3, 4)."""
     T = np.empty((*A.shape[:-2], 4, 4))
     T[..., :3, :] = A
     T[..., 3, :] = (0.0, 0.0, 0.0, 1.0)
@@ -137,8 +139,8 @@ def forward_kinematics(model: SerialModel, q: ArrayLike) -> Array:
     a few configurations in a handful of larger array calls (`_few_poses`: the call overhead is
     the cost), many in cache-sized blocks with the configurations along the fast axis
     (`_many_poses`: the memory traffic is the cost)."""
-    q = _check_q(model, q)
-    if model.has_compliance:  # the joints stand at q + c tau(q) (`_chain`)
+    q = checked_joints(model, q)
+    if model.has_compliance:  # the joints stand at q + c tau(q) (`screw_chain`)
         q = q + joint_bend(model, q)
     if q.shape[0] <= _FEW:
         return _few_poses(model, q)
@@ -273,8 +275,8 @@ def joint_positions(model: SerialModel, q: ArrayLike) -> Array:
     """The robot's skeleton for drawing, (N, n + 1, 3) world positions: for each joint the foot
     (at home) of the previous skeleton point on its axis — where the joint sits along the chain
     rather than the arbitrary stored axis point — then the tool."""
-    q = _check_q(model, q)
-    _, partial = _chain(model, q, keep=True)
+    q = checked_joints(model, q)
+    _, partial = screw_chain(model, q, keep=True)
     prev = np.zeros(3)  # the robot base origin, robot frame
     pts = []
     for i, A in enumerate(partial[:-1]):
@@ -291,8 +293,8 @@ def joint_axis_lines(model: SerialModel, q: ArrayLike, joints: int) -> tuple[Arr
     unit directions and each line's point nearest the world origin, (N, joints, 3) each. Only
     the screws before the last asked axis are chained (the columns of `spatial_jacobian`
     without the rest of the chain or the twists' moments)."""
-    q = _check_q(model, q)
-    _, partial = _chain(model, q, keep=True, joints=joints - 1)
+    q = checked_joints(model, q)
+    _, partial = screw_chain(model, q, keep=True, joints=joints - 1)
     A = np.stack(partial, axis=1)  # (N, joints, 3, 4): axis i is carried by A_{i-1}
     R, t = A[..., :3], A[..., 3]
     w = np.sum(R * model.axis_dirs[:joints, None, :], axis=-1)  # R @ dir, elementwise:
@@ -303,8 +305,8 @@ def joint_axis_lines(model: SerialModel, q: ArrayLike, joints: int) -> tuple[Arr
 
 def spatial_jacobian(model: SerialModel, q: ArrayLike) -> Array:
     """Spatial Jacobian w.r.t. the joints, shape (N, 6, n): column i = Ad_{A_{i-1}} xi_i."""
-    q = _check_q(model, q)
-    _, partial = _chain(model, q, keep=True)
+    q = checked_joints(model, q)
+    _, partial = screw_chain(model, q, keep=True)
     return np.stack([_joint_twist(model, i, partial[i]) for i in range(model.n_joints)], axis=-1)
 
 
@@ -382,10 +384,10 @@ def parameter_jacobian(model: SerialModel, q: ArrayLike) -> Array:
     Ad_{A_i}) delta; a direction change dw moves the axis by delta = (w x dw, p x (w x dw)),
     a point change dp by delta = (0, dp).
     """
-    q = _check_q(model, q)
+    q = checked_joints(model, q)
     N, n = q.shape
     layout = ParameterLayout(n)
-    A_end, partial = _chain(model, q, keep=True)
+    A_end, partial = screw_chain(model, q, keep=True)
     J = np.zeros((N, 6, layout.size))
     ad = [adjoint(A) for A in partial]
     for i in range(n):
@@ -401,8 +403,8 @@ def parameter_jacobian(model: SerialModel, q: ArrayLike) -> Array:
         J[:, :, cols.start + 6] = _joint_twist(model, i, partial[i])
     J[:, :, layout.frame_slice("home")] = ad[n]
     J[:, :, layout.frame_slice("base")] = np.eye(6)
-    T_tool = _to_homogeneous((A_end.reshape(-1, 4) @ (model.home_flange @ model.tool))
-                             .reshape(-1, 3, 4))
+    T_tool = homogeneous((A_end.reshape(-1, 4) @ (model.home_flange @ model.tool))
+                         .reshape(-1, 3, 4))
     J[:, :, layout.frame_slice("tool")] = adjoint(T_tool)
     return J
 

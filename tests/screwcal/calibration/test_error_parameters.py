@@ -77,3 +77,23 @@ def test_linearisation_is_exact_for_parameters_and_joints(rng, compliance):
     T, _, Jq = errors.linearisation(x, q)
     np.testing.assert_allclose(Jq, point_jacobian(spatial_jacobian(errors.apply(x), q), T),
                                atol=1e-9)
+
+
+def test_every_parameter_kind_has_its_carrier_and_names_its_frame():
+    """Parameter kinds are one enum (error_parameters.ParamKind): each says which frame
+    carries its twist; the frames' kinds name their frame; a kind is still its string."""
+    import json
+
+    from screwcal.calibration.error_parameters import Carrier, Param, ParamKind
+
+    assert {k.carrier for k in ParamKind} == set(Carrier)
+    assert [k.frame for k in ParamKind if k.frame] == ["home", "home", "base", "base", "tool",
+                                                       "tool"]
+    assert {k for k in ParamKind if k.is_compliance} == {ParamKind.COMPLIANCE,
+                                                        ParamKind.COMPLIANCE_MASS}
+    p = Param("J1", "deg", "zero", joint=0)  # type: ignore[arg-type]  # (a string is taken)
+    assert p.kind is ParamKind.ZERO and p.kind == "zero" and json.dumps(p.kind) == '"zero"'
+    assert Param("base.x", "mm", ParamKind.BASE_POS, axis=0).group == "base"
+    assert Param("home.x", "mm", ParamKind.HOME_POS, axis=0).group == "robot"
+    with pytest.raises(ValueError):
+        Param("J1", "deg", "zeros", joint=0)  # type: ignore[arg-type]
