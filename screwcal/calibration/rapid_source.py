@@ -255,9 +255,9 @@ def module_of(parsed: rapid.Module, path: str, text: str,
             motion = _motion(node, text, line_of(node.start))
             motion.routine = routine
             module.motions.append(motion)
-            result = [a.value for a in node.args if not a.optional and a.value is not None]
-            if node.key.startswith("search") and len(result) > 1:
-                name = _base_name(result[1])
+            if node.key.startswith("search"):
+                result = [a.value for a in node.args if not a.optional and a.value is not None]
+                name = _base_name(result[1]) if len(result) > 1 else ""
                 if name:
                     module.assigned.setdefault(name, (node.line, f"{node.name}'s result"))
         elif type(node) is rapid.Call and node.key in RUNTIME_FUNCTIONS:
