@@ -40,29 +40,34 @@ def _digest(prev: str, at: float, e: Event) -> str:
     return hashlib.sha256(body.encode()).hexdigest()
 
 
+def record(db: Database, event: Event) -> int:
+    """Append `event` inside the caller's transaction (`db.tx()`): it stands or falls with the
+    change it records. A unique-link conflict (another service appended first) raises the
+    database's integrity error; the caller tries again."""
+    last = db.execute("SELECT hash FROM audit ORDER BY id DESC LIMIT 1").fetchone()
+    prev = last["hash"] if last else GENESIS
+    at = float(db.execute(f"SELECT {db.now_sql} AS t").fetchone()["t"])
+    digest = _digest(prev, at, event)
+    row = db.execute(
+        "INSERT INTO audit (at, actor, source, action, target, outcome, detail, prev, hash) "
+        "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+        (at, event.actor[:80], event.source[:80], event.action[:120], event.target[:120],
+         event.outcome[:200], event.detail[:500], prev, digest)).fetchone()
+    db.execute("UPDATE audit_head SET last_id = ?, last_hash = ? WHERE one = 1",
+               (row["id"], digest))
+    return int(row["id"])
+
+
 class AuditTrail:
     def __init__(self, db: Database) -> None:
         self.db = db
 
     def append(self, event: Event) -> int:
-        """Record an event at the database's time; its id."""
+        """Record an event at the database's time, in a transaction of its own; its id."""
         for _ in range(_RETRIES):
             try:
                 with self.db.tx() as db:
-                    last = db.execute("SELECT hash FROM audit ORDER BY id DESC LIMIT 1"
-                                      ).fetchone()
-                    prev = last["hash"] if last else GENESIS
-                    at = float(db.execute(f"SELECT {db.now_sql} AS t").fetchone()["t"])
-                    digest = _digest(prev, at, event)
-                    row = db.execute(
-                        "INSERT INTO audit (at, actor, source, action, target, outcome, detail, "
-                        "prev, hash) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
-                        (at, event.actor[:80], event.source[:80], event.action[:120],
-                         event.target[:120], event.outcome[:200], event.detail[:500], prev,
-                         digest)).fetchone()
-                    db.execute("UPDATE audit_head SET last_id = ?, last_hash = ? WHERE one = 1",
-                               (row["id"], digest))
-                return int(row["id"])
+                    return record(db, event)
             except self.db.integrity_errors:
                 continue  # another service appended the same predecessor's successor first
         raise RuntimeError("the audit trail stayed busy: too many services appending at once")

@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from screwcal import __version__
+from service.audit import Event, record
 from service.database import Database, open_database
 from service.document import JobRecord, PhaseRecord, ResultDocument
 from service.errors import (
@@ -338,13 +339,21 @@ class Store:
         """A runner's state change, only while this service holds the job and along the table
         of service/job_state.py: JobStateError when another runner (or service) has ended it,
         so a stale runner never revives a finished job."""
-        with self.db.tx() as db:
-            self._check_held(db, job_id)
-            old = db.execute(f"SELECT state FROM jobs WHERE id = ?{self.db.for_update}",
-                             (job_id,)).fetchone()["state"]
-            new = check_transition(job_id, old, state)
-            db.execute("UPDATE jobs SET state = ?, reason = ?, updated = ? WHERE id = ?",
-                       (new.value, reason, time.time(), job_id))
+        for attempt in range(3):  # the audit's link taken by another service: once more
+            try:
+                with self.db.tx() as db:
+                    self._check_held(db, job_id)
+                    old = db.execute(f"SELECT state FROM jobs WHERE id = ?{self.db.for_update}",
+                                     (job_id,)).fetchone()["state"]
+                    new = check_transition(job_id, old, state)
+                    db.execute("UPDATE jobs SET state = ?, reason = ?, updated = ? WHERE id = ?",
+                               (new.value, reason, time.time(), job_id))
+                    record(db, Event(f"service {self.holder}", "the service", "job state",
+                                     f"job {job_id}", f"{old} -> {new.value}", reason))
+                break
+            except self.db.integrity_errors:
+                if attempt == 2:
+                    raise
         return self.job(job_id)
 
     def finish_step(self, job_id: int, step: str, seconds: float) -> None:

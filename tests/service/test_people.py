@@ -170,3 +170,26 @@ def test_the_docs_print_the_grants_table():
 
     docs = (Path(__file__).resolve().parents[2] / "docs" / "service.md").read_text()
     assert routes_table() in docs
+
+
+def test_every_state_change_of_a_job_is_audited_with_it(db_target):
+    """A runner's state change and its audit record stand or fall together (one transaction),
+    on both databases."""
+    from service.store import Store
+    from tests.service.test_store import robot_and_job
+
+    store = Store(db_target)
+    _, job_id = robot_and_job(store)
+    store.set_state(job_id, "running", "")
+    store.set_state(job_id, "paused", "the controller's link was lost")
+    store.set_state(job_id, "running", "")
+    store.set_state(job_id, "done", "")
+    trail = AuditTrail(store.db)
+    changes = [(r["target"], r["outcome"], r["detail"]) for r in trail.records()
+               if r["action"] == "job state"]
+    assert changes == [(f"job {job_id}", "queued -> running", ""),
+                       (f"job {job_id}", "running -> paused", "the controller's link was lost"),
+                       (f"job {job_id}", "paused -> running", ""),
+                       (f"job {job_id}", "running -> done", "")]
+    assert trail.check()["ok"]
+    store.close()
