@@ -69,7 +69,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
 
     if args.program and is_rapid(args.program):
-        args.rapid, args.program = args.program[:1], None
+        args.rapid, args.program = list(args.program), None
     source = args.targets or args.measuring_targets
     if args.rapid:
         args.rapid_outputs = _rapid_outputs(args.rapid, args.out)

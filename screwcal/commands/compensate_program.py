@@ -31,8 +31,9 @@ def _read(path: str, what: str) -> str:
 
 
 def is_rapid(paths: list[str]) -> bool:
-    """Whether `--program` names a RAPID module (the RAPID filter takes it)."""
-    return len(paths) == 1 and Path(paths[0]).suffix.lower() in RAPID_SUFFIXES
+    """Whether `--program` names RAPID: modules (.mod, .prg, .sys...) or a task's folder (the
+    RAPID filter takes them all together, as `--rapid`)."""
+    return all(Path(p).is_dir() or Path(p).suffix.lower() in RAPID_SUFFIXES for p in paths)
 
 
 def outputs(paths: list[str], out: str) -> dict[str, Path]:

@@ -86,3 +86,21 @@ def test_files_that_are_no_program_are_refused_in_one_sentence(tmp_path, rng):
     run = _run("--result", model, "--robot", nominal.name, "--program", tmp_path, "--out",
                tmp_path / "o.txt")
     assert run.returncode == 2 and "Traceback" not in run.stderr and "folder" in run.stderr
+
+
+def test_several_rapid_modules_go_to_the_rapid_filter_together(tmp_path):
+    """`--program A.mod B.sys` is one task's modules, as `--rapid A.mod B.sys`: a target declared
+    in one and moved to in the other is compensated in its tool."""
+    from screwcal.kinematics.robots import irb1600
+
+    save_model(irb1600(), tmp_path / "m.json")
+    (tmp_path / "Data.sys").write_text(
+        "MODULE Data(SYSMODULE)\n  PERS tooldata tGun:=[TRUE,[[0,0,150],[1,0,0,0]],"
+        "[1,[0,0,50],[1,0,0,0],0,0,0]];\n  CONST robtarget pA:=[[900,0,900],[0,0,1,0],"
+        "[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\nENDMODULE\n")
+    (tmp_path / "Main.mod").write_text("MODULE Main\n  PROC main()\n    MoveL pA, v100, fine, "
+                                       "tGun;\n  ENDPROC\nENDMODULE\n")
+    run = _run("--result", tmp_path / "m.json", "--robot", "irb1600", "--program",
+               tmp_path / "Data.sys", tmp_path / "Main.mod", "--out", tmp_path / "out")
+    assert run.returncode == 0, run.stderr + run.stdout
+    assert (tmp_path / "out" / "Data.sys").is_file() and (tmp_path / "out" / "Main.mod").is_file()
