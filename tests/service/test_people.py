@@ -193,3 +193,13 @@ def test_every_state_change_of_a_job_is_audited_with_it(db_target):
                        (f"job {job_id}", "running -> done", "")]
     assert trail.check()["ok"]
     store.close()
+
+
+async def test_a_role_taken_away_stops_that_users_next_go_ahead(cell):
+    app, http, tokens = cell
+    go = {"index": 0}
+    r = await http.post("/jobs/1/go", headers=_auth(tokens[Role.OPERATOR]), json=go)
+    assert r.status_code not in (401, 403)  # allowed (no such job here: 404)
+    app.state.people.set_role("operator-user", Role.VIEWER)  # mid-job, by an administrator
+    r = await http.post("/jobs/1/go", headers=_auth(tokens[Role.OPERATOR]), json=go)
+    assert r.status_code == 403 and "lacks the grant 'go-ahead'" in r.json()["detail"]
