@@ -24,7 +24,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from screwcal.commands.options import (
+from screwcal.arguments import (
     ERROR_MODELS,
     add_option,
     add_vector,

@@ -42,7 +42,7 @@ import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from screwcal.commands.options import (
+from screwcal.arguments import (
     bounded_int,
     finite_float,
     non_negative_float,
@@ -308,7 +308,7 @@ def smrs_of(args: argparse.Namespace) -> tuple[tuple[float, float, float], ...]:
 
 
 def _add_tracker(p: argparse.ArgumentParser) -> None:
-    from screwcal.commands.options import add_vector
+    from screwcal.arguments import add_vector
     from screwcal.instrument import TRACKER_STAND_MM
 
     add_vector(p, "--stand-mm", default=TRACKER_STAND_MM,
@@ -362,7 +362,7 @@ def _add_arm_faults(p: argparse.ArgumentParser) -> None:
 
 
 def _add_realism(p: argparse.ArgumentParser) -> None:
-    from screwcal.commands.calibrate import add_payload_arguments
+    from screwcal.arguments import add_payload_arguments
 
     realism = p.add_mutually_exclusive_group()
     realism.add_argument("--realism", choices=["ideal", "typical", "harsh"], default="ideal",

@@ -17,6 +17,11 @@ ALLOWED = {
     "simulators": {"simulators", "screwcal", "protocol"},
     "service": {"service", "screwcal", "protocol"},
 }
+# The face: the console script's commands (and `python -m screwcal`, its other door). It loads
+# as the core does; a command that needs the service or the emulators imports them itself, when
+# it runs or builds its options (never when the face loads).
+FACE = (ROOT / "screwcal" / "commands", ROOT / "screwcal" / "__main__.py")
+FACE_DISPATCHES_TO = {"service", "simulators"}
 
 
 # Inside screwcal: what each layer may import of ours (its __init__ docstring says the same).
@@ -38,26 +43,64 @@ LAYERS = {
 }
 
 
+def _import_names(node: ast.AST) -> set[str]:
+    if isinstance(node, ast.Import):
+        return {a.name for a in node.names}
+    if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+        return {node.module}
+    return set()
+
+
 def _imports(path: Path, depth: int = 1) -> set[str]:
-    """The modules `path` imports, cut to their first `depth` dotted parts."""
+    """The modules `path` imports, anywhere in it, cut to their first `depth` dotted parts."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
-    names = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            names |= {a.name for a in node.names}
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            names.add(node.module)
+    names = set().union(*(_import_names(node) for node in ast.walk(tree)))
     return {".".join(n.split(".")[:depth]) for n in names}
+
+
+def _imports_on_load(path: Path) -> set[str]:
+    """The top-level packages `path` imports when it is loaded: outside functions, and not
+    under `if TYPE_CHECKING:`."""
+    names: set[str] = set()
+
+    def visit(node: ast.AST) -> None:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
+            return
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            return
+        names.update(_import_names(node))
+        for child in ast.iter_child_nodes(node):
+            visit(child)
+
+    visit(ast.parse(path.read_text(encoding="utf-8")))
+    return {n.split(".")[0] for n in names}
+
+
+def _in_face(path: Path) -> bool:
+    return any(path == door or path.is_relative_to(door) for door in FACE)
 
 
 @pytest.mark.parametrize("package", sorted(ALLOWED))
 def test_packages_depend_in_one_direction(package):
+    """Every module of every package, the face's too: what it loads keeps to its package's
+    rule; the face's commands reach the service and the emulators only inside themselves."""
     ours = set(ALLOWED)
     for path in (ROOT / package).rglob("*.py"):
-        if path.is_relative_to(ROOT / "screwcal" / "commands") or path.name == "__main__.py":
-            continue  # the console-script face dispatches to every package
-        crossing = (_imports(path) & ours) - ALLOWED[package]
-        assert not crossing, f"{path.relative_to(ROOT)} imports {sorted(crossing)}"
+        where = path.relative_to(ROOT)
+        crossing = (_imports_on_load(path) & ours) - ALLOWED[package]
+        assert not crossing, f"{where} imports {sorted(crossing)} when it is loaded"
+        inside = ALLOWED[package] | (FACE_DISPATCHES_TO if _in_face(path) else set())
+        crossing = (_imports(path) & ours) - inside
+        assert not crossing, f"{where} imports {sorted(crossing)}"
+
+
+@pytest.mark.parametrize("package", sorted(ALLOWED))
+def test_no_floor_imports_the_face(package):
+    """What the floors share with the face (the options' vocabulary, the payload's options)
+    lives on a floor both import (screwcal/arguments.py), never in the face."""
+    for path in (ROOT / package).rglob("*.py"):
+        if not _in_face(path):
+            assert "screwcal.commands" not in _imports(path, 2), path.relative_to(ROOT)
 
 
 @pytest.mark.parametrize("layer", sorted(LAYERS))

@@ -26,14 +26,14 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from screwcal.commands.joint_convention import add_joint_convention
-from screwcal.commands.options import (
+from screwcal.arguments import (
     ERROR_MODELS,
-    add_vector,
-    check_outputs,
+    add_payload_arguments,
     non_negative_float,
     positive_float,
 )
+from screwcal.commands.joint_convention import add_joint_convention
+from screwcal.commands.options import check_outputs
 
 if TYPE_CHECKING:
     from screwcal.calibration.identify_result import CalibrationResult
@@ -185,14 +185,6 @@ def with_payload(model: SerialModel, args: argparse.Namespace) -> SerialModel:
     from screwcal.kinematics.compliance import Payload
 
     return replace(model, payload=Payload(args.payload_kg, tuple(args.payload_cog_mm)))
-
-
-def add_payload_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--payload-kg", type=non_negative_float, default=None,
-                   help="mass on the flange (joint compliance scales with it; default: the "
-                   "model's)")
-    add_vector(p, "--payload-cog-mm", default=(0.0, 0.0, 0.0),
-               help="its centre of gravity in the flange (tool0) frame, mm (default 0 0 0)")
 
 
 def _noise_line(noise: dict) -> str:

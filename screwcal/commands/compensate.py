@@ -8,10 +8,11 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
-from screwcal.commands.calibrate import add_payload_arguments, with_payload
+from screwcal.arguments import add_option, add_payload_arguments
+from screwcal.commands.calibrate import with_payload
 from screwcal.commands.compensate_program import add_program_arguments
 from screwcal.commands.joint_convention import add_joint_convention, joint_convention
-from screwcal.commands.options import add_option, check_outputs
+from screwcal.commands.options import check_outputs
 
 if TYPE_CHECKING:
     from screwcal.calibration.residual_model import ResidualModel

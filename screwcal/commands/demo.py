@@ -24,20 +24,20 @@ import time
 from pathlib import Path
 from typing import Any
 
-from screwcal.commands.options import (
+from screwcal.arguments import (
     ERROR_MODELS,
     add_option,
     add_vector,
     bounded_int,
-    make_output_folder,
     non_negative_float,
 )
+from screwcal.commands.options import make_output_folder
 from screwcal.instrument import TRACKER_STAND_MM
-from service.demo import DEFAULT_POSES, DEFAULT_POSES_REAL, NOISE_SEED
 
 
 def run(args: argparse.Namespace) -> int:
-    from service.demo import run_jobs
+    # the service and the emulators: imported by this command only, never by the face itself
+    from service.demo import DEFAULT_POSES, DEFAULT_POSES_REAL, run_jobs
     from service.result_text import result_table
     from simulators.realism import PRESETS
 
@@ -142,6 +142,7 @@ def oracle_floor(seed: int | None, realism_name: str, options: dict[str, Any]) -
     import numpy as np
 
     from service.analysis import list_payload, performance_figures
+    from service.demo import NOISE_SEED
     from service.document import JobOptions
     from service.plans import plan_for
     from simulators.oracle import oracle_attained
@@ -167,6 +168,8 @@ def oracle_floor(seed: int | None, realism_name: str, options: dict[str, Any]) -
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    from service.demo import DEFAULT_POSES, DEFAULT_POSES_REAL
+
     p = sub.add_parser("demo", help="the whole procedure on emulated hardware, before/after",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seed", type=int, default=None,

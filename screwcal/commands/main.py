@@ -64,7 +64,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for_command_line()  # BLAS threads, heap, collector: the process's (screwcal.runtime.policy)
     try:
         parser = build_parser(_command_named(argv))
-        from screwcal.commands.options import old_vector_words, vector_options
+        from screwcal.arguments import old_vector_words, vector_options
 
         args, unknown = parser.parse_known_args(old_vector_words(argv, vector_options(parser)))
         if unknown:  # said by the command's own parser: its usage, not the top level's

@@ -97,7 +97,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "library robot's name")
     p.add_argument("--joints", required=True, help="CSV with q1..q6 in degrees, optional id")
     p.add_argument("--out", required=True, help="CSV to write: id, x, y, z (mm), rx, ry, rz (deg)")
-    from screwcal.commands.calibrate import add_payload_arguments
+    from screwcal.arguments import add_payload_arguments
     from screwcal.commands.joint_convention import add_joint_convention
 
     add_joint_convention(p, "how the file's q1..q6 count joint 3")

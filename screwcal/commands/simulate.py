@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import argparse
 
-from screwcal.commands.options import check_outputs, positive_int
+from screwcal.arguments import positive_int
+from screwcal.commands.options import check_outputs
 
 
 def run(args: argparse.Namespace) -> int:

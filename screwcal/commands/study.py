@@ -10,7 +10,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from screwcal.commands.options import make_output_folder, positive_int
+from screwcal.arguments import positive_int
+from screwcal.commands.options import make_output_folder
 
 # The studies' names, for --help without importing the studies (a test holds them to
 # screwcal.studies.study.STUDIES).
@@ -43,5 +44,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default="studies", help="folder for the tables and figures "
                    "(default ./studies)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="run the samples on a Dask distributed cluster (tcp://host:port)")
+                   help="run the samples on a Dask distributed cluster (tcp://host:port; "
+                   "needs the extra: pip install 'screwcal[cluster]')")
     p.set_defaults(func=run)

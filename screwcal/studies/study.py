@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from screwcal._lazy import optional_import
 from screwcal.runtime.policy import for_worker
 from screwcal.studies.markdown import markdown_table
 from screwcal.studies.registry import STUDIES, Study
@@ -38,9 +39,8 @@ def run_samples(name: str, seed: int, samples: int, workers: int,
     seeds = [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(samples)]
     fn = study.sample
     if scheduler is not None:
-        from distributed import Client
-
-        with Client(scheduler) as client:
+        dask = optional_import("distributed", "cluster", "a study on a Dask cluster (--scheduler)")
+        with dask.Client(scheduler) as client:
             chunks = client.gather(client.map(partial(_in_worker, fn), seeds, pure=False))
     elif workers <= 1:
         chunks = [fn(s) for s in seeds]

@@ -144,7 +144,7 @@ def test_every_error_model_of_the_command_line_is_a_job_option():
     service's; the frames model with a ZERO route is refused (it identifies no offset)."""
     from pydantic import ValidationError
 
-    from screwcal.commands.options import ERROR_MODELS
+    from screwcal.arguments import ERROR_MODELS
     from service.document import JobOptions
 
     for model in ERROR_MODELS:

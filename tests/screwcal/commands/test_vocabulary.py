@@ -17,8 +17,7 @@ from typing import get_args
 
 import pytest
 
-from screwcal.commands.main import build_parser, main
-from screwcal.commands.options import (
+from screwcal.arguments import (
     CONTRACT_SPELLINGS,
     ERROR_MODELS,
     Renamed,
@@ -28,6 +27,7 @@ from screwcal.commands.options import (
     positive_float,
     positive_int,
 )
+from screwcal.commands.main import build_parser, main
 
 ROOT = Path(__file__).resolve().parents[3]
 NUMERIC = {int, float, finite_float, positive_float, non_negative_float, positive_int}
@@ -192,7 +192,7 @@ def test_older_spellings_run_the_same_command(tmp_path, capsys):
 def test_a_vector_given_the_older_way_is_split_with_a_warning(capsys):
     """`--payload-cog-mm X,Y,Z` (one word) was the payload's syntax: it still parses, negative
     numbers too, and warns; `X Y Z` is the one syntax."""
-    from screwcal.commands.options import old_vector_words, vector_options
+    from screwcal.arguments import old_vector_words, vector_options
 
     parser = build_parser("calibrate")
     base = ["calibrate", "--robot", "irb1600", "--data", "d.csv", "--out", "r.json"]
@@ -230,7 +230,7 @@ def test_the_docs_show_command_lines():
 
 @pytest.mark.parametrize("where,line", LINES)
 def test_every_command_line_the_docs_show_parses_without_older_spellings(where, line, capsys):
-    from screwcal.commands.options import old_vector_words, vector_options
+    from screwcal.arguments import old_vector_words, vector_options
 
     words = shlex.split(line)[1:]
     parser = build_parser(words[0])
