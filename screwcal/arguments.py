@@ -2,7 +2,9 @@
 the service's `serve` and `job`, the simulators' `emulator`): option types that refuse NaN,
 infinities and out-of-range values (argparse names the option in its error, exit 2), an option
 renamed with a deprecation warning (`add_option`), a vector `X Y Z` (`add_vector`), the error
-models' names, the payload's options. A floor below the face: the face and the floors import
+models' names, the payload's options, the output files' checks (`check_outputs`: the folder
+exists and is writable, the file is none of the command's inputs; checked before any work, never
+after it). A floor below the face: the face and the floors import
 it, it imports nothing of theirs.
 """
 
@@ -10,9 +12,13 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
 from typing import Any
+
+from screwcal.errors import DataFileError
 
 
 def _number(text: str) -> float:
@@ -70,6 +76,36 @@ def bounded_int(low: int, high: int) -> Callable[[str], int]:
         return value
 
     return parse
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.resolve() == b.resolve() or (a.exists() and b.exists() and a.samefile(b))
+    except OSError:
+        return False
+
+
+def check_outputs(outputs: Iterable[str | Path | None], inputs: Iterable[str | Path | None]
+                  ) -> None:
+    """Refuse (DataFileError) an output file whose folder is missing or not writable, or that
+    is one of the inputs: a command never overwrites what it reads."""
+    given_inputs = [Path(p) for p in inputs if p]
+    for out in outputs:
+        if not out:
+            continue
+        path = Path(out)
+        for source in given_inputs:
+            if _same_file(path, source):
+                raise DataFileError(str(path), f"is also the input {source}: choose another "
+                                    "output file (the input is never overwritten)")
+        if path.is_dir():
+            raise DataFileError(str(path), "is a folder: name the output file")
+        folder = path.parent if str(path.parent) else Path(".")
+        if not folder.is_dir():
+            raise DataFileError(str(path), f"the folder {folder} does not exist: create it or "
+                                "choose another output")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise DataFileError(str(path), f"the folder {folder} is not writable")
 
 
 # -- one vocabulary across commands (issue 27) ---------------------------------------------------

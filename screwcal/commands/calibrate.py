@@ -29,11 +29,11 @@ from typing import TYPE_CHECKING
 from screwcal.arguments import (
     ERROR_MODELS,
     add_payload_arguments,
+    check_outputs,
     non_negative_float,
     positive_float,
 )
 from screwcal.commands.joint_convention import add_joint_convention
-from screwcal.commands.options import check_outputs
 
 if TYPE_CHECKING:
     from screwcal.calibration.identify_result import CalibrationResult

@@ -55,8 +55,8 @@ def outputs(paths: list[str], out: str) -> dict[str, Path]:
 def run_program(args: argparse.Namespace, calibrated: SerialModel, nominal: SerialModel,
                 residual: ResidualModel | None) -> int:
     """Compensate the files of `--program` and write them; the exit status of compensate."""
+    from screwcal.arguments import check_outputs
     from screwcal.calibration.program_filter import filter_program
-    from screwcal.commands.options import check_outputs
     from screwcal.errors import DataFileError
     from screwcal.programs import ProgramSyntaxError, read_program
     from screwcal.tables import write_text_atomic

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import argparse
 
-from screwcal.commands.options import check_outputs, make_output_folder
+from screwcal.arguments import check_outputs
+from screwcal.commands.options import make_output_folder
 
 
 def run(args: argparse.Namespace) -> int:

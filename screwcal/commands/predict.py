@@ -25,10 +25,10 @@ RESIDUAL_COLUMNS = ("dx", "dy", "dz", "std_mm", "note")  # with a residual model
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from screwcal.arguments import check_outputs
     from screwcal.calibration.residual_model import residual_from_document
     from screwcal.commands.calibrate import with_payload
     from screwcal.commands.joint_convention import joint_convention
-    from screwcal.commands.options import check_outputs
     from screwcal.kinematics.forward import forward_kinematics
     from screwcal.kinematics.modelfile import parse_model, read_model_document, resolve_model
     from screwcal.kinematics.pose import pose_from_transform

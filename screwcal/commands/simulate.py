@@ -15,8 +15,7 @@ from __future__ import annotations
 
 import argparse
 
-from screwcal.arguments import positive_int
-from screwcal.commands.options import check_outputs
+from screwcal.arguments import check_outputs, positive_int
 
 
 def run(args: argparse.Namespace) -> int:

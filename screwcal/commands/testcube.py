@@ -10,8 +10,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from screwcal.arguments import add_option, add_vector, finite_float, positive_float, positive_int
-from screwcal.commands.options import check_outputs
+from screwcal.arguments import (
+    add_option,
+    add_vector,
+    check_outputs,
+    finite_float,
+    positive_float,
+    positive_int,
+)
 from screwcal.errors import DataFileError
 
 
