@@ -69,6 +69,9 @@ _FUNCTION_TYPES = {
 }
 
 
+NOTE_KINDS = frozenset(("placeholder", "encrypted", "unverified"))
+
+
 @dataclass(frozen=True)
 class Finding:
     path: str
@@ -84,9 +87,6 @@ class Finding:
 
     def __str__(self) -> str:
         return f"{self.path}:{self.line}:{self.col}: {self.kind}: {self.reason}"
-
-
-NOTE_KINDS = frozenset(("placeholder", "encrypted", "unverified"))
 
 
 def _children(node: Node) -> Iterator[Node]:
