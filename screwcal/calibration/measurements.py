@@ -179,13 +179,11 @@ def write_measurements_csv(path: str | Path, data: MeasurementSet, model: Serial
                                     for pose_id, row in zip(data.ids, values, strict=True)))
 
 
-def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array,
-                joint_unit: str = "deg", length_unit: str = "mm") -> None:
-    """Refuse (DataFileError, with the fix) joint readings that look like radians and
-    positions that look like metres or inches: every revolute reading within
-    +-RADIAN_LOOKING_DEG, or measured points whose spread differs from the model's flange at
-    the same joints by more than SPREAD_RATIO allows and that another unit brings within it
-    (the measuring frame changes where the points are, not how far apart)."""
+def check_joint_units(path: str, model: SerialModel, q_deg: Array, joint_unit: str = "deg"
+                      ) -> None:
+    """Refuse (DataFileError, with the fix) joint readings that look like radians (every
+    revolute reading of two rows or more within +-RADIAN_LOOKING_DEG) or, read as radians,
+    like degrees (beyond a whole turn): every reader of joint readings checks them so."""
     revolute = model.is_revolute
     if len(q_deg) >= 2 and revolute.any() and \
             np.abs(q_deg[:, revolute]).max() < RADIAN_LOOKING_DEG:
@@ -197,6 +195,16 @@ def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array
             np.abs(q_deg[:, revolute]).max() > 360.0 + RADIAN_LOOKING_DEG:
         raise DataFileError(path, "joint readings beyond a whole turn when read as radians: "
                             "they look like degrees; leave out --joint-unit rad")
+
+
+def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array,
+                joint_unit: str = "deg", length_unit: str = "mm") -> None:
+    """Refuse (DataFileError, with the fix) joint readings that look like radians and
+    positions that look like metres or inches: every revolute reading within
+    +-RADIAN_LOOKING_DEG, or measured points whose spread differs from the model's flange at
+    the same joints by more than SPREAD_RATIO allows and that another unit brings within it
+    (the measuring frame changes where the points are, not how far apart)."""
+    check_joint_units(path, model, q_deg, joint_unit)
     q = model.joints_from_deg(q_deg)
     if len(q) < 3 or not model.within_limits(q).all():
         return  # the limits' own check names the line

@@ -37,6 +37,7 @@ from screwcal.commands.joint_convention import add_joint_convention
 
 if TYPE_CHECKING:
     from screwcal.calibration.identify_result import CalibrationResult
+    from screwcal.calibration.measurements import MeasurementSet
     from screwcal.calibration.plausible import PlausibleRanges
     from screwcal.kinematics.model import SerialModel
 
@@ -79,6 +80,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
     else:
         data = read_measurements_csv(args.data, nominal, joint_unit=args.joint_unit,
                                      length_unit=args.length_unit, joint_convention=convention)
+    if args.base_frame == "known":
+        check_known_frame(nominal, data, args.data)
     weighting = "eq2.4" if args.weight_mm is not None else "statistical"
     noise = NoiseModel(position_mm=args.noise_mm, joint_deg=args.joint_noise_deg)
     base_guess = None
@@ -109,6 +112,37 @@ def run_calibrate(args: argparse.Namespace) -> int:
     write_json_atomic(args.out, doc)
     _print_findings(args, len(data), result, doc, backlash)
     return 0 if result.converged else 1
+
+
+# With --base-frame known, measured points that sit this far (mm) or turned this much (deg)
+# from the nominal flange at the same joints are in another frame: no robot is off by so much
+OTHER_FRAME_MM = 150.0
+OTHER_FRAME_DEG = 5.0
+
+
+def check_known_frame(nominal: SerialModel, data: MeasurementSet, path: str) -> None:
+    """Refuse --base-frame known for data that look like another frame: the rigid motion that
+    best lays the nominal flange points on the measured ones moves them more than
+    OTHER_FRAME_MM or turns them more than OTHER_FRAME_DEG (a fit in the wrong frame ends with
+    a residual of hundreds of mm, blamed on everything but the frame)."""
+    import numpy as np
+
+    from screwcal.calibration.initial_frames import rigid_motion
+    from screwcal.errors import DataFileError
+    from screwcal.kinematics.forward import flange_kinematics
+
+    if len(data) < 3:
+        return
+    flange = flange_kinematics(nominal, data.q)[:, :3, 3]
+    R, t = rigid_motion(flange, data.positions_mm)
+    moved = np.linalg.norm(flange @ R.T + t - flange, axis=1).max()
+    turned = np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0)))
+    if moved > OTHER_FRAME_MM or turned > OTHER_FRAME_DEG:
+        raise DataFileError(path, f"--base-frame known says the points are the flange in the "
+                            f"robot base frame, but they sit up to {moved:.0f} mm from where "
+                            f"the nominal robot puts its flange (a frame turned {turned:.1f} "
+                            "deg): they look like another frame (the measuring system's); "
+                            "leave out --base-frame known and the frame is identified")
 
 
 def _print_findings(args: argparse.Namespace, poses: int, result: CalibrationResult,

@@ -26,6 +26,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from screwcal.arguments import check_outputs
+    from screwcal.calibration.measurements import check_joint_units
     from screwcal.calibration.residual_model import residual_from_document
     from screwcal.commands.calibrate import with_payload
     from screwcal.commands.joint_convention import joint_convention
@@ -41,7 +42,10 @@ def run(args: argparse.Namespace) -> int:
     model = with_payload(resolve_model(given) if document is None else
                          parse_model(document, given), args)
     table = read_numeric_csv(args.joints, joint_columns(model.n_joints))
-    q_deg = serial_from_readings(table.values, joint_convention(args, document, model))
+    q_read = np.where(model.is_revolute, np.degrees(table.values), table.values) \
+        if args.joint_unit == "rad" else table.values
+    check_joint_units(table.path, model, q_read, args.joint_unit)
+    q_deg = serial_from_readings(q_read, joint_convention(args, document, model))
     outside = np.logical_not(model.within_limits(model.joints_from_deg(q_deg)))
     for k in np.flatnonzero(outside)[:5]:
         print(f"warning: {table.path}, line {table.lines[k]}: joints outside the limits of model "
@@ -96,6 +100,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        help="the offline contract's spelling: a result or model file, or a "
                        "library robot's name")
     p.add_argument("--joints", required=True, help="CSV with q1..q6 in degrees, optional id")
+    p.add_argument("--joint-unit", choices=["deg", "rad"], default="deg",
+                   help="unit of the file's q1..q6 (default deg; readings that look like "
+                   "radians are refused), as calibrate's")
     p.add_argument("--out", required=True, help="CSV to write: id, x, y, z (mm), rx, ry, rz (deg)")
     from screwcal.arguments import add_payload_arguments
     from screwcal.commands.joint_convention import add_joint_convention

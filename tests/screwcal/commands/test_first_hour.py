@@ -69,3 +69,51 @@ def test_an_unknown_option_shows_the_commands_usage(capsys, argv, usage):
         main(argv)
     err = capsys.readouterr().err
     assert done.value.code == 2 and err.startswith(usage) and "unrecognized" in err, err
+
+
+def test_known_base_frame_on_data_in_another_frame_names_the_frame_option(tmp_path, capsys):
+    """It used to fit to a 605 mm residual and blame the read-back lag."""
+    import numpy as np
+
+    from screwcal.calibration.posesets import random_configurations
+    from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+    from screwcal.kinematics.robots import irb1600
+    from screwcal.studies.simulated_measurements import simulate_measurements
+    from tests.screwcal.calibration.test_identify import BASE, TOOL
+    from tests.screwcal.commands.test_calibrate_cli import _write_measurements
+
+    rng = np.random.default_rng(38)
+    truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
+    q = random_configurations(30, rng)
+    elsewhere = _write_measurements(tmp_path / "arm.csv", simulate_measurements(
+        truth.with_frames(BASE, TOOL), q, rng, full_pose=False), full_pose=False)
+    in_base = _write_measurements(tmp_path / "base.csv", simulate_measurements(
+        truth, q, rng, full_pose=False), full_pose=False)
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "--robot", "irb1600", "--data", str(elsewhere), "--base-frame",
+                 "known", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "leave out --base-frame known" in err and not out.exists(), err
+    assert main(["calibrate", "--robot", "irb1600", "--data", str(in_base), "--base-frame",
+                 "known", "--out", str(out)]) == 0
+
+
+def test_predict_refuses_joints_in_radians_as_calibrate_does(tmp_path, capsys):
+    """It used to predict from them with exit 0."""
+    joints = tmp_path / "j.csv"
+    joints.write_text("q1,q2,q3,q4,q5,q6\n0.1,0.2,0.3,0,0.5,0\n-0.1,0.3,0.2,0.1,0.6,0\n")
+    out = tmp_path / "p.csv"
+    assert main(["predict", "--robot", "irb1600", "--joints", str(joints), "--out",
+                 str(out)]) == 2
+    assert "--joint-unit rad" in capsys.readouterr().err and not out.exists()
+    assert main(["predict", "--robot", "irb1600", "--joints", str(joints), "--joint-unit", "rad",
+                 "--out", str(out)]) == 0
+    degrees = [float(v) for v in out.read_text().splitlines()[1].split(",")[1:4]]
+    assert main(["predict", "--robot", "irb1600", "--joints", str(joints), "--out",
+                 str(tmp_path / "q.csv")]) == 2
+    joints.write_text("q1,q2,q3,q4,q5,q6\n5.73,11.46,17.19,0,28.65,0\n-5.73,17.19,11.46,5.73,"
+                      "34.38,0\n")
+    assert main(["predict", "--robot", "irb1600", "--joints", str(joints), "--out",
+                 str(tmp_path / "d.csv")]) == 0
+    again = [float(v) for v in (tmp_path / "d.csv").read_text().splitlines()[1].split(",")[1:4]]
+    assert max(abs(a - b) for a, b in zip(degrees, again, strict=True)) < 1.0
