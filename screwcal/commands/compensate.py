@@ -16,6 +16,7 @@ from screwcal.commands.joint_convention import add_joint_convention, joint_conve
 if TYPE_CHECKING:
     from screwcal.calibration.residual_model import ResidualModel
     from screwcal.kinematics.model import SerialModel
+    from screwcal.kinematics.se3 import Array
 
 PARTIAL_EXIT = 3  # some targets refused (listed), the others written
 
@@ -121,10 +122,28 @@ def run_compensate(args: argparse.Namespace) -> int:
           f"joint change {comp.max_change_deg:.3f} deg"
           + ("; joint 3 as FANUC counts it (to the horizontal)" if convention == "fanuc"
              else "") + ("" if seen is None else f"; {seen.summary()}"))
+    if ok.any():
+        print(branch_note(nominal, comp.q_rad[ok]))
     if comp.refused:
         print(f"{len(comp.refused)} targets refused (listed on stderr), not in {args.out}")
         return PARTIAL_EXIT
     return 0
+
+
+def branch_note(nominal: SerialModel, q_rad: Array) -> str:
+    """Which configuration the targets were solved in, and why: a pose file carries none (a
+    robtarget's confdata, a program's joints do), so each target takes the nominal robot's
+    solution nearest home; the confdata of each branch taken, and how many targets took it."""
+    from collections import Counter
+
+    from screwcal.kinematics.confdata import confdata
+
+    taken = Counter(tuple(int(v) for v in cf) for cf in confdata(nominal, q_rad))
+    branches = ", ".join(f"[{', '.join(map(str, cf))}] for {n}" for cf, n in
+                         taken.most_common())
+    return (f"  configuration: a pose file has none, so each target was solved on the nominal "
+            f"robot's branch nearest home (confdata {branches}); to keep another (a wrist "
+            "flipped), give the targets as a RAPID module with their confdata (--rapid)")
 
 
 def _refuse_position_only(document: object, path: str) -> None:
@@ -149,7 +168,13 @@ def nominal_of(doc: object, result_path: str, robot: str | None) -> SerialModel 
     from screwcal.kinematics.robots import BUILTIN_MODELS, accepted_robots
 
     if robot:
-        return resolve_model(robot)
+        given = resolve_model(robot)
+        own = nominal_of(doc, result_path, None)
+        if own is not None and not _same_robot(own, given):
+            raise ModelError(f"{result_path} was calibrated against robot '{own.name}', and "
+                             f"--robot {robot} is another robot ('{given.name}'): leave out "
+                             "--robot (the result holds the robot it was calibrated against)")
+        return given
     if not isinstance(doc, dict):
         return None
     if isinstance(doc.get("nominal_model"), dict):
@@ -163,6 +188,20 @@ def nominal_of(doc: object, result_path: str, robot: str | None) -> SerialModel 
                          "not hold its nominal model: give --robot FILE, the robot file it was "
                          f"calibrated with; --robot takes {accepted_robots()}")
     return resolve_model(name)
+
+
+def _same_robot(a: SerialModel, b: SerialModel) -> bool:
+    """Whether two nominal robots are one robot: as many joints, and their flanges within
+    1 mm at three joint sets (names aside: an imported robot may be named otherwise)."""
+    import numpy as np
+
+    from screwcal.kinematics.forward import flange_kinematics
+
+    if a.n_joints != b.n_joints:
+        return False
+    q = np.array([np.zeros(a.n_joints), np.full(a.n_joints, 0.3), np.full(a.n_joints, -0.2)])
+    return bool(np.abs(flange_kinematics(a, q)[:, :3, 3] -
+                       flange_kinematics(b, q)[:, :3, 3]).max() < 1.0)
 
 
 def _rapid_outputs(given: list[str], out: str) -> dict[str, Path]:

@@ -117,3 +117,32 @@ def test_predict_refuses_joints_in_radians_as_calibrate_does(tmp_path, capsys):
                  str(tmp_path / "d.csv")]) == 0
     again = [float(v) for v in (tmp_path / "d.csv").read_text().splitlines()[1].split(",")[1:4]]
     assert max(abs(a - b) for a, b in zip(degrees, again, strict=True)) < 1.0
+
+
+def test_compensate_refuses_another_robot_once_and_says_which_branch(tmp_path, capsys):
+    """A result of one robot with --robot of another was refused target by target; a pose
+    file without configuration did not say which solution it took."""
+    from screwcal.kinematics.modelfile import save_model
+    from screwcal.kinematics.robots import irb1600
+
+    model = tmp_path / "model.json"
+    save_model(irb1600(), model)
+    joints = tmp_path / "j.csv"
+    joints.write_text("q1,q2,q3,q4,q5,q6\n0,10,10,0,60,0\n30,20,5,120,50,-10\n")
+    targets = tmp_path / "t.csv"
+    assert main(["predict", "--robot", "irb1600", "--joints", str(joints), "--out",
+                 str(targets)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "c.csv"
+    assert main(["compensate", "--result", str(model), "--robot", "irb1600", "--targets",
+                 str(targets), "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "branch nearest home (confdata [" in said and "--rapid" in said, said
+    (tmp_path / "result.json").write_text(
+        '{"format": "screwcal-calibration", "robot": "irb1600", '
+        f'"model": {model.read_text()}}}')
+    assert main(["compensate", "--result", str(tmp_path / "result.json"), "--robot", "irb120",
+                 "--targets", str(targets), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "calibrated against robot 'irb1600'" in err
+    assert "leave out --robot" in err, err
