@@ -126,7 +126,8 @@ class Realism:
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
 
     def describe(self) -> list[str]:
-        """What the robot carries, one line per effect, names and units as in the file."""
+        """What the robot carries, one line per effect: its name in words, then the realism
+        file's key (to write one) and the values with their units."""
         if self.is_ideal:
             return ["geometric errors only (realism ideal): no compliance, backlash, read-back "
                     "lag, drift or repeatability error"]
@@ -136,22 +137,23 @@ class Realism:
 
         out = []
         if any(self.compliance_deg_per_knm):
-            out.append(f"compliance_deg_per_knm: {joints(self.compliance_deg_per_knm)} deg/kNm "
+            out.append(f"joint compliance (compliance_deg_per_knm): "
+                       f"{joints(self.compliance_deg_per_knm)} deg/kNm "
                        f"(own masses: nominal +-{100 * self.mass_spread:g} %, centres moved "
                        f"+-{self.centre_shift_mm:g} mm)")
-        out.append(f"payload_kg: {self.payload_kg:g} kg at payload_cog_mm "
-                   f"({', '.join(f'{v:g}' for v in self.payload_cog_mm)}) mm")
+        out.append(f"payload (payload_kg, payload_cog_mm): {self.payload_kg:g} kg, centre of "
+                   f"gravity ({', '.join(f'{v:g}' for v in self.payload_cog_mm)}) mm")
         if any(self.backlash_deg):
-            out.append(f"backlash_deg: {joints(self.backlash_deg)} deg (lost motion)")
+            out.append(f"backlash, lost motion (backlash_deg): {joints(self.backlash_deg)} deg")
         if any(self.lag):
-            out.append(f"lag: {joints(self.lag)} (fraction of the previous move the readings "
-                       "trail)")
+            out.append(f"read-back lag (lag): {joints(self.lag)} (fraction of the previous move "
+                       "the readings trail)")
         if self.drift_ppm:
-            out.append(f"drift_ppm: {self.drift_ppm:g} ppm link growth once warm, warmup_s "
-                       f"{self.warmup_s:g} s")
+            out.append(f"thermal drift (drift_ppm, warmup_s): links {self.drift_ppm:g} ppm "
+                       f"longer once warm, after {self.warmup_s:g} s of running (emulated time)")
         if self.repeatability_deg:
-            out.append(f"repeatability_deg: {self.repeatability_deg:g} deg (1 sigma per joint "
-                       "and stop)")
+            out.append(f"repeatability error (repeatability_deg): {self.repeatability_deg:g} "
+                       "deg, 1 sigma per joint and stop")
         return out
 
 

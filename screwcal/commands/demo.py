@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     emulation = ["geometric errors " + ("of the thesis's Table 11" if args.seed is None else
                                         f"drawn from seed {args.seed}")
-                 + f"; realism {realism.name}:", *realism.describe()]
+                 + f"; realism {realism.name}", *realism.describe()]
     done = run_jobs(args, poses, geometric_too=not realism.is_ideal, emulation=emulation)
     print(result_table(done.result, times=False))
     geometric = None if done.geometric is None else done.geometric.model_dump(mode="json")
@@ -103,13 +103,13 @@ def honest_lines(seed: int | None, realism_name: str, options: dict, result: dic
     est = result.get("estimation") or {}
     compliance = (est.get("compliance") or {}).get("joints") or []
     if compliance or not realism.is_ideal:
-        lines.append("  identified: compliance_deg_per_knm " + (", ".join(
+        lines.append("  identified: joint compliance " + (", ".join(
             f"{j['name'].rstrip('c')} {j['compliance_deg_per_knm']:.3f} ± {j['std_error']:.3f}"
             for j in compliance) + " deg/kNm" if compliance else "none") + " (imposed: " + (
             ", ".join(f"J{k + 1} {v:g}" for k, v in enumerate(realism.compliance_deg_per_knm)
                       if v) or "none") + ")")
         lag = (est.get("reading_lag") or {}).get("per_joint")
-        lines.append("  identified: lag " + (", ".join(
+        lines.append("  identified: read-back lag " + (", ".join(
             f"J{k + 1} {v:.5f}" for k, v in enumerate(lag) if abs(v) >= 1e-5)
             if lag else "none") + " (imposed: " + (", ".join(
                 f"J{k + 1} {v:g}" for k, v in enumerate(realism.lag) if v) or "none") + ")")

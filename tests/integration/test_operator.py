@@ -56,8 +56,8 @@ def test_demo_runs_the_whole_procedure(tmp_path, capsys):
     assert m and float(m.group(1)) > 10 * float(m.group(2)), out
     # the typical robot by default: what it carries, what was identified of it, and our route
     # beside the geometric-only one on the same robot and the oracle floor
-    assert "realism typical" in out and "backlash_deg: J1 0.006" in out, out
-    assert re.search(r"identified: compliance_deg_per_knm J2 [\d.]+ ± [\d.]+", out), out
+    assert "realism typical" in out and "(backlash_deg): J1 0.006" in out, out
+    assert re.search(r"identified: joint compliance J2 [\d.]+ ± [\d.]+", out), out
     ours = re.search(r"ours \(geometry[^)]*\)\s+([\d.]+) mm", out)
     geo = re.search(r"geometric only \(compliance none, lag none\)\s+([\d.]+) mm", out)
     floor = re.search(r"oracle floor\s+([\d.]+) mm", out)
