@@ -55,6 +55,7 @@ from protocol.errors import (
     ProtocolError,
     SequenceError,
 )
+from protocol.memory import Opener
 from protocol.replies import MeasuredPose, MotionReplies, MotionVerb, RunReplies
 
 
@@ -82,9 +83,14 @@ _Routed = Message | PayloadError | _Lost  # what a request's mailbox holds
 
 
 class ControllerClient:
-    def __init__(self, host: str, port: int, timeouts: Timeouts | None = None):
+    """`connect`: what opens the link (default: TCP to host:port); a test pairs the client
+    with a fake controller in memory by giving protocol.memory's opener."""
+
+    def __init__(self, host: str, port: int, timeouts: Timeouts | None = None, *,
+                 connect: Opener | None = None):
         self.host, self.port = host, port
         self.timeouts = timeouts or Timeouts()
+        self._open: Opener = connect or (lambda: asyncio.open_connection(host, port))
         self._seq = itertools.count(1)
         self._routes: dict[int, Mailbox[_Routed]] = {}
         self._reader: asyncio.StreamReader | None = None
@@ -104,8 +110,7 @@ class ControllerClient:
         would hold the controller's one session)."""
         await self.close()
         try:
-            reader, writer = await asyncio.wait_for(
-                asyncio.open_connection(self.host, self.port), self.timeouts.connect_s)
+            reader, writer = await asyncio.wait_for(self._open(), self.timeouts.connect_s)
         except (TimeoutError, OSError) as err:
             raise LinkLostError(f"cannot connect to the controller at {self.host}:{self.port}: "
                                 f"{err or 'timed out'}") from None

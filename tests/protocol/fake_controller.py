@@ -1,5 +1,6 @@
-"""A misbehaving controller for the client's tests: real TCP on port 0, answers each request
-frame with whatever a script returns, and records what the client sent and whether it closed."""
+"""A misbehaving controller for the client's tests: answers each request frame with whatever a
+script returns, and records what the client sent and whether it closed; on real TCP on port 0
+(`start`), or in memory (`opener`, protocol/memory.py) where a socket adds nothing."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import asyncio
 from collections.abc import Callable
 
 from protocol.codec import FRAME_LEN, frame
+from protocol.memory import Opener, memory_link
 
 Reply = str | bytes  # a payload to frame, or raw bytes sent as they are
 Script = Callable[[int, str, list[str]], list[Reply]]
@@ -50,6 +52,11 @@ class FakeController:
     async def start(self) -> tuple[str, int]:
         self._server = await asyncio.start_server(self._serve, "127.0.0.1", 0)
         return self._server.sockets[0].getsockname()[:2]
+
+    @property
+    def opener(self) -> Opener:
+        """Links to this controller in memory, for `ControllerClient(connect=...)`."""
+        return memory_link(self._serve)
 
     async def stop(self) -> None:
         if self._server is not None:

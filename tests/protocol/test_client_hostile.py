@@ -24,8 +24,11 @@ Q = [[0.0] * 6, [1.0] * 6, [2.0] * 6]
 
 
 async def _client(script) -> tuple[FakeController, ControllerClient]:
+    """A client linked in memory to a fake controller running `script` (what these tests hold
+    is the client's reading of frames: no socket needed; the connect and reconnect tests below
+    keep real TCP)."""
     fake = FakeController(script)
-    client = ControllerClient(*await fake.start(), FAST)
+    client = ControllerClient("memory", 0, FAST, connect=fake.opener)
     await client.connect()
     return fake, client
 
