@@ -98,3 +98,21 @@ def test_the_first_screen_says_whether_it_worked_in_one_sentence():
     assert poor is not None and poor.startswith("The calibration did not make the robot")
     assert verdict(doc(1.0, 0.5, 0.05), ("perf_before",)) is None
     assert number(5.54e-05) == "0.000055" and "e-" not in number(1.2e-7)
+
+
+def test_phase_times_are_named_in_words_and_an_emulated_robots_are_said_scaled():
+    """Issue 38: 'cal 1.35' beside the thesis's 60/90 minutes read as a real robot's time."""
+    from service.document import JobOptions, JobRecord, PhaseRecord
+    from service.report.context import ReportContext
+    from service.report.timing import timing_section
+
+    job = JobRecord(id=1, robot_id=1, kind="procedure", mode="AUTO", state="done", reason="",
+                    options=JobOptions(), created=0.0, updated=0.0,
+                    phases={"cal": PhaseRecord(done=True, seconds=5.54e-05),
+                            "estimation": PhaseRecord(done=True, seconds=1.2)})
+    emulated = timing_section(ReportContext(job, {"emulation": ["geometric errors only"]}))
+    real = timing_section(ReportContext(job, {}))
+    assert emulated is not None and real is not None
+    assert "calibration poses" in emulated and ">cal<" not in emulated
+    assert "faster than real time" in emulated and "faster than real time" not in real
+    assert "e-05" not in emulated
