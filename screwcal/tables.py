@@ -163,6 +163,13 @@ def write_json_atomic(path: str | Path, document: object) -> None:
     write_text_atomic(path, (json.dumps(document, indent=2) + "\n").encode("utf-8"))
 
 
+# The length units a file may be written in, and mm per unit (--length-unit of the readers)
+LENGTH_UNITS_MM = {"mm": 1.0, "m": 1000.0, "in": 25.4}
+# Joint readings that all lie within +-this (deg) look like radians: no calibration set or
+# performance test keeps every joint within a few degrees of zero
+RADIAN_LOOKING_DEG = 3.2
+
+
 def joint_columns(n: int) -> list[str]:
     return [f"q{i}" for i in range(1, n + 1)]
 

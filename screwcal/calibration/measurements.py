@@ -19,6 +19,8 @@ from screwcal.kinematics.pose import euler_zyx_deg_from_rotation, rotation_from_
 from screwcal.kinematics.readings import JointConvention, serial_from_readings
 from screwcal.kinematics.se3 import Array, transform_points
 from screwcal.tables import (
+    LENGTH_UNITS_MM,
+    RADIAN_LOOKING_DEG,
     direction_columns,
     joint_columns,
     read_numeric_csv,
@@ -119,11 +121,7 @@ def previous_rows(q: Array) -> Array:
     return out
 
 
-LENGTH_UNITS_MM = {"mm": 1.0, "m": 1000.0, "in": 25.4}
 JOINT_UNITS = ("deg", "rad")
-# Joint readings that all lie within +-this (deg) look like radians: no calibration set keeps
-# every joint within a few degrees of zero
-RADIAN_LOOKING_DEG = 3.2
 # The measured points' spread over the model's: outside these bounds the lengths are not mm
 SPREAD_RATIO = (0.3, 3.0)
 

@@ -30,8 +30,8 @@ def run(args: argparse.Namespace) -> int:
 
     check_outputs([args.out], [args.data, args.before, args.path, args.path_before])
     folder = make_output_folder(args.plots, "--plots") if args.plots else None
-    after = read_performance_csv(args.data)
-    before = read_performance_csv(args.before) if args.before else None
+    after = read_performance_csv(args.data, args.length_unit)
+    before = read_performance_csv(args.before, args.length_unit) if args.before else None
     line = straightness(read_path_csv(args.path)) if args.path else None
     line_before = straightness(read_path_csv(args.path_before)) if args.path_before else None
     report = build_report(after, before, line, line_before)
@@ -64,5 +64,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--path", help="CSV of x, y, z measured along a straight line")
     p.add_argument("--path-before", help="the same line measured before, for comparison")
     p.add_argument("--plots", help="folder for PNG plots")
+    p.add_argument("--length-unit", choices=["mm", "m", "in"], default="mm",
+                   help="unit of the files' positions (default mm; positions that look like "
+                   "metres are refused), as calibrate's")
     p.set_defaults(func=run)
 

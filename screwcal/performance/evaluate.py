@@ -13,7 +13,13 @@ from screwcal.errors import DataFileError
 from screwcal.kinematics.se3 import Array
 from screwcal.performance.iso9283 import PoseMetrics, pose_metrics
 from screwcal.performance.straightness import Straightness
-from screwcal.tables import joint_columns, read_numeric_csv
+from screwcal.tables import (
+    LENGTH_UNITS_MM,
+    RADIAN_LOOKING_DEG,
+    NumericTable,
+    joint_columns,
+    read_numeric_csv,
+)
 
 CMD = ["x_cmd", "y_cmd", "z_cmd", "rx_cmd", "ry_cmd", "rz_cmd"]
 ATTAINED_POSITION = ["x", "y", "z"]
@@ -43,11 +49,22 @@ class PerformanceData:
         return np.vstack([p.attained[:, :3] for p in self.points])
 
 
-def read_performance_csv(path: str | Path) -> PerformanceData:
-    """Read and check a performance test file (see the module docstring)."""
+# Commanded positions all within this (mm) of the robot's base: no ISO 9283 cube sits there,
+# the numbers are in another unit
+NEAR_BASE_MM = 5.0
+
+
+def read_performance_csv(path: str | Path, length_unit: str = "mm") -> PerformanceData:
+    """Read and check a performance test file (see the module docstring); positions written
+    in `length_unit` (m, in) are read as mm. Numbers that look like another unit (joints in
+    radians, positions in metres) are refused with the fix, as the measurement file's are."""
     table = read_numeric_csv(path, ["cycle", *joint_columns(6), *CMD, *ATTAINED_POSITION],
                              optional_groups=[ATTAINED_ORIENTATION], min_rows=2,
                              text_columns=["point"])
+    scale = LENGTH_UNITS_MM[length_unit]
+    for columns in (CMD[:3], ATTAINED_POSITION):
+        table.values[:, [table.columns.index(c) for c in columns]] *= scale
+    _check_units(table, length_unit)
     full = all(c in table.columns for c in ATTAINED_ORIENTATION)
     labels = table.text["point"]
     cycles = table.column("cycle")
@@ -74,6 +91,18 @@ def read_performance_csv(path: str | Path) -> PerformanceData:
         attained_cols = ATTAINED_POSITION + (ATTAINED_ORIENTATION if full else [])
         points.append(PointData(label, cmd[0], table.take(attained_cols)[rows]))
     return PerformanceData(table.path, tuple(points), full)
+
+
+def _check_units(table: NumericTable, length_unit: str) -> None:
+    if np.abs(table.take(CMD[:3])).max() < NEAR_BASE_MM:
+        raise DataFileError(table.path, f"every commanded position lies within {NEAR_BASE_MM:g} "
+                            f"mm of the robot's base as read ({length_unit}): they look like "
+                            "metres; give --length-unit m, or convert them to mm")
+    q = table.take(joint_columns(6))
+    if np.ptp(q, axis=0).max() > 0 and np.abs(q).max() < RADIAN_LOOKING_DEG:
+        raise DataFileError(table.path, f"every joint reading lies within "
+                            f"+-{RADIAN_LOOKING_DEG:g} deg: they look like radians; convert "
+                            "them to degrees")
 
 
 def point_metrics(data: PerformanceData) -> dict[str, PoseMetrics]:

@@ -146,3 +146,27 @@ def test_compensate_refuses_another_robot_once_and_says_which_branch(tmp_path, c
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "calibrated against robot 'irb1600'" in err
     assert "leave out --robot" in err, err
+
+
+def test_evaluate_checks_its_units_as_calibrate_does(tmp_path, capsys):
+    import csv
+    import json
+
+    source = Path(__file__).resolve().parents[3] / "docs" / "examples" / "irb1600" / \
+        "performance.csv"
+    rows = list(csv.DictReader(source.read_text().splitlines()))
+    metres = tmp_path / "m.csv"
+    with metres.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (float(v) / 1000.0 if k in ("x", "y", "z", "x_cmd", "y_cmd", "z_cmd")
+                            else v) for k, v in r.items()})
+    out = tmp_path / "r.json"
+    assert main(["evaluate", "--data", str(metres), "--out", str(out)]) == 2
+    assert "--length-unit m" in capsys.readouterr().err and not out.exists()
+    assert main(["evaluate", "--data", str(metres), "--length-unit", "m", "--out", str(out)]) == 0
+    in_m = json.loads(out.read_text())["result"]["overall"]["ap_mm_mean"]
+    assert main(["evaluate", "--data", str(source), "--out", str(out)]) == 0
+    assert in_m == pytest.approx(json.loads(out.read_text())["result"]["overall"]["ap_mm_mean"],
+                                 rel=1e-6)
