@@ -129,11 +129,12 @@ def _csv_kind(header: str) -> str | None:
     columns = {c.strip().lower() for c in header.split(",")}
     joints = {f"q{i}" for i in range(1, 7)} <= columns
     position = {"x", "y", "z"} <= columns
+    some_position = bool({"x", "y", "z"} & columns)  # a measurement file missing a column
     if columns & {"cycle", "x_cmd", "y_cmd", "z_cmd"}:  # one of its own is enough: a file
         return "performance"  # missing another is the reader's to name
     if "joint" in columns and "q1" in columns and position:
         return "sweeps"
-    if joints and position:
+    if joints and some_position:
         return "measurements"
     if joints:
         return "joints"

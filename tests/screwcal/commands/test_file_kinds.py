@@ -15,6 +15,8 @@ FILES = {
     "report.html": "<!DOCTYPE html>\n<html><body>report</body></html>\n",
     "evaluation.json": json.dumps({"units": {"length": "mm"}, "result": {}}),
     "measurements.csv": "id,q1,q2,q3,q4,q5,q6,x,y,z\np1,0,10,10,0,30,0,900,0,900\n",
+    # a measurement file missing a position column: still one (its reader names the column)
+    "no_z.csv": "q1,q2,q3,q4,q5,q6,x,y\n0,10,10,0,30,0,900,0\n",
     "perf.csv": "cycle,point,q1,q2,q3,q4,q5,q6,x_cmd,y_cmd,z_cmd,x,y,z\n",
     "joints.csv": "q1,q2,q3,q4,q5,q6\n0,10,10,0,30,0\n",
     "targets.csv": "id,x,y,z,rx,ry,rz\na,800,100,900,0,80,0\n",
@@ -23,7 +25,8 @@ FILES = {
     "robot.urdf": "<?xml version='1.0'?>\n<robot name='r'></robot>\n",
 }
 KINDS = {"job.json": "job", "report.html": "html", "evaluation.json": "evaluation",
-         "measurements.csv": "measurements", "perf.csv": "performance", "joints.csv": "joints",
+         "measurements.csv": "measurements", "no_z.csv": "measurements",
+         "perf.csv": "performance", "joints.csv": "joints",
          "targets.csv": "poses", "sweeps.csv": "sweeps", "P.mod": "rapid", "robot.urdf": "urdf"}
 
 
