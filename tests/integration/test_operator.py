@@ -65,6 +65,9 @@ def test_demo_runs_the_whole_procedure(tmp_path, capsys):
     assert float(geo.group(1)) > float(ours.group(1)) >= float(floor.group(1)) * 0.9, out
     page = (tmp_path / "report.html").read_text()
     assert page.count("<svg class='chart'") >= 4  # AP, RP, orientation, residual, straightness
+    first = page[:page.index("<table class='summary'")]  # the first screen (issue 38)
+    assert "class='verdict'" in first and "On the same emulated robot" in first
+    assert "geometric errors only" in first and "the floor" in first
     # issue 38: what it writes is what the next commands take, and it says which takes which
     for name in ("report.html", "result.json", "measurements.csv", "job.json"):
         assert re.search(rf"^    {re.escape(name)} +\S", out, re.M), out

@@ -170,3 +170,18 @@ def test_evaluate_checks_its_units_as_calibrate_does(tmp_path, capsys):
     assert main(["evaluate", "--data", str(source), "--out", str(out)]) == 0
     assert in_m == pytest.approx(json.loads(out.read_text())["result"]["overall"]["ap_mm_mean"],
                                  rel=1e-6)
+
+
+def test_the_demos_report_shows_our_route_beside_geometric_only_and_the_floor(tmp_path):
+    """Those figures were on the terminal only; the page's first screen shows them under the
+    verdict."""
+    from screwcal.commands.demo import routes_on_the_report
+
+    page = tmp_path / "report.html"
+    page.write_text("<header></header><section><p class='verdict'><b>It worked.</b></p>"
+                    "<table class='summary'></table></section>")
+    routes_on_the_report(page, 0.070, 0.354, 0.045)
+    html = page.read_text()
+    at = html.index("On the same emulated robot")
+    assert html.index("It worked") < at < html.index("<table class='summary'>")
+    assert "0.354" in html and "5.057" in html and "0.045" in html and "the floor" in html
