@@ -305,9 +305,12 @@ def builtin_model(name: str) -> SerialModel:
         raise ModelError(f"unknown robot '{name}'; give {accepted_robots()}") from None
 
 
-def reach_mm(model: SerialModel, samples: int = 721) -> float:
+def reach_mm(model: SerialModel, samples: int = 61, rounds: int = 3) -> float:
     """The wrist centre's (axis 5 point's) largest distance from axis 1 over joints 2 and 3
-    within their limits: what the datasheets call reach."""
+    within their limits: what the datasheets call reach. A grid of `samples` x `samples` over
+    the limits, then `rounds` grids as fine around the best point so far, each 2 cells of the
+    one before wide (0.005 deg cells after 3 rounds; a 721 x 721 grid took 70 times longer
+    for 0.1 deg cells: `screwcal robot list` computed it for every robot in 3 s)."""
     from screwcal.kinematics.forward import forward_kinematics
 
     home = np.eye(4)
@@ -315,11 +318,20 @@ def reach_mm(model: SerialModel, samples: int = 721) -> float:
     arm = SerialModel(name=model.name, joint_types=model.joint_types[:3],
                       axis_dirs=model.axis_dirs[:3], axis_points_mm=model.axis_points_mm[:3],
                       home_flange=home, limits=model.limits[:3])
-    lo, hi = model.limits[1:3, 0], model.limits[1:3, 1]
-    g2, g3 = np.meshgrid(np.linspace(lo[0], hi[0], samples), np.linspace(lo[1], hi[1], samples))
-    q = np.zeros((g2.size, 3))
-    q[:, 1], q[:, 2] = g2.ravel(), g3.ravel()
-    rel = forward_kinematics(arm, q)[:, :3, 3] - model.axis_points_mm[0]
     w1 = model.axis_dirs[0]
-    radial = rel - np.outer(rel @ w1, w1)
-    return float(np.linalg.norm(radial, axis=1).max())
+    lo, hi = model.limits[1:3, 0].copy(), model.limits[1:3, 1].copy()
+    best, where = -np.inf, (lo + hi) / 2
+    for _ in range(rounds + 1):
+        g2, g3 = np.meshgrid(np.linspace(lo[0], hi[0], samples),
+                             np.linspace(lo[1], hi[1], samples))
+        q = np.zeros((g2.size, 3))
+        q[:, 1], q[:, 2] = g2.ravel(), g3.ravel()
+        rel = forward_kinematics(arm, q)[:, :3, 3] - model.axis_points_mm[0]
+        radial = np.linalg.norm(rel - np.outer(rel @ w1, w1), axis=1)
+        k = int(np.argmax(radial))
+        if radial[k] > best:
+            best, where = float(radial[k]), q[k, 1:3]
+        cell = (hi - lo) / (samples - 1)
+        lo = np.maximum(where - 2 * cell, model.limits[1:3, 0])
+        hi = np.minimum(where + 2 * cell, model.limits[1:3, 1])
+    return best
