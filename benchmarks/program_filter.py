@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 from timing import median_of  # the benchmarks' own helper
 
-from screwcal.calibration.program_filter import CONVENTIONS
+from screwcal.calibration.program_filter import CONVENTIONS, world_frame
 from screwcal.kinematics.forward import flange_kinematics, perturb_model
 from screwcal.kinematics.ik_branches import all_branches
 from screwcal.kinematics.maker_configs import branch_index, fanuc_config, kuka_status_turn
@@ -52,7 +52,8 @@ def program(language: str, n: int, rng: np.random.Generator) -> dict[str, str]:
     q = _configurations(ROBOTS[language], n, rng)
     conv = CONVENTIONS[language]
     T0 = flange_kinematics(nominal, q)
-    T = T0 @ invert_transform(conv.flange_to_tool0)
+    T = invert_transform(world_frame(language, nominal)) @ T0 @ invert_transform(
+        conv.flange_to_tool0)
     xyz = T[:, :3, 3] / conv.mm_per_unit
     branch = branch_index(all_branches(nominal, T0), q)
     if language == "urscript":
