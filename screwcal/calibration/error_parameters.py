@@ -31,13 +31,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from enum import Enum, StrEnum
 from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from screwcal.calibration.parameter_kinds import Carrier, Param, ParamKind
 from screwcal.calibration.virtual_joints import parse_name
 from screwcal.errors import ModelError
 from screwcal.kinematics.compliance import (
@@ -65,85 +65,6 @@ THESIS_LINK_OFFSETS = ("J1pz", "J1px", "J2pz", "J4px")
 # Table 11's names of the joint offsets. Joint 3 turns about y in the usual frame; the thesis
 # still writes J3rz (the thesis, Table 11): it is the joint-3 offset.
 THESIS_JOINT_OFFSETS = ("J1rz", "J2ry", "J3rz", "J4rx", "J5ry", "J6rx")
-
-
-class Carrier(Enum):
-    """The frame that carries a parameter's local twist to the world (`ErrorModel.
-    linearisation`): the partial products of the chain A_0..A_n, the flange pose, the world."""
-
-    JOINT = "its joint's partial product (the chain up to the joint)"
-    NEXT_JOINT = "the partial product after its joint"
-    AXIS = "its joint's partial product less the next one's (the axis itself moves)"
-    HOME = "the last partial product (the home flange rides on every joint)"
-    TOOL = "the flange pose (the tool is expressed in the flange frame)"
-    WORLD = "the world (the measuring system's frame)"
-
-
-class ParamKind(StrEnum):
-    """How a parameter acts on the model, and the frame that carries it (`carrier`)."""
-
-    ZERO = "zero"  # a joint's zero (rad, or mm for a prismatic joint)
-    LINK = "link"  # a virtual prismatic joint after a joint, along a home-frame axis (thesis)
-    DIR = "dir"  # a joint axis' direction, turned about one of its two normals
-    POINT = "point"  # a revolute axis' location, moved along one of its normals
-    COMPLIANCE = "compliance"  # a joint's compliance under the gravity torque of every mass
-    COMPLIANCE_MASS = "compliance_mass"  # ...under the torque of one arm mass (j23-free)
-    HOME_ROT = "home_rot"  # the home flange's rotation (rotation vector) and position
-    HOME_POS = "home_pos"
-    BASE_ROT = "base_rot"  # the measuring system's frame
-    BASE_POS = "base_pos"
-    TOOL_ROT = "tool_rot"  # the measured point's frame on the flange
-    TOOL_POS = "tool_pos"
-
-    @property
-    def carrier(self) -> Carrier:
-        return _CARRIERS[self]
-
-    @property
-    def frame(self) -> str | None:
-        """"home", "base" or "tool" for a frame's parameter, else None (the joints')."""
-        head, _, tail = self.value.partition("_")
-        return head if tail in ("rot", "pos") else None
-
-    @property
-    def is_compliance(self) -> bool:
-        return self in (ParamKind.COMPLIANCE, ParamKind.COMPLIANCE_MASS)
-
-
-_CARRIERS = {
-    ParamKind.ZERO: Carrier.JOINT, ParamKind.COMPLIANCE: Carrier.JOINT,
-    ParamKind.COMPLIANCE_MASS: Carrier.JOINT,  # compliance: a zero scaled by the torque
-    ParamKind.LINK: Carrier.NEXT_JOINT,  # a translation of the chain after the joint
-    ParamKind.DIR: Carrier.AXIS, ParamKind.POINT: Carrier.AXIS,
-    ParamKind.HOME_ROT: Carrier.HOME, ParamKind.HOME_POS: Carrier.HOME,
-    ParamKind.BASE_ROT: Carrier.WORLD, ParamKind.BASE_POS: Carrier.WORLD,
-    ParamKind.TOOL_ROT: Carrier.TOOL, ParamKind.TOOL_POS: Carrier.TOOL,
-}
-
-
-@dataclass(frozen=True)
-class Param:
-    """One identifiable parameter. `kind` says how it acts; `index` the joint (0-based) or axis."""
-
-    name: str
-    unit: str  # "deg" or "mm" at the interface; values inside are rad or mm
-    kind: ParamKind  # (its value, e.g. "zero", is taken too)
-    joint: int = -1
-    axis: int = -1  # 0..2 for frames and link offsets, 0..1 for dir/point normals
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "kind", ParamKind(self.kind))
-
-    @property
-    def is_angle(self) -> bool:
-        """Degrees at the interface, radians inside (compliance: deg vs rad per kN m)."""
-        return self.unit in ("deg", COMPLIANCE_UNIT)
-
-    @property
-    def group(self) -> str:
-        """"robot" for the robot's own geometry, "base"/"tool" for the frames."""
-        frame = self.kind.frame
-        return frame if frame in ("base", "tool") else "robot"
 
 
 def _frame_params(frame: str, rotation: bool, position: bool) -> list[Param]:
