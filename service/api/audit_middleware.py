@@ -5,11 +5,13 @@ on what (the route's ids) and the outcome (the status). Reads that succeed are n
 from __future__ import annotations
 
 import asyncio
+import sys
 from typing import Any
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service.audit import Event
+from service.errors import StoreError, StoreLostError
 
 _READS = ("GET", "HEAD", "OPTIONS")
 
@@ -51,4 +53,10 @@ class AuditMiddleware:
                       action=f"{method} {getattr(route, 'path', scope['path'])}",
                       target=", ".join(f"{k} {v}" for k, v in params.items()),
                       outcome=str(code) + (" refused" if code in (401, 403, 429) else ""))
-        await asyncio.to_thread(trail.append, event)
+        try:
+            await asyncio.to_thread(trail.append, event)
+        except StoreError as err:  # the response has gone: say it here, never raise past it
+            if isinstance(err, StoreLostError):
+                app.state.manager.fatal(str(err))  # the service stops (service/manager.py)
+            print(f"screwcal service: audit event not recorded ({event.action} by "
+                  f"{event.actor}: {event.outcome}): {err}", file=sys.stderr)
