@@ -30,6 +30,17 @@ SECOND_ROUND: Final = ("cal_2", "estimation_2", "correction_2", "perf_after_2")
 PERF_PHASES: Final = ("perf_before", "perf_after", "perf_after_2", "perf_verify")
 PERF_PHASE_NAMES: Final = {"perf_before": "before", "perf_after": "after",
                            "perf_after_2": "round 2", "perf_verify": "verification"}
+# What a person calls each phase of a job (the time-per-phase table of the report)
+PHASE_WORDS: Final = {
+    "setup": "set-up (links opened)", "warmup": "warm-up (test cycle, unmeasured)",
+    "home_before": "home check before", "home_after": "home check after",
+    "perf_before": "performance before (ISO 9283)", "perf_after": "performance after (ISO 9283)",
+    "perf_after_2": "performance after round 2", "perf_verify": "verification poses",
+    "cal": "calibration poses", "cal_2": "calibration poses, round 2",
+    "estimation": "estimation", "estimation_2": "estimation, round 2",
+    "correction": "correction", "correction_2": "correction, round 2",
+    "evaluation": "evaluation",
+}
 # The estimation whose model drives a performance list's targets when the route compensates.
 # A calibration list (the second round's) is sent as planned: its poses need reach no
 # particular target, only be measured, and compensating them could push one out of the limits.

@@ -2,20 +2,9 @@
 
 from __future__ import annotations
 
+from service.phases import PHASE_WORDS
 from service.report.context import ReportContext
 from service.report.markup import section, sentence, table
-
-# What a person calls each phase of a job (service/phases.py names them for the code)
-PHASE_WORDS = {
-    "setup": "set-up (links opened)", "warmup": "warm-up (test cycle, unmeasured)",
-    "home_before": "home check before", "home_after": "home check after",
-    "perf_before": "performance before (ISO 9283)", "perf_after": "performance after (ISO 9283)",
-    "perf_after_2": "performance after round 2", "perf_verify": "verification poses",
-    "cal": "calibration poses", "cal_2": "calibration poses, round 2",
-    "estimation": "estimation", "estimation_2": "estimation, round 2",
-    "correction": "correction", "correction_2": "correction, round 2",
-    "evaluation": "evaluation",
-}
 
 
 def timing_section(ctx: ReportContext) -> str | None:
