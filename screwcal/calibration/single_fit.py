@@ -65,17 +65,44 @@ NOT_CONVERGED_HINT = ("; NOT converged: try a simpler model (--error-model thesi
 
 
 @dataclass(frozen=True)
-class Selection:
-    """The candidate parameters at the start and the identifiable ones among them."""
+class Candidates:
+    """Every candidate parameter at the start, as the choice of the identifiable ones reads
+    them: the start model (the nominal with the starting frames), the parameters, the weighting
+    at the start, the weighted residuals r0 and Jacobian J0 of every candidate there, the start
+    model's tool poses T0 (N, 4, 4), and the QR triangle of J0's scaled columns
+    (`identifiability.select_identifiable`; None: not yet factorised)."""
 
-    start: SerialModel  # the nominal model with the starting frames
-    candidates: tuple[Param, ...]
+    start: SerialModel
+    params: tuple[Param, ...]
+    whiten: Array
+    r0: Array
+    J0: Array
+    T0: Array
+    triangle: Array | None = None
+
+    def rows(self, kept: Array, k: int) -> Candidates:
+        """The same candidates for the poses `kept` (`k` residual rows per pose); the
+        triangle stays the one the choice was made with."""
+        N = len(self.T0)
+        r0 = self.r0.reshape(N, k)[kept].reshape(-1)
+        return replace(self, whiten=self.whiten[kept], r0=r0, T0=self.T0[kept],
+                       J0=self.J0.reshape(N, k, -1)[kept].reshape(len(r0), -1))
+
+    def without_compliance(self) -> Candidates:
+        """The candidates without the compliance: their columns of J0 and of the triangle."""
+        cols = [k for k, p in enumerate(self.params) if not p.kind.is_compliance]
+        return replace(self, params=tuple(self.params[k] for k in cols), J0=self.J0[:, cols],
+                       triangle=None if self.triangle is None else self.triangle[:, cols])
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The candidate parameters at the start (`at`, with the triangle the choice made) and the
+    identifiable ones among them."""
+
+    at: Candidates
     errors: ErrorModel  # the kept parameters
     problem: ResidualProblem  # weighted at the start, for the kept parameters
-    r0: Array  # weighted residuals at the start
-    J0: Array  # weighted Jacobian of every candidate at the start
-    T0: Array  # (N, 4, 4) the start model's tool poses
-    Rs: Array  # the QR triangle of J0's scaled columns (identifiability.select_identifiable)
     keep: Array
     rank: int
     removed: tuple[tuple[str, str], ...]  # (name, why)
@@ -86,27 +113,18 @@ class Selection:
     def rows(self, kept: Array, data: MeasurementSet, residual: Residual) -> Selection:
         """The same start and parameters for the poses `kept` of those selected on (`data`:
         them), e.g. after outliers were left out."""
-        k = self.problem.rows
-        N = len(self.T0)
-        problem = ResidualProblem(self.errors, data, residual, self.problem.whiten[kept],
-                                  self.problem.ranges)
-        r0 = self.r0.reshape(N, k)[kept].reshape(-1)
-        notes = data_warnings(self.start, data, residual, len(r0), self.rank,
+        at = self.at.rows(kept, self.problem.rows)
+        problem = ResidualProblem(self.errors, data, residual, at.whiten, self.problem.ranges)
+        notes = data_warnings(at.start, data, residual, len(at.r0), self.rank,
                               [n for n, _ in self.removed])
-        return replace(self, problem=problem, r0=r0,
-                       J0=self.J0.reshape(N, k, -1)[kept].reshape(len(r0), -1),
-                       T0=self.T0[kept], notes=tuple(notes))
-
+        return replace(self, at=at, problem=problem, notes=tuple(notes))
 
     def without_compliance(self, data: MeasurementSet, residual: Residual,
                            settings: IdentifySettings) -> Selection:
         """The selection of the same start and poses (`data`) with the compliance candidates
         left out (the nested model "auto" compares): their columns of J0 and of its triangle,
         chosen again; no frames aligned, no Jacobian built, no tall factorisation."""
-        cols = [k for k, p in enumerate(self.candidates) if not p.kind.is_compliance]
-        return _choose(self.start, tuple(self.candidates[k] for k in cols), self.problem.whiten,
-                       self.r0, self.J0[:, cols], self.T0, self.Rs[:, cols], data, residual,
-                       settings)
+        return _choose(self.at.without_compliance(), data, residual, settings)
 
 
 def select(state: FitState, below: Plan = ()) -> FitState:
@@ -234,17 +252,16 @@ def _select(nominal: SerialModel, data: MeasurementSet, residual: Residual,
     problem_all = ResidualProblem.weighted_at(errors_all, data, residual, settings)
     r0, J0 = problem_all.weighted(np.zeros(len(cands)))
     T0 = problem_all.linearisation(np.zeros(len(cands)))[0]
-    return _choose(start, tuple(cands), problem_all.whiten, r0, J0, T0, None, data, residual,
-                   settings)
+    return _choose(Candidates(start, tuple(cands), problem_all.whiten, r0, J0, T0), data,
+                   residual, settings)
 
 
-def _choose(start: SerialModel, cands: tuple[Param, ...], whiten: Array, r0: Array, J0: Array,
-            T0: Array, triangle: Array | None, data: MeasurementSet, residual: Residual,
+def _choose(at: Candidates, data: MeasurementSet, residual: Residual,
             settings: IdentifySettings) -> Selection:
-    """The identifiable candidates, from their weighted Jacobian J0 at the start (`triangle`:
-    the QR triangle of its scaled columns, when at hand); refuses data with fewer equations
-    than the model's identifiable parameters."""
-    kind = settings.kind
+    """The identifiable candidates, from their weighted Jacobian J0 at the start (and the QR
+    triangle of its scaled columns, when at hand); refuses data with fewer equations than the
+    model's identifiable parameters."""
+    kind, start, cands, r0 = settings.kind, at.start, at.params, at.r0
     errors_all = ErrorModel(start, cands)
     # The frames are unknown whatever the robot: take them first, then the model's own
     # parameters (joint and link offsets: what a controller can correct), then axis terms.
@@ -258,7 +275,7 @@ def _choose(start: SerialModel, cands: tuple[Param, ...], whiten: Array, r0: Arr
         raise IdentificationError(f"{len(data)} poses give {m} equations for the {needed} "
                                   f"parameters this model can identify: measure more poses{more}")
     names = [p.name for p in cands]
-    keep, rank, norms, combos, Rs = select_identifiable(J0, priority, names, triangle)
+    keep, rank, norms, combos, Rs = select_identifiable(at.J0, priority, names, at.triangle)
     removed_idx = np.setdiff1d(np.arange(len(cands)), keep)
     removed = explain_removed(Rs, keep, removed_idx, names, norms)
     # Degenerate: the poses separate fewer parameters than well-spread data would, or (for
@@ -268,9 +285,9 @@ def _choose(start: SerialModel, cands: tuple[Param, ...], whiten: Array, r0: Arr
                                                           for k in requested_robot))
     notes = data_warnings(start, data, residual, m, rank, [n for n, _ in removed])
     errors = errors_all.subset([int(k) for k in keep])
-    return Selection(start, cands, errors,
-                     ResidualProblem(errors, data, residual, whiten, settings.prior_ranges), r0, J0,
-                     T0, Rs, keep, rank, tuple(removed), tuple(combos), degenerate, tuple(notes))
+    problem = ResidualProblem(errors, data, residual, at.whiten, settings.prior_ranges)
+    return Selection(replace(at, triangle=Rs), errors, problem, keep, rank, tuple(removed),
+                     tuple(combos), degenerate, tuple(notes))
 
 
 def _solve(chosen: Selection, data: MeasurementSet, residual: Residual,
@@ -329,10 +346,10 @@ def _solve_lm_from_start(chosen: Selection, data: MeasurementSet, residual: Resi
     Returns the problem, the solution and whether it was re-weighted at the step."""
     problem, keep = chosen.problem, chosen.keep
     p = len(keep)
-    x_gn = gauss_newton_step(chosen.J0[:, keep], chosen.r0, problem.prior, np.zeros(p))
+    x_gn = gauss_newton_step(chosen.at.J0[:, keep], chosen.at.r0, problem.prior, np.zeros(p))
     if estimate_noise:  # the noise levels' own loop re-weights and solves from there
         return problem, Solution(x_gn, True, "", 0), True
-    if settings.statistical and problem.cost(x_gn) < float(chosen.r0 @ chosen.r0):
+    if settings.statistical and problem.cost(x_gn) < float(chosen.at.r0 @ chosen.at.r0):
         problem = ResidualProblem.weighted_at(chosen.errors, data, residual, settings, at=x_gn)
         return problem, solve_lm(problem, x_gn), True
     return problem, solve_lm(problem, np.zeros(p), 1e-6 if settings.statistical else 1e-12), \
@@ -358,14 +375,14 @@ def _result(chosen: Selection, data: MeasurementSet, residual: Residual,
     s = scaled_singular_values(Jw, gram)
     to_if = errors.to_interface
     calibrated = errors.apply(x)
-    before = pose_errors(chosen.start, data, residual, chosen.T0)
+    before = pose_errors(chosen.at.start, data, residual, chosen.at.T0)
     after = pose_errors(calibrated, data, residual, problem.linearisation(x)[0])
     return CalibrationResult(
-        model=calibrated, start_model=chosen.start, params=errors.params, values=to_if(x),
+        model=calibrated, start_model=chosen.at.start, params=errors.params, values=to_if(x),
         std_errors=to_if(std), correlation=corr, removed=chosen.removed,
         unidentifiable_combinations=chosen.combinations, residual_kind=residual,
         weighting=settings.weighting, solver=settings.solver, rank=chosen.rank,
-        n_candidates=len(chosen.candidates), condition_number=float(s[0] / s[-1]),
+        n_candidates=len(chosen.at.params), condition_number=float(s[0] / s[-1]),
         o1=float(np.prod(s ** (1.0 / p)) / np.sqrt(m)), min_singular_value=float(s[-1]),
         chi2_reduced=chi2, residuals_before=before[0], residuals_after=after[0],
         rotation_before_deg=before[1], rotation_after_deg=after[1],
