@@ -21,8 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from screwcal.errors import InfeasibleCubeError, InputError
-from screwcal.kinematics.ik import BRANCHES, closed_form_ik
+from screwcal.errors import InfeasibleCubeError, InputError, ModelError
+from screwcal.kinematics.forward import frame_inverses
+from screwcal.kinematics.ik import BRANCHES, IKSolutions, closed_form_ik
+from screwcal.kinematics.ik_branches import all_branches
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import transform_from_pose
 from screwcal.kinematics.se3 import Array
@@ -99,7 +101,7 @@ def _margins(model: SerialModel, poses: Array, wrist_margin_deg: float
     deg over the k poses, for commanded poses (..., k, 6); -inf where a pose is unreachable or
     too close to the wrist singularity."""
     shape = poses.shape[:-1]
-    sol = closed_form_ik(model, transform_from_pose(poses.reshape(-1, 6)), require_all=False)
+    sol = _branches(model, transform_from_pose(poses.reshape(-1, 6)))
     q = sol.q[:, _BRANCH]
     lim = np.degrees(model.limits)
     qd = np.degrees(np.nan_to_num(q))
@@ -107,6 +109,17 @@ def _margins(model: SerialModel, poses: Array, wrist_margin_deg: float
     bad = np.logical_not(sol.reachable[:, _BRANCH]) | (np.abs(qd[:, 4]) < wrist_margin_deg)
     margin = np.where(bad, -np.inf, margin)
     return q.reshape(*shape, 6), margin.reshape(shape).min(axis=-1)
+
+
+def _branches(model: SerialModel, T_world: Array) -> IKSolutions:
+    """Every branch of world tool poses: the ABB closed form, else the closed forms of the arms
+    whose joints count the other way (KUKA, FANUC) or whose wrist is offset (UR)."""
+    try:
+        return closed_form_ik(model, T_world, require_all=False)
+    except ModelError:
+        base_inv, tool_inv = frame_inverses(model)
+        T = T_world if base_inv is None else base_inv @ T_world
+        return all_branches(model, T if tool_inv is None else T @ tool_inv)
 
 
 def _offsets(edge_mm: float, approach_mm: Array) -> Array:

@@ -83,3 +83,18 @@ def test_testcube_command_writes_list_and_plot(tmp_path, capsys):
     assert len(rows) == 30 and rows[0]["role"] == "approach"
     assert png.stat().st_size > 10_000
     assert "P1:" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("robot", ["kr16", "lrmate200id", "ur5e"])
+def test_other_makers_arms_get_a_cube_whose_joints_reach_it(robot):
+    """KUKA's and FANUC's joints that count the other way, UR's offset wrist: the cube is found
+    with their closed forms (it was 'not an ideal ABB-type arm ... use numerical_ik')."""
+    from screwcal.kinematics.robots import builtin_model
+
+    model = builtin_model(robot)
+    plans = performance_pose_list(model, find_test_cube(model), cycles=1)
+    q = np.radians([p.q_deg for p in plans])
+    reached = forward_kinematics(model, q)
+    wanted = transform_from_pose(np.array([p.pose_cmd for p in plans]))
+    assert np.abs(reached - wanted).max() < 1e-6
+    assert model.within_limits(q).all()
