@@ -43,9 +43,9 @@ async def test_history_keeps_provenance_and_raises_the_drift_alarm(service, rig)
     assert h.alarm is None
     first, check = h.entries
     assert (first.job, first.model_version, first.route) == (calibrated, 1, "zero")
-    # the go-ahead with the shared token, no operator named: kept as given by that token
+    # the go-ahead with the shared token, no operator named: a shared token names nobody
     assert [(c["phase"], c["operator"]) for c in first.confirmed] == [("correction",
-                                                                      "SCREWCAL_TOKEN")]
+                                                                      "not named")]
     assert first.software.startswith("screwcal ") and first.service
     assert first.robot_identity == {"serial": "6400-501234", "controller_software": "RW 6.15",
                                     "tool": "gripper A", "payload_kg": 4.5}
