@@ -208,6 +208,9 @@ def _call(slot: Slot, argv: list[str]) -> Callable[[], int]:
         import runpy
 
         sys.argv = [slot.entry, *argv]
+        # as `python -m` in a fresh process: a copy an earlier test imported is not reused
+        # (runpy warns of it, and the warning is an error here)
+        sys.modules.pop(slot.entry, None)
         runpy.run_module(slot.entry, run_name="__main__")
         return 0
 
