@@ -13,7 +13,6 @@ calibrated model is the nominal with 0.3 mm / 0.02 deg errors.
 from __future__ import annotations
 
 import argparse
-import resource
 import statistics
 import subprocess
 import sys
@@ -21,7 +20,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from timing import median_of  # the benchmarks' own helper
+from timing import cpu_seconds, median_of  # the benchmarks' own helper
 
 from screwcal.calibration.program_filter import CONVENTIONS, world_frame
 from screwcal.kinematics.forward import flange_kinematics, perturb_model
@@ -103,7 +102,7 @@ def main() -> None:
             if done.returncode not in (0, 3):
                 raise SystemExit(f"compensate failed ({done.returncode}): {done.stderr}")
             cpu: list[float] = []
-            wall = median_of(args.repeat, lambda cmd=cmd, cpu=cpu: cpu.append(_cpu_seconds(cmd)))
+            wall = median_of(args.repeat, lambda cmd=cmd, cpu=cpu: cpu.append(cpu_seconds(cmd)))
         cpu = sorted(cpu[1:])  # the warm-up's left out, as median_of does
         first = done.stdout.split(": ", 1)[1].splitlines()[0]
         verdict = "ok" if wall.median <= 2.0 else "MISSED"
@@ -111,14 +110,6 @@ def main() -> None:
               f"wall {wall.median:.2f} s ({wall.low:.2f}-{wall.high:.2f}), CPU "
               f"{statistics.median(cpu):.2f} s ({cpu[0]:.2f}-{cpu[-1]:.2f}) (target 2 s) "
               f"{verdict}")
-
-
-def _cpu_seconds(cmd: list[str]) -> float:
-    """Run cmd; the user and system CPU seconds it used."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    subprocess.run(cmd, capture_output=True, check=False)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 if __name__ == "__main__":

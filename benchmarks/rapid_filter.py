@@ -15,7 +15,6 @@ calibrated model carries the thesis's Table 11 errors.
 from __future__ import annotations
 
 import argparse
-import resource
 import statistics
 import subprocess
 import sys
@@ -23,7 +22,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from timing import median_of  # the benchmarks' own helper
+from timing import cpu_seconds, median_of  # the benchmarks' own helper
 
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
@@ -69,21 +68,13 @@ def main() -> None:
             raise SystemExit(f"compensate failed ({done.returncode}): {done.stderr}")
         last = done.stdout
         cpu: list[float] = []
-        wall = median_of(args.repeat, lambda: cpu.append(_cpu_seconds(cmd)))
+        wall = median_of(args.repeat, lambda: cpu.append(cpu_seconds(cmd)))
     cpu = sorted(cpu[1:])  # the warm-up's left out, as median_of does
     print(last.splitlines()[0])
     verdict = "ok" if wall.median <= 2.0 else "MISSED"
     print(f"screwcal compensate --rapid, {args.targets} robtargets, {wall.runs} runs: wall "
           f"{wall.median:.2f} s ({wall.low:.2f}-{wall.high:.2f}), CPU {statistics.median(cpu):.2f}"
           f" s ({cpu[0]:.2f}-{cpu[-1]:.2f}) (target 2 s) {verdict}")
-
-
-def _cpu_seconds(cmd: list[str]) -> float:
-    """Run cmd; the user and system CPU seconds it used."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    subprocess.run(cmd, capture_output=True, check=False)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 if __name__ == "__main__":

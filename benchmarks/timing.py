@@ -7,7 +7,9 @@ hid that numpy's and scipy's two thread pools made identification 3.5x slower on
 
 from __future__ import annotations
 
+import resource
 import statistics
+import subprocess
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -62,3 +64,12 @@ def interleaved(rounds: int, fns: Sequence[Callable[[], object]],
             fn()
             out.append(clock() - start)
     return [Spread(statistics.median(t), min(t), max(t), rounds) for t in times]
+
+
+def cpu_seconds(cmd: list[str]) -> float:
+    """Run cmd as a process; the user and system CPU seconds it used (on a busy host, the
+    figure that does not wait for the other processes)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run(cmd, capture_output=True, check=False)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
