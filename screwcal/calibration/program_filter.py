@@ -25,6 +25,7 @@ import numpy as np
 
 from screwcal.calibration.correction import compensate
 from screwcal.kinematics.ik_branches import all_branches
+from screwcal.kinematics.ik_solutions import IKSolutions
 from screwcal.kinematics.maker_configs import (
     FanucConfig,
     branch_index,
@@ -35,7 +36,11 @@ from screwcal.kinematics.maker_configs import (
     nearest_chain,
 )
 from screwcal.kinematics.model import SerialModel
-from screwcal.kinematics.pose import euler_zyx_deg_near, rotation_angle_deg
+from screwcal.kinematics.pose import (
+    euler_zyx_deg_near,
+    rotation_angle_deg,
+    rotation_from_euler_zyx_deg,
+)
 from screwcal.kinematics.se3 import (
     Array,
     Mask,
@@ -91,8 +96,6 @@ def matrices(values: Array, conv: Convention) -> Array:
         return T
     rx, ry, rz = (v[:, 5], v[:, 4], v[:, 3]) if conv.angles == "abc_deg" else \
         (v[:, 3], v[:, 4], v[:, 5])
-    from screwcal.kinematics.pose import rotation_from_euler_zyx_deg
-
     T[:, :3, :3] = rotation_from_euler_zyx_deg(np.column_stack([rx, ry, rz]))
     return T
 
@@ -217,7 +220,7 @@ def _compensate(language: str, targets: list[Target], frames: list[tuple[Array, 
     report.chosen_nearest = int(nearest.sum())
     for k in np.flatnonzero(~found):
         report.refused.append(Note(targets[k].path, targets[k].line, targets[k].name,
-                                   _unreachable(language, targets[k], sol, int(k))))
+                                   _unreachable(targets[k], sol, int(k))))
     idx = np.flatnonzero(found)
     if idx.size == 0:
         return []
@@ -247,13 +250,10 @@ def _compensate(language: str, targets: list[Target], frames: list[tuple[Array, 
     return _replacements(language, [targets[k] for k in idx], new_values, q, branch, conv)
 
 
-def _select(language: str, targets: list[Target], sol: object, start: Array
+def _select(language: str, targets: list[Target], sol: IKSolutions, start: Array
             ) -> tuple[Array, Mask, Mask]:
     """The nominal controller's joints per target, which have them, and which were chosen
     as the nearest (no flags)."""
-    from screwcal.kinematics.ik_solutions import IKSolutions
-
-    assert isinstance(sol, IKSolutions)
     flagged = np.array([_has_flags(language, t) for t in targets])
     q_f = np.full((len(targets), 6), np.nan)
     found_f = np.zeros(len(targets), bool)
@@ -295,10 +295,7 @@ def parse_fanuc_config(text: str) -> FanucConfig:
                        (turns[0], turns[1], turns[2]))
 
 
-def _unreachable(language: str, t: Target, sol: object, k: int) -> str:
-    from screwcal.kinematics.ik_solutions import IKSolutions
-
-    assert isinstance(sol, IKSolutions)
+def _unreachable(t: Target, sol: IKSolutions, k: int) -> str:
     if not sol.reachable[k].any():
         return "the nominal robot cannot reach it (in its tool and frame)"
     flags = ", ".join(f"{f.name} {f.text}" for f in t.flags.values())
