@@ -15,7 +15,8 @@ corrupted line, not a measurement). Anything else is an `ArmProblem`, never a po
 `ArmLineDecoder` is the codec (bytes in, items out, no I/O): good lines become `ArmPoint` or
 `ArmNotMeasured`; a line with a bad checksum, a bad field or a gap in SEQ becomes an `ArmProblem`
 that is reported and never used as a measurement. `ArmReader` reads it through
-`serial.serial_for_url` (a real port, `socket://host:port`, `loop://`).
+`serial.serial_for_url` (a real port, `socket://host:port`, `loop://`), or through the port its
+`connect` gives (a link in memory to an emulated arm: protocol.memory's `serial_link`).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from __future__ import annotations
 import re
 import socket
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Union
@@ -31,6 +32,7 @@ from typing import Union
 import serial
 
 from protocol.errors import ArmLineError, LinkTimeoutError
+from protocol.memory import SerialPort
 
 HOLE_LABELS = ("P1", "P2", "P3")
 _NUMBER = re.compile(r"-?[0-9]{1,5}\.[0-9]{4}\Z")
@@ -162,17 +164,15 @@ class HoleSet:
 
 
 class ArmReader:
-    """Reads probed points from the arm through pyserial (`serial_for_url`)."""
+    """Reads probed points from the arm through pyserial (`serial_for_url`), or through the
+    port `connect` opens (then `url` only names it in messages)."""
 
-    def __init__(self, url: str, read_timeout_s: float = 0.1):
+    def __init__(self, url: str, read_timeout_s: float = 0.1, *,
+                 connect: Callable[[], SerialPort] | None = None):
         self.url = url
         with self._port_errors():
-            self.port = serial.serial_for_url(url, timeout=read_timeout_s, do_not_open=True)
-            try:
-                self.port.open()
-            except BaseException:  # pyserial's socket:// open fails after it connected (a
-                _close_port(self.port)  # reset while it clears the input) and drops the socket
-                raise
+            self.port: SerialPort = _open_port(url) if connect is None else connect()
+        self.port.timeout = read_timeout_s
         self.decoder = ArmLineDecoder()
         self.problems: list[ArmProblem] = []
 
@@ -255,7 +255,18 @@ class ArmReader:
                                f"{timeout_s:g} s")
 
 
-def _close_port(port: serial.SerialBase) -> None:
+def _open_port(url: str) -> SerialPort:
+    opening = serial.serial_for_url(url, do_not_open=True)
+    try:
+        opening.open()
+    except BaseException:  # pyserial's socket:// open fails after it connected (a reset while
+        _close_port(opening)  # it clears the input) and drops the socket
+        raise
+    port: SerialPort = opening
+    return port
+
+
+def _close_port(port: SerialPort) -> None:
     """Close the port for good: pyserial's socket:// close() shuts the socket down first and
     skips its close() when that fails (the arm already hung up: ENOTCONN), and does nothing on
     a port whose open failed half-way; either way the descriptor was left open."""

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import socket
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from types import TracebackType
 from urllib.parse import urlsplit
@@ -39,6 +40,7 @@ from protocol.errors import (
     TrackerRefusedError,
     TrackerWarmingUpError,
 )
+from protocol.memory import ByteSocket
 
 SCHEME = "emscon"
 INITIALISE_TIMEOUT_S = 90.0  # an AT40x initialises in well under this; cesapi waits as long
@@ -106,10 +108,14 @@ def _status_error(status: int, command: int, what: str) -> Exception:
 
 
 class TrackerClient:
-    """One connection to an emScon server. Not thread-safe: one caller at a time."""
+    """One connection to an emScon server. Not thread-safe: one caller at a time.
+
+    `connect`: what opens the connection (default: TCP to host:port); a test joins the driver
+    to an emulated tracker in memory with protocol.memory's `socket_link`."""
 
     def __init__(self, host: str, port: int = es.DEFAULT_PORT, *, timeout_s: float = 10.0,
-                 connect_timeout_s: float = 5.0):
+                 connect_timeout_s: float = 5.0,
+                 connect: Callable[[], ByteSocket] | None = None):
         self.host, self.port, self.timeout_s = host, port, timeout_s
         self.address = f"{SCHEME}://{host}:{port}"
         self._reader = es.PacketReader()
@@ -117,14 +123,17 @@ class TrackerClient:
         self.status_changes: list[int] = []  # ES_SystemStatusChange codes seen, in order
         self._last_distance_mm = 0.0
         try:
-            self._sock = socket.create_connection((host, port), timeout=connect_timeout_s)
+            self._sock: ByteSocket = connect() if connect is not None else \
+                socket.create_connection((host, port), timeout=connect_timeout_s)
         except OSError as err:
             raise LinkLostError(f"cannot reach the tracker at {self.address}: {err}") from err
 
     @classmethod
-    def open(cls, url: str, **kwargs: float) -> TrackerClient:
+    def open(cls, url: str, *, timeout_s: float = 10.0, connect_timeout_s: float = 5.0,
+             connect: Callable[[], ByteSocket] | None = None) -> TrackerClient:
         host, port = parse_tracker_url(url)
-        return cls(host, port, **kwargs)
+        return cls(host, port, timeout_s=timeout_s, connect_timeout_s=connect_timeout_s,
+                   connect=connect)
 
     def close(self) -> None:
         self._sock.close()

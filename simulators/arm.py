@@ -184,7 +184,7 @@ class ArmEmulator:
     # -- serving -----------------------------------------------------------------------------
     async def start(self, host: str = "127.0.0.1", port: int = 0, pty: bool = False
                     ) -> tuple[str, int]:
-        self._server = await asyncio.start_server(self._serve, host, port, limit=1024)
+        self._server = await asyncio.start_server(self.serve, host, port, limit=1024)
         if pty:
             master, slave = os.openpty()
             os.set_blocking(master, False)
@@ -253,7 +253,8 @@ class ArmEmulator:
             if b"\n" in os.read(self._pty_master, 1024):
                 self._send_pty(self.probe())
 
-    async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+    async def serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        """One client's connection (TCP from `start`, or a link in memory: protocol.memory)."""
         self._clients[writer] = 0
         try:
             while await reader.readline():  # any line asks for a probe now

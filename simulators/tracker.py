@@ -352,7 +352,7 @@ class TrackerEmulator:
 
     # -- serving ----------------------------------------------------------------------------
     async def start(self, host: str = "127.0.0.1", port: int = 0) -> tuple[str, int]:
-        self._server = await asyncio.start_server(self._serve, host, port)
+        self._server = await asyncio.start_server(self.serve, host, port)
         addr = self._server.sockets[0].getsockname()
         return addr[0], addr[1]
 
@@ -364,7 +364,8 @@ class TrackerEmulator:
         if self._server is not None:
             await self._server.wait_closed()
 
-    async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+    async def serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        """One client's connection (TCP from `start`, or a link in memory: protocol.memory)."""
         self._writers.add(writer)
         packets = es.PacketReader(from_client=True)
         try:

@@ -1,4 +1,8 @@
-"""The arm emulator measures the true robot that the IRC5 emulator moves."""
+"""The arm emulator measures the true robot that the IRC5 emulator moves.
+
+The reader talks to the emulator over a link in memory (protocol.memory's `serial_link`) where the
+socket adds nothing; over socket:// and the pty where the port is the point (pyserial's socket://
+draining, a real serial device, a peer flooding a line, an arm in another process)."""
 
 import asyncio
 import contextlib
@@ -8,6 +12,7 @@ import pytest
 
 from protocol.arm import ArmReader
 from protocol.errors import ArmLineError
+from protocol.memory import serial_link
 from screwcal.calibration.flange import frame_from_holes
 from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.se3 import exp_twist
@@ -20,12 +25,18 @@ async def arm(emulator):
     a = ArmEmulator(emulator.world, seed=1)
     host, port = await a.start("127.0.0.1", 0, pty=True)
     a.url = f"socket://{host}:{port}"
+    a.connect = serial_link(a.serve, asyncio.get_running_loop())
     yield a
     await a.stop()
 
 
+async def in_memory(arm: ArmEmulator) -> ArmReader:
+    """A reader joined to the emulated arm in memory."""
+    return await asyncio.to_thread(ArmReader, "memory", connect=arm.connect)
+
+
 async def test_holes_give_the_true_flange_within_the_arm_noise(client, emulator, arm):
-    reader = await asyncio.to_thread(ArmReader, arm.url)
+    reader = await in_memory(arm)
     world = emulator.world
     await client.movj([20, 30, -20, 40, 50, 60])
     holes = await asyncio.to_thread(reader.read_holes, 2.0)
@@ -40,7 +51,7 @@ async def test_holes_give_the_true_flange_within_the_arm_noise(client, emulator,
 
 async def test_one_triple_per_pose_while_a_list_runs(client, emulator, arm):
     emulator.settings.time_scale = 0.05
-    reader = await asyncio.to_thread(ArmReader, arm.url)
+    reader = await in_memory(arm)
     await client.load("CAL", targets(4, seed=5))
     sets = []
     async for _ in client.run("CAL", "AUTO"):
@@ -63,7 +74,7 @@ async def test_the_pty_serves_the_same_stream(client, arm):
 async def test_out_of_reach_holes_are_not_measured(client, emulator, arm):
     world = emulator.world
     world.truth = world.truth.with_frames(base=exp_twist([0, 0, 0, 3000.0, 0, 0]))  # arm far
-    reader = await asyncio.to_thread(ArmReader, arm.url)
+    reader = await in_memory(arm)
     await client.home()
     with pytest.raises(ArmLineError, match="not measured: OUT_OF_REACH"):
         await asyncio.to_thread(reader.read_holes, 2.0)
@@ -71,14 +82,13 @@ async def test_out_of_reach_holes_are_not_measured(client, emulator, arm):
 
 
 async def test_before_any_robot_the_arm_says_so(tmp_path):
-    arm = ArmEmulator(WorldFileSource(tmp_path / "absent.json"), seed=2)
-    host, port = await arm.start("127.0.0.1", 0)
-    reader = await asyncio.to_thread(ArmReader, f"socket://{host}:{port}")
-    reader.request()
+    arm = ArmEmulator(WorldFileSource(tmp_path / "absent.json"), seed=2)  # not started
+    arm.connect = serial_link(arm.serve, asyncio.get_running_loop())
+    reader = await in_memory(arm)
+    await asyncio.to_thread(reader.request)
     with pytest.raises(ArmLineError, match="not measured: NO_ROBOT"):
         await asyncio.to_thread(reader.read_holes, 2.0)
     reader.close()
-    await arm.stop()
 
 
 async def test_an_arm_in_another_process_follows_the_world_file(tmp_path, client, emulator):

@@ -1,6 +1,10 @@
 """The emulated laser tracker (emScon server side) against this project's driver and against the
 published `cesapi` client: it measures the true SMR of the emulated robot within its own
-uncertainty, refuses when the beam is broken, and its faults map into the link's errors."""
+uncertainty, refuses when the beam is broken, and its faults map into the link's errors.
+
+The driver talks to the emulator over a link in memory where the socket adds nothing
+(protocol.memory's `socket_link`); over TCP where the socket is the point: the first
+measurements (the same figures both ways), the published client, the garbage a peer sends."""
 
 from __future__ import annotations
 
@@ -21,6 +25,7 @@ from protocol.errors import (
     TrackerRefusedError,
     TrackerWarmingUpError,
 )
+from protocol.memory import socket_link
 from protocol.tracker import TrackerClient, parse_tracker_url
 from screwcal.instrument import tracker_noise_mm
 from simulators.tracker import (
@@ -41,7 +46,8 @@ AWAY = np.array([0.0, 0.0, 0.0, 0.0, 90.0, 0.0], dtype=np.float32)  # it faces t
 
 @contextmanager
 def running(world: World, **kwargs) -> Iterator[TrackerEmulator]:
-    """A tracker emulator served from its own thread's event loop (the driver is blocking)."""
+    """A tracker emulator served from its own thread's event loop (the driver is blocking), on
+    TCP at `emu.url` and in memory by `emu.connect`."""
     loop = asyncio.new_event_loop()
     emu = TrackerEmulator(WorldSource(world), **kwargs)
     thread = threading.Thread(target=loop.run_forever, daemon=True)
@@ -49,12 +55,18 @@ def running(world: World, **kwargs) -> Iterator[TrackerEmulator]:
     try:
         host, port = asyncio.run_coroutine_threadsafe(emu.start(), loop).result(5)
         emu.url = f"emscon://{host}:{port}"
+        emu.connect = socket_link(emu.serve, loop)
         yield emu
     finally:
         asyncio.run_coroutine_threadsafe(emu.stop(), loop).result(5)
         loop.call_soon_threadsafe(loop.stop)
         thread.join(5)
         loop.close()
+
+
+def driver(emu: TrackerEmulator) -> TrackerClient:
+    """The driver joined to the emulator in memory."""
+    return TrackerClient.open(emu.url, connect=emu.connect)
 
 
 def _true_in_tracker(world: World) -> np.ndarray:
@@ -68,7 +80,7 @@ def _mahalanobis(err: np.ndarray, C: np.ndarray) -> float:
 def test_driver_measures_the_true_smr_within_its_uncertainty():
     world = make_world(None, None)
     world.q_deg = SEEN
-    with running(world, seed=1) as emu, TrackerClient.open(emu.url) as tracker:
+    with running(world, seed=1) as emu, driver(emu) as tracker:
         tracker.setup()
         assert tracker.units() == (es.LU_MILLIMETER, es.AU_DEGREE, es.TU_CELSIUS, es.PU_MBAR,
                                    es.HU_RH)
@@ -86,10 +98,23 @@ def test_driver_measures_the_true_smr_within_its_uncertainty():
     assert points[0].temperature_c == 20.0 and points[0].pressure_mbar == 1013.25
 
 
+def test_the_driver_reads_over_tcp_what_it_reads_in_memory():
+    world = make_world(None, None)
+    world.q_deg = SEEN
+    measured = {}
+    for link in ("tcp", "memory"):
+        with running(world, seed=9) as emu, \
+                (TrackerClient.open(emu.url) if link == "tcp" else driver(emu)) as tracker:
+            tracker.setup()
+            measured[link] = [(p.xyz_mm, p.covariance_mm2) for p in
+                              (tracker.measure() for _ in range(5))]
+    assert measured["tcp"] == measured["memory"]
+
+
 def test_beam_broken_by_the_reflector_facing_away_then_searched_and_measured():
     world = make_world(None, None)
     world.q_deg = AWAY
-    with running(world, seed=2) as emu, TrackerClient.open(emu.url) as tracker:
+    with running(world, seed=2) as emu, driver(emu) as tracker:
         tracker.setup()
         with pytest.raises(BeamBrokenError, match="not found"):
             tracker.measure()
@@ -104,7 +129,7 @@ def test_a_short_beam_break_is_cured_by_find_reflector_and_a_second_try():
     world = make_world(None, None)
     world.q_deg = SEEN
     with running(world, seed=3, faults=TrackerFaults(beam=1, beam_n=1)) as emu, \
-            TrackerClient.open(emu.url) as tracker:
+            driver(emu) as tracker:
         tracker.setup()
         first = tracker.measure()
         second = tracker.measure()  # attempt 1 broken: found again, attempt 2 measures
@@ -117,7 +142,7 @@ def test_faults_map_into_the_link_errors():
     world.q_deg = SEEN
     faults = TrackerFaults(beam=1, beam_n=2, warm=4, uninit=5, drop=7)
     with running(world, seed=4, faults=faults) as emu:
-        with TrackerClient.open(emu.url) as tracker:
+        with driver(emu) as tracker:
             with pytest.raises(TrackerNotInitialisedError):
                 tracker.measure()  # attempt 0 (not initialised): no search for this one
             tracker.setup()
@@ -133,7 +158,7 @@ def test_faults_map_into_the_link_errors():
             tracker.measure()  # attempt 6
             with pytest.raises(LinkLostError, match="closed the connection"):
                 tracker.measure()  # attempt 7: the connection dropped
-        with TrackerClient.open(emu.url) as tracker:  # reconnect and go on
+        with driver(emu) as tracker:  # reconnect and go on
             tracker.setup(initialise=False)
             tracker.measure()
 
@@ -142,7 +167,7 @@ def test_wrong_weather_is_a_scale_error():
     world = make_world(None, None)
     world.q_deg = SEEN
     with running(world, seed=5, air=(30.0, 1013.25, 50.0)) as emu, \
-            TrackerClient.open(emu.url) as tracker:
+            driver(emu) as tracker:
         tracker.setup()
         assert tracker.environment() == (30.0, 1013.25, 50.0)  # its station reads the air
         right = np.mean([np.linalg.norm(tracker.measure().xyz_mm) for _ in range(20)])
@@ -236,7 +261,7 @@ def test_three_smrs_each_found_by_pointing_at_it():
     loop_world = running(world, seed=7)
     with loop_world as emu:
         emu.source = source
-        with TrackerClient.open(emu.url) as tracker:
+        with driver(emu) as tracker:
             tracker.setup()  # locked on the first SMR
             first = np.asarray(tracker.measure().xyz_mm)
             assert np.linalg.norm(first - truth[0]) < 0.1
