@@ -14,7 +14,9 @@ from screwcal.commands.compensate_program import add_program_arguments
 from screwcal.commands.joint_convention import add_joint_convention, joint_convention
 
 if TYPE_CHECKING:
+    from screwcal.calibration.correction import Compensation
     from screwcal.calibration.residual_model import ResidualModel
+    from screwcal.commands.target_branches import BranchChoice
     from screwcal.kinematics.model import SerialModel
     from screwcal.kinematics.se3 import Array
 
@@ -42,7 +44,10 @@ instructions that move to it: the Move, Trigg, Search, Arc, Cap, Spot, Paint and
 (MoveC's and the circular ones' two points). --program does the same for KUKA KRL, FANUC LS
 and URScript programs (docs/formats.md: each maker's conventions). --targets takes tool0 poses in
 the robot base frame (what a program commands); --measuring-targets poses of the measured point
-in the measuring system's frame (what the measuring system will see).
+in the measuring system's frame (what the measuring system will see). A pose file carries no
+arm configuration: each target is solved on the nominal robot's branch nearest the joints of
+the target before it (the first: nearest home), and the command says which branch each took and
+where and why it changed.
 
 Exit status: 0 every target compensated; 3 some refused or not compensated statically (each
 listed with its line and why; the others are written); 2 nothing written: no target could be
@@ -61,9 +66,9 @@ reach in joint space gets no correction), and --rapid says the corrections' size
 
 
 def run_compensate(args: argparse.Namespace) -> int:
-    from screwcal.calibration.correction import compensate_each
     from screwcal.calibration.residual_model import residual_from_document
     from screwcal.commands.compensate_program import is_rapid, run_program
+    from screwcal.commands.target_branches import branch_note, choose_branches
     from screwcal.errors import DataFileError
     from screwcal.kinematics.modelfile import parse_model, read_model_document
     from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
@@ -90,7 +95,8 @@ def run_compensate(args: argparse.Namespace) -> int:
     frame: Literal["base", "measuring"] = "base" if args.targets else "measuring"
     table = read_numeric_csv(source, ["x", "y", "z", "rx", "ry", "rz"])
     T = transform_from_pose(table.take(["x", "y", "z", "rx", "ry", "rz"]))
-    comp = compensate_each(calibrated, nominal, T, frame=frame, residual=residual)
+    choice = choose_branches(nominal, T if frame == "base" else flange_targets(calibrated, T))
+    comp = compensate_on(calibrated, nominal, T, choice, frame=frame, residual=residual)
     ok = comp.ok
     for k, why in comp.refused:
         print(f"refused: {table.path}, line {table.lines[k]} (id {table.ids[k]}): {why}",
@@ -119,31 +125,62 @@ def run_compensate(args: argparse.Namespace) -> int:
         "measured point in the measuring frame"
     print(f"compensated {int(ok.sum())} of {len(ok)} targets ({where}) -> {args.out}: joint "
           f"targets, and the nominal tool0 poses of model '{nominal.name}' to program; largest "
-          f"joint change {comp.max_change_deg:.3f} deg"
+          f"joint change from the nominal robot's solution {comp.max_change_deg:.3f} deg"
           + ("; joint 3 as FANUC counts it (to the horizontal)" if convention == "fanuc"
              else "") + ("" if seen is None else f"; {seen.summary()}"))
-    if ok.any():
-        print(branch_note(nominal, comp.q_rad[ok]))
+    print(branch_note(choice, table.ids, table.lines, comp.q_rad, ok))
     if comp.refused:
         print(f"{len(comp.refused)} targets refused (listed on stderr), not in {args.out}")
         return PARTIAL_EXIT
     return 0
 
 
-def branch_note(nominal: SerialModel, q_rad: Array) -> str:
-    """Which configuration the targets were solved in, and why: a pose file carries none (a
-    robtarget's confdata, a program's joints do), so each target takes the nominal robot's
-    solution nearest home; the confdata of each branch taken, and how many targets took it."""
-    from collections import Counter
+def flange_targets(calibrated: SerialModel, T_measuring: Array) -> Array:
+    """Measured-point poses in the measuring frame as flange poses in the robot base frame,
+    through the calibrated robot's frames: near enough the nominal robot's to tell its branch."""
+    import numpy as np
 
-    from screwcal.kinematics.confdata import confdata
+    return np.linalg.inv(calibrated.base) @ np.asarray(T_measuring, float) @ \
+        np.linalg.inv(calibrated.tool)
 
-    taken = Counter(tuple(int(v) for v in cf) for cf in confdata(nominal, q_rad))
-    branches = ", ".join(f"[{', '.join(map(str, cf))}] for {n}" for cf, n in
-                         taken.most_common())
-    return (f"  configuration: a pose file has none, so each target was solved on the nominal "
-            f"robot's branch nearest home (confdata {branches}); to keep another (a wrist "
-            "flipped), give the targets as a RAPID module with their confdata (--rapid)")
+
+def compensate_on(calibrated: SerialModel, nominal: SerialModel, T: Array,
+                  choice: BranchChoice, *, frame: Literal["base", "measuring"],
+                  residual: ResidualModel | None) -> Compensation:
+    """Every target with a nominal solution compensated next to it (on its branch and turn);
+    the targets without one refused with why (their rows: zeros), never raised."""
+    import numpy as np
+
+    from screwcal.calibration.correction import Compensation, compensate
+    from screwcal.calibration.residual_model import ResidualPrediction
+
+    idx = np.flatnonzero(choice.found)
+    n, N = calibrated.n_joints, len(T)
+    refused = [(int(k), choice.why_none[k]) for k in np.flatnonzero(~choice.found)]
+    q, tool0, change = np.zeros((N, n)), np.tile(np.eye(4), (N, 1, 1)), np.zeros((N, n))
+    seen = None
+    if idx.size:
+        ref = choice.q_rad[idx]
+        if frame == "measuring":  # the calibrated robot's solution on that branch: where the
+            # residual model is asked (it moves the targets by what it predicts there)
+            from screwcal.kinematics.ik import local_ik
+
+            near, met = local_ik(calibrated, T[idx], ref)
+            ref = np.where(met[:, None], near, ref)
+        part = compensate(calibrated, nominal, T[idx], ref, frame=frame, strict=False,
+                          residual=residual)
+        q[idx], tool0[idx] = part.q_rad, part.nominal_tool0
+        change[idx] = calibrated.joints_to_deg(part.q_rad - choice.q_rad[idx])
+        refused += [(int(idx[k]), why) for k, why in part.refused]
+        if part.residual is not None:
+            p = part.residual
+            correction, std, nearest = np.zeros((N, 3)), np.zeros(N), np.zeros(N)
+            correction[idx], std[idx], nearest[idx] = p.correction_mm, p.std_mm, \
+                p.nearest_lengths
+            seen = ResidualPrediction(correction, std, nearest, p.reach_lengths)
+    bad = [k for k, _ in refused]
+    q[bad], tool0[bad], change[bad] = 0.0, np.eye(4), 0.0
+    return Compensation(q, tool0, change, tuple(sorted(refused)), seen)
 
 
 def _refuse_position_only(document: object, path: str) -> None:

@@ -137,7 +137,8 @@ def test_compensate_refuses_another_robot_once_and_says_which_branch(tmp_path, c
     assert main(["compensate", "--result", str(model), "--robot", "irb1600", "--targets",
                  str(targets), "--out", str(out)]) == 0
     said = capsys.readouterr().out
-    assert "branch nearest home (confdata [" in said and "--rapid" in said, said
+    assert "nearest the joints of the target before it (the first: nearest home)" in said
+    assert "shoulder front, elbow up, wrist" in said and "--rapid" in said, said
     (tmp_path / "result.json").write_text(
         '{"format": "screwcal-calibration", "robot": "irb1600", '
         f'"model": {model.read_text()}}}')
@@ -146,6 +147,74 @@ def test_compensate_refuses_another_robot_once_and_says_which_branch(tmp_path, c
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "calibrated against robot 'irb1600'" in err
     assert "leave out --robot" in err, err
+
+
+def _targets_of(tmp_path, joints_deg: str) -> Path:
+    joints, targets = tmp_path / "j.csv", tmp_path / "t.csv"
+    joints.write_text("q1,q2,q3,q4,q5,q6\n" + joints_deg)
+    assert main(["predict", "--robot", "irb1600", "--joints", str(joints), "--out",
+                 str(targets)]) == 0
+    return targets
+
+
+def _compensated_deg(path: Path):
+    import numpy as np
+
+    return np.array([[float(v) for v in line.split(",")[1:7]]
+                     for line in path.read_text().splitlines()[1:]])
+
+
+def test_targets_without_configuration_keep_the_branch_of_the_target_before(tmp_path, capsys):
+    """The issue's case: next to a target with the wrist at q4 20, q6 -150, the target at q4 27,
+    q6 -168 deg was solved nearest home, wrist-flipped (q4 -153, q5 -30, q6 12), while the
+    command said "largest joint change" of a few degrees. Each target now takes the branch
+    nearest the one before it, and the command names the branch and the largest move."""
+    import numpy as np
+
+    from screwcal.kinematics.modelfile import save_model
+    from screwcal.kinematics.robots import irb1600
+
+    model = tmp_path / "model.json"
+    save_model(irb1600(), model)
+    asked = np.array([[10, 10, 10, 20, 40, -150], [12, 12, 8, 27, 30, -168],
+                      [14, 14, 6, 40, 20, -175]], float)
+    targets = _targets_of(tmp_path, "".join(",".join(f"{v:g}" for v in q) + "\n"
+                                            for q in asked))
+    capsys.readouterr()
+    out = tmp_path / "c.csv"
+    assert main(["compensate", "--result", str(model), "--robot", "irb1600", "--targets",
+                 str(targets), "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert _compensated_deg(out) == pytest.approx(asked, abs=1e-3)  # not q4 -153, q6 12
+    assert "shoulder front, elbow up, wrist not flipped for 3 targets" in said, said
+    assert "largest move between consecutive targets: joint 6 by 18.000 deg (targets 1 -> 2)" \
+        in said, said
+    assert "branch changed" not in said
+
+
+def test_a_wrist_passing_through_zero_changes_branch_and_says_why(tmp_path, capsys):
+    """Joint 5 from +8 to -8 deg: the joints move on (the flipped branch's label), and the
+    command says where the branch changed and why; nearest home would have done the same here,
+    but the first target nearest home, then each next to its predecessor."""
+    import numpy as np
+
+    from screwcal.kinematics.modelfile import save_model
+    from screwcal.kinematics.robots import irb1600
+
+    model = tmp_path / "model.json"
+    save_model(irb1600(), model)
+    asked = np.array([[10, 10, 10, 30, q5, 0] for q5 in (20, 8, -8, -20)], float)
+    targets = _targets_of(tmp_path, "".join(",".join(f"{v:g}" for v in q) + "\n"
+                                            for q in asked))
+    capsys.readouterr()
+    out = tmp_path / "c.csv"
+    assert main(["compensate", "--result", str(model), "--targets", str(targets), "--out",
+                 str(out)]) == 0
+    said = capsys.readouterr().out
+    assert _compensated_deg(out) == pytest.approx(asked, abs=1e-3)
+    assert ("branch changed at target 3 (line 4): shoulder front, elbow up, wrist not flipped "
+            "-> shoulder front, elbow up, wrist flipped: it lies nearer the joints before "
+            "(16.0 deg in joint space") in said, said
 
 
 def test_evaluate_checks_its_units_as_calibrate_does(tmp_path, capsys):

@@ -13,8 +13,10 @@ from screwcal.kinematics.modelfile import save_model
 from screwcal.kinematics.readings import readings_from_serial, serial_from_readings
 from screwcal.kinematics.robots import LIBRARY
 
+# The last three in an order a controller would keep them in: each on the branch nearest the one
+# before it (compensate --targets solves a pose file so), the first on the one nearest home
 READINGS_DEG = np.array([[0, 30, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0], [20, -15, 35, 40, -50, 60],
-                         [-35, 40, -20, -30, 30, -60], [10, 10, 10, 10, 10, 10]], float)
+                         [-35, 40, -20, 10, -30, 20], [10, 10, 10, 10, 10, 10]], float)
 
 
 def _joints_csv(path, q_deg):
@@ -42,8 +44,8 @@ def test_fanuc_j3_is_the_forearm_to_the_horizontal(tmp_path, capsys):
 
 
 def test_a_fanuc_target_round_trips(tmp_path, capsys):
-    """FANUC readings (on the branch nearest home, which compensate --targets picks) -> predict
-    (tool0 in the base frame) -> compensate --targets on the
+    """FANUC readings (each on the branch compensate --targets picks: nearest the target before
+    it, the first nearest home) -> predict (tool0 in the base frame) -> compensate --targets on the
     nominal robot -> the same FANUC readings; on a calibrated twin, the written readings put
     the twin on the targets within 0.02 mm."""
     from tests.screwcal.kinematics.test_robots import calibrated

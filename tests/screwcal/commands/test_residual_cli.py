@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from screwcal.calibration.posesets import random_configurations
+from screwcal.calibration.posesets import WORKING_REGION_DEG, random_configurations
 from screwcal.commands.main import main
 from screwcal.kinematics.confdata import confdata
 from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
@@ -122,9 +122,19 @@ def test_predict_beyond_the_reach_gives_the_physical_model_and_a_note(runs, caps
     assert "line 3: beyond the residual model's reach" in err
 
 
+def _path(n: int, rng: np.random.Generator) -> np.ndarray:
+    """n configurations (rad) a few degrees apart, inside 0.8 of the working region: a path
+    (a pose file is solved target after target on the branch nearest the one before)."""
+    low, high = np.radians(WORKING_REGION_DEG * 0.8).T
+    q = [random_configurations(1, rng)[0] * 0.8]
+    for _ in range(n - 1):
+        q.append(np.clip(q[-1] + np.radians(rng.normal(0.0, 4.0, 6)), low, high))
+    return np.array(q)
+
+
 def test_compensated_targets_reach_the_true_robot_better(runs):
     rng = np.random.default_rng(11)
-    q = random_configurations(30, rng) * 0.8
+    q = _path(30, rng)
     truth = runs["truth"]
     wanted = forward_kinematics(truth, q)
     wanted[:, :3, 3] += unmodelled_mm(q)
