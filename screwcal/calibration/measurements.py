@@ -183,16 +183,19 @@ def check_joint_units(path: str, model: SerialModel, q_deg: Array, joint_unit: s
     revolute reading of two rows or more within +-RADIAN_LOOKING_DEG) or, read as radians,
     like degrees (beyond a whole turn): every reader of joint readings checks them so."""
     revolute = model.is_revolute
+    columns = ", ".join(c for c, r in zip(joint_columns(model.n_joints), revolute, strict=True)
+                        if r)
     if len(q_deg) >= 2 and revolute.any() and \
             np.abs(q_deg[:, revolute]).max() < RADIAN_LOOKING_DEG:
         fix = "they look like radians: give --joint-unit rad, or convert them to degrees" \
             if joint_unit == "deg" else "check the file's joint columns"
-        raise DataFileError(path, f"every joint reading lies within +-{RADIAN_LOOKING_DEG:g} "
-                            f"deg as read ({joint_unit}): {fix}")
+        raise DataFileError(path, f"every joint reading in columns {columns} lies within "
+                            f"+-{RADIAN_LOOKING_DEG:g} deg as read ({joint_unit}): {fix}")
     if joint_unit == "rad" and revolute.any() and \
             np.abs(q_deg[:, revolute]).max() > 360.0 + RADIAN_LOOKING_DEG:
-        raise DataFileError(path, "joint readings beyond a whole turn when read as radians: "
-                            "they look like degrees; leave out --joint-unit rad")
+        raise DataFileError(path, f"joint readings in columns {columns} beyond a whole turn "
+                            "when read as radians: they look like degrees; leave out "
+                            "--joint-unit rad")
 
 
 def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array,
@@ -225,7 +228,8 @@ def check_units(path: str, model: SerialModel, q_deg: Array, positions_mm: Array
     looks = min(LENGTH_UNITS_MM, key=misfit)
     if looks == length_unit or misfit(looks) > np.log(SPREAD_RATIO[1]):
         return
-    raise DataFileError(path, f"the measured points spread over {ratio:.3g} times the "
+    raise DataFileError(path, f"the measured points (columns x, y, z) spread over {ratio:.3g} "
+                        "times the "
                         f"distance the model's flange does at the same joints, read as "
                         f"{length_unit}: they look like {looks}; give --length-unit {looks}, "
                         "or convert them to mm")

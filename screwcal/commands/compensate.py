@@ -19,6 +19,7 @@ if TYPE_CHECKING:
     from screwcal.commands.target_branches import BranchChoice
     from screwcal.kinematics.model import SerialModel
     from screwcal.kinematics.se3 import Array
+    from screwcal.tables import NumericTable
 
 PARTIAL_EXIT = 3  # some targets refused (listed), the others written
 
@@ -94,6 +95,7 @@ def run_compensate(args: argparse.Namespace) -> int:
         return run_program(args, calibrated, nominal, residual)
     frame: Literal["base", "measuring"] = "base" if args.targets else "measuring"
     table = read_numeric_csv(source, ["x", "y", "z", "rx", "ry", "rz"])
+    check_target_units(table, nominal, frame)
     T = transform_from_pose(table.take(["x", "y", "z", "rx", "ry", "rz"]))
     choice = choose_branches(nominal, T if frame == "base" else flange_targets(calibrated, T))
     comp = compensate_on(calibrated, nominal, T, choice, frame=frame, residual=residual)
@@ -133,6 +135,56 @@ def run_compensate(args: argparse.Namespace) -> int:
         print(f"{len(comp.refused)} targets refused (listed on stderr), not in {args.out}")
         return PARTIAL_EXIT
     return 0
+
+
+NEAR_MM = 5.0  # measuring targets (3 or more) all this close together: the numbers are metres
+
+
+def check_target_units(table: NumericTable, nominal: SerialModel,
+                       frame: Literal["base", "measuring"]) -> None:
+    """Refuse (DataFileError naming the file and columns, with the fix) target poses whose
+    numbers look like another unit than mm and degrees, as calibrate's reader does: angles
+    rx, ry, rz that all lie within +-RADIAN_LOOKING_DEG (radians; two rows or more, not all
+    equal); positions x, y, z that look like metres or inches: in the robot base frame, every
+    target nearer the base than a fifteenth of the farthest the nominal flange gets from it
+    (its reach, the wrist's offset and axis 1's: inside the robot's own base), and another
+    unit bringing them within that; in the
+    measuring frame, three or more targets within NEAR_MM of one another."""
+    import numpy as np
+
+    from screwcal.errors import DataFileError
+    from screwcal.tables import LENGTH_UNITS_MM, RADIAN_LOOKING_DEG
+
+    angles = table.take(["rx", "ry", "rz"])
+    if len(angles) >= 2 and np.ptp(angles, axis=0).max() > 0 and \
+            np.abs(angles).max() < RADIAN_LOOKING_DEG:
+        raise DataFileError(table.path, f"every angle in columns rx, ry, rz lies within "
+                            f"+-{RADIAN_LOOKING_DEG:g} deg: they look like radians; convert "
+                            "them to degrees")
+    p = table.take(["x", "y", "z"])
+    if frame == "measuring":
+        spread = float(np.linalg.norm(p - p.mean(axis=0), axis=1).max())
+        if len(p) >= 3 and 0 < spread < NEAR_MM:
+            raise DataFileError(table.path, f"every target in columns x, y, z lies within "
+                                f"{spread:.3g} mm of their centre as read (mm): they look like "
+                                "metres; convert them to mm")
+        return
+    from screwcal.kinematics.robots import reach_mm
+
+    wrist = nominal.axis_points_mm[min(4, nominal.n_joints - 1)]
+    bound = reach_mm(nominal) + float(np.linalg.norm(nominal.home_flange[:3, 3] - wrist) +
+                                      np.linalg.norm(nominal.axis_points_mm[0]))
+    farthest = float(np.linalg.norm(p, axis=1).max())
+    if farthest >= bound / 15.0:
+        return
+    fits = [u for u in ("m", "in") if farthest * LENGTH_UNITS_MM[u] <= bound]
+    if fits:
+        raise DataFileError(table.path, f"every target in columns x, y, z lies within "
+                            f"{farthest:.3g} mm of the robot's base as read (mm), inside the "
+                            f"robot (the flange of robot '{nominal.name}' reaches up to "
+                            f"{bound:.0f} mm from it): "
+                            f"they look like {'metres' if fits[0] == 'm' else 'inches'}; "
+                            "convert them to mm")
 
 
 def flange_targets(calibrated: SerialModel, T_measuring: Array) -> Array:

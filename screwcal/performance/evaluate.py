@@ -94,13 +94,18 @@ def read_performance_csv(path: str | Path, length_unit: str = "mm") -> Performan
 
 
 def _check_units(table: NumericTable, length_unit: str) -> None:
-    if np.abs(table.take(CMD[:3])).max() < NEAR_BASE_MM:
-        raise DataFileError(table.path, f"every commanded position lies within {NEAR_BASE_MM:g} "
-                            f"mm of the robot's base as read ({length_unit}): they look like "
-                            "metres; give --length-unit m, or convert them to mm")
+    """Positions that look like metres (commanded or attained: every one within NEAR_BASE_MM
+    of the robot's base, the other set not), joints that look like radians."""
+    for columns, what in ((CMD[:3], "commanded"), (ATTAINED_POSITION, "attained")):
+        if np.abs(table.take(columns)).max() < NEAR_BASE_MM:
+            raise DataFileError(table.path, f"every {what} position (columns "
+                                f"{', '.join(columns)}) lies within {NEAR_BASE_MM:g} mm of the "
+                                f"robot's base as read ({length_unit}): they look like metres; "
+                                "give --length-unit m, or convert them to mm")
     q = table.take(joint_columns(6))
     if np.ptp(q, axis=0).max() > 0 and np.abs(q).max() < RADIAN_LOOKING_DEG:
-        raise DataFileError(table.path, f"every joint reading lies within "
+        raise DataFileError(table.path, f"every joint reading (columns "
+                            f"{', '.join(joint_columns(6))}) lies within "
                             f"+-{RADIAN_LOOKING_DEG:g} deg: they look like radians; convert "
                             "them to degrees")
 

@@ -105,7 +105,9 @@ def test_predict_refuses_joints_in_radians_as_calibrate_does(tmp_path, capsys):
     out = tmp_path / "p.csv"
     assert main(["predict", "--robot", "irb1600", "--joints", str(joints), "--out",
                  str(out)]) == 2
-    assert "--joint-unit rad" in capsys.readouterr().err and not out.exists()
+    err = capsys.readouterr().err
+    assert "--joint-unit rad" in err and not out.exists()
+    assert f"{joints}: every joint reading in columns q1, q2, q3, q4, q5, q6" in err, err
     assert main(["predict", "--robot", "irb1600", "--joints", str(joints), "--joint-unit", "rad",
                  "--out", str(out)]) == 0
     degrees = [float(v) for v in out.read_text().splitlines()[1].split(",")[1:4]]
@@ -217,6 +219,40 @@ def test_a_wrist_passing_through_zero_changes_branch_and_says_why(tmp_path, caps
             "(16.0 deg in joint space") in said, said
 
 
+@pytest.mark.parametrize(("option", "scale", "said"), [
+    ("--targets", (1e-3, 1.0), "in columns x, y, z lies within 1.13 mm of the robot's base as "
+                               "read (mm), inside the robot"),
+    ("--targets", (1 / 25.4, 1.0), "they look like inches; convert them to mm"),
+    ("--targets", (1.0, 0.017453292519943295), "every angle in columns rx, ry, rz lies within "
+                                               "+-3.2 deg: they look like radians"),
+    ("--measuring-targets", (1e-3, 1.0), "every target in columns x, y, z lies within 0.0392 mm "
+                                         "of their centre as read (mm): they look like metres"),
+])
+def test_compensate_refuses_targets_in_other_units(tmp_path, capsys, option, scale, said):
+    """Issue 38: compensate's target reader had no units check (metres were solved as mm,
+    each target refused as out of reach, or worse); it refuses them as calibrate does, naming
+    the file and the columns."""
+    from screwcal.kinematics.modelfile import save_model
+    from screwcal.kinematics.robots import irb1600
+
+    model = tmp_path / "model.json"
+    save_model(irb1600(), model)
+    targets = _targets_of(tmp_path, "10,10,10,20,40,-150\n12,12,8,27,30,-168\n"
+                                    "14,14,6,40,20,-175\n")
+    rows = [line.split(",") for line in targets.read_text().splitlines()]
+    other = tmp_path / "other.csv"
+    other.write_text(",".join(rows[0]) + "\n" + "".join(
+        ",".join([r[0], *(repr(float(v) * scale[0]) for v in r[1:4]),
+                  *(repr(float(v) * scale[1]) for v in r[4:7])]) + "\n" for r in rows[1:]))
+    capsys.readouterr()
+    out = tmp_path / "c.csv"
+    assert main(["compensate", "--result", str(model), option, str(other), "--out",
+                 str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"screwcal compensate: error: {other}: ") and said in err, err
+    assert err.count("\n") == 1 and not out.exists()
+
+
 def test_evaluate_checks_its_units_as_calibrate_does(tmp_path, capsys):
     import csv
     import json
@@ -233,7 +269,19 @@ def test_evaluate_checks_its_units_as_calibrate_does(tmp_path, capsys):
                             else v) for k, v in r.items()})
     out = tmp_path / "r.json"
     assert main(["evaluate", "--data", str(metres), "--out", str(out)]) == 2
-    assert "--length-unit m" in capsys.readouterr().err and not out.exists()
+    err = capsys.readouterr().err
+    assert "--length-unit m" in err and not out.exists()
+    assert "(columns x_cmd, y_cmd, z_cmd)" in err, err
+    attained = tmp_path / "a.csv"  # the commanded positions in mm, the measured in metres
+    with attained.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (float(v) / 1000.0 if k in ("x", "y", "z") else v)
+                        for k, v in r.items()})
+    assert main(["evaluate", "--data", str(attained), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"{attained}: every attained position (columns x, y, z)" in err, err
     assert main(["evaluate", "--data", str(metres), "--length-unit", "m", "--out", str(out)]) == 0
     in_m = json.loads(out.read_text())["result"]["overall"]["ap_mm_mean"]
     assert main(["evaluate", "--data", str(source), "--out", str(out)]) == 0
