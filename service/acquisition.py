@@ -1,43 +1,49 @@
-"""Acquisition: the links to the controller and the measuring arm, the operator's gate, and the
+"""Acquisition: the links to the controller and the instrument, the operator's gate, and the
 measured poses committed one by one.
 
 Every list runs in STEP mode on the wire: the go-ahead for a pose is sent only once the previous
 pose is committed to the store, so no measurement is ever lost to a crash; an AUTO job gives the
-go-ahead itself, a STEP job waits for the operator's. A lost link raises one of the protocol's
-`LinkError`s; the runner pauses the job and calls `reconnect`. An arm reading is taken for a pose
-only when `service/readings.py` accepts it.
+go-ahead itself, a STEP job waits for the operator's. At each pose reached the instrument the
+robot's record names (service/instruments.py: the arm, a laser tracker, or an external one whose
+measurement is posted) is asked for the pose's measurement. A lost link raises one of the
+protocol's `LinkError`s (a tracker's broken beam, lost initialisation included); the runner
+pauses the job and calls `reconnect`. Three points measured give the flange's pose (the arm's
+holes, three SMRs); one point gives its position only.
 """
 
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import time
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 
-from protocol.arm import ArmReader
-from protocol.arm_url import check_arm_url
 from protocol.client import ControllerClient, Timeouts
 from protocol.codec import MAX_LIST, Lists
-from protocol.errors import ArmLineError, LinkError, LinkTimeoutError, ProtocolError
+from protocol.errors import LinkError, ProtocolError
 from screwcal.calibration.flange import MeasuringFlange
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
-from service.arm_opening import ArmOpening
 from service.document import DiscardedReadings
 from service.drift import DRIFT_PHASE, DriftSchedule, DriftState
 from service.errors import SafetyError
 from service.events import JobEvents
+from service.instruments import (
+    ArmInstrument,
+    JobAborted,
+    PoseAt,
+    Seen,
+    open_instrument,
+)
 from service.outage import StoreOutage
 from service.phases import ListKind, list_kind
 from service.plans import PlannedPose
-from service.readings import EarlierReadings, MotionTolerance, PoseReading, refusal
+from service.readings import EarlierReadings, PoseReading
+from service.robot_record import RobotRecord
 from service.settings import ServiceSettings
 from service.store import Store
 
@@ -47,17 +53,7 @@ LINK_ERRORS = (LinkError,)  # protocol/errors.py: lost, timed out, busy, the arm
 ZERO_NOTE = ("ZERO: the robot stands at the correction; enter the offsets on the FlexPendant "
              "(calibration data), then give the go-ahead")
 
-
-@dataclass
-class _Seen:
-    """The readings a new one is checked against: the previous pose's, and every earlier."""
-
-    previous: PoseReading | None
-    earlier: EarlierReadings
-
-
-class JobAborted(Exception):  # noqa: N818 (control flow, not an error)
-    """The operator aborted the job."""
+__all__ = ["CONTROLLER_LIST", "LINK_ERRORS", "Acquisition", "JobAborted", "OperatorGate"]
 
 
 class OperatorGate:
@@ -111,48 +107,46 @@ class Acquisition:
     """One job's links and measurements. `robot` is the robot's stored record."""
 
     def __init__(self, store: Store, settings: ServiceSettings, events: JobEvents, job_id: int,
-                 robot: dict[str, Any], model: SerialModel, gate: OperatorGate,
+                 robot: RobotRecord, model: SerialModel, gate: OperatorGate,
                  outage: StoreOutage | None = None):
         """`outage`: the job's store calls (the runner's), waiting out the store's outages."""
         self.store, self.settings, self.events, self.job_id = store, settings, events, job_id
         self.robot, self.model, self.gate = robot, model, gate
         self.outage = outage or StoreOutage(store, events, job_id, settings.reconnect_interval_s)
-        self.flange = MeasuringFlange.from_holes_in_flange(robot["holes_mm"])
+        targets = robot.targets_mm()
+        # three points measured: the flange's pose from them; one: its position only
+        self.flange = MeasuringFlange.from_holes_in_flange(targets) if len(targets) == 3 \
+            else None
         self.drift: DriftSchedule | None = None  # the job's drift checks (the runner's)
-        self.discarded: Counter[str] = Counter()  # arm readings refused, by kind
         self.client: ControllerClient | None = None
-        self.arm: ArmReader | None = None
-        self._opening: ArmOpening | None = None  # the arm's port, opening
+        self.instrument = open_instrument(robot, settings, events, model, gate.aborted,
+                                          self._reading_of)
+        self._open = False
+
+    @property
+    def discarded(self) -> Counter[str]:
+        """Arm readings refused, by kind (none for another instrument)."""
+        return self.instrument.discarded if isinstance(self.instrument, ArmInstrument) \
+            else Counter()
 
     # -- links ---------------------------------------------------------------------------------
     async def connect(self) -> None:
         if self.client is None or self.client.lost is not None:
-            self.client = ControllerClient(self.robot["controller_host"],
-                                           self.robot["controller_port"],
+            self.client = ControllerClient(self.robot.controller_host,
+                                           self.robot.controller_port,
                                            Timeouts(pose_s=self.settings.pose_timeout_s))
             # a few quick tries: the controller may not yet have seen the last client leave
             await self.client.reconnect(attempts=3, first_delay_s=0.05)
-        if self.arm is None:
-            url = check_arm_url(self.robot["arm_url"])  # a record older than the check too
-            # the port opens in a thread that a cancellation cannot stop (`ArmOpening`):
-            # `disconnect`, which every runner's end calls, lets go of it
-            self._opening = ArmOpening(url)
-            self.arm = await self._opening.claim()
-            self._opening = None
+        if not self._open:
+            await self.instrument.open()
+            self._open = True
 
     async def disconnect(self) -> None:
         if self.client is not None:
             await self.client.close()
             self.client = None
-        if self._opening is not None:  # aborted while the arm's port opened: its thread closes
-            opening, self._opening = self._opening, None  # it, and a new one waits for that
-            opening.abandon()
-            with contextlib.suppress(Exception):  # (its own error, or "let go of")
-                await asyncio.shield(opening.future)
-        if self.arm is not None:
-            # pyserial's socket:// close() sleeps 0.3 s: never on the event loop.
-            await asyncio.to_thread(self.arm.close)
-            self.arm = None
+        self._open = False
+        await self.instrument.close()
 
     async def reconnect(self) -> None:
         while True:
@@ -176,7 +170,7 @@ class Acquisition:
     async def measure(self, phase: str, plan: list[PlannedPose]) -> None:
         """Every pose of `plan` not yet committed for `phase`, in lists of at most MAX_LIST;
         the drift checks (`service/drift.py`) that fall due before, during and after it."""
-        assert self.client is not None and self.arm is not None
+        assert self.client is not None and self._open
         self._check_limits(phase, plan)
         if self.drift is not None:
             self._check_limits(DRIFT_PHASE, self.drift.references)
@@ -210,8 +204,11 @@ class Acquisition:
             if not self.model.within_limits(np.radians(p.joints_deg)):
                 raise SafetyError(f"{phase} pose {p.idx} is outside the joint limits")
 
-    def _seen(self) -> _Seen:
-        """The job's committed readings, which the next reading is checked against."""
+    def _seen(self) -> Seen:
+        """The job's committed readings, which the next arm reading is checked against (none
+        for another instrument: its measurement is asked for, or posted for, the pose)."""
+        if not isinstance(self.instrument, ArmInstrument) or self.flange is None:
+            return Seen(None, EarlierReadings.empty())
         last = self.store.last_measurement(self.job_id)
         previous = None if last is None else self._reading(
             last["holes_mm"], last["flange_pose"], last["joints_deg"])
@@ -220,10 +217,10 @@ class Acquisition:
             np.array([r["holes_mm"] for r in rows], dtype=float),
             flange_kinematics(self.model, np.radians([r["joints_deg"] for r in rows]))[:, :3, 3],
             tuple(f"{r['phase']}/{r['idx']}" for r in rows))
-        return _Seen(previous, earlier)
+        return Seen(previous, earlier)
 
     async def _run_list(self, phase: str, list_name: Literal["CAL", "PERF"],
-                        chunk: list[PlannedPose], seen: _Seen, total: int, done: int) -> None:
+                        chunk: list[PlannedPose], seen: Seen, total: int, done: int) -> None:
         """One LOAD and RUN of `chunk` (at most MAX_LIST poses), each pose committed before the
         robot moves on."""
         assert self.client is not None
@@ -234,19 +231,23 @@ class Acquisition:
 
         async for got in self.client.run(list_name, "STEP", on_wait=gate, count=len(chunk)):
             planned = chunk[got.idx]
-            reading = await self._read_pose(phase, planned.idx, got.joints_deg, seen.previous,
-                                            seen.earlier)
+            got_at = PoseAt(phase, planned.idx, got.joints_deg)
+            measurement = await self.instrument.measure(got_at, seen)
+            points, covariance, conditions, at = measurement.row()
+            flange_pose: list[float] = []
+            if self.flange is not None:
+                reading = self._reading_of(np.array(points), got.joints_deg)
+                flange_pose = pose_from_transform(reading.flange).tolist()
+                seen.previous = reading
+                seen.earlier = seen.earlier.plus(reading, f"{phase}/{planned.idx}")
             await self._commit(phase, planned.idx, list(got.joints_deg), list(got.tool0),
-                               reading.holes_mm.tolist(),
-                               pose_from_transform(reading.flange).tolist())
-            seen.previous = reading
-            seen.earlier = seen.earlier.plus(reading, f"{phase}/{planned.idx}")
+                               points, flange_pose, covariance, conditions, at)
             done += 1
             await self.events.publish("measured", phase=phase, index=planned.idx,
                                       done=done, total=total)
         await self.outage.call(self._count_discarded)
 
-    async def _commit(self, phase: str, idx: int, *pose: list) -> None:
+    async def _commit(self, phase: str, idx: int, *pose: Any) -> None:
         """Commit one pose before the robot moves on; through an outage of the store the robot
         waits at the pose and the commit is retried (a commit whose answer a lost connection
         took may have been made: then it is there, once)."""
@@ -289,59 +290,26 @@ class Acquisition:
         flange = transform_from_pose(np.asarray(flange_pose, dtype=float))
         return PoseReading(np.asarray(holes_mm, dtype=float), flange, nominal)
 
-    async def _read_pose(self, phase: str, idx: int, joints_deg: Any,
-                         previous: PoseReading | None, earlier: EarlierReadings
-                         ) -> PoseReading:
-        """The arm reading of the pose the robot reported arriving at (service/readings.py): a
-        duplicated, stale or early triple is discarded and logged and the next one read; when
-        none is accepted in time, the arm is asked to probe again (`remeasure_attempts`), then
-        the job pauses and the pose is measured anew."""
-        assert self.arm is not None
-        tol = MotionTolerance(self.settings.motion_tolerance_mm,
-                              self.settings.motion_tolerance_rel,
-                              self.settings.motion_tolerance_deg)
-        attempts = 0
-        last_refusal = ""
-        deadline = time.monotonic() + self.settings.arm_timeout_s
-        while True:
-            try:
-                holes = await asyncio.to_thread(self.arm.read_holes,
-                                                max(0.05, deadline - time.monotonic()))
-            except LinkTimeoutError:
-                if last_refusal and attempts >= self.settings.remeasure_attempts:
-                    raise ArmLineError(  # say why, not only "no reading": it may be the check
-                        f"{phase} pose {idx}: every reading of this pose was refused, the last "
-                        f"one: {last_refusal}. If the robot is this far from its nominal "
-                        "model, raise motion_tolerance_deg / motion_tolerance_rel") from None
-                if attempts >= self.settings.remeasure_attempts or not self.discarded:
-                    raise
-                attempts += 1
-                await asyncio.to_thread(self.arm.request)
-                deadline = time.monotonic() + self.settings.arm_timeout_s
-                continue
-            points = np.array(holes.points_mm)
-            flange = self.flange.flange_poses(points)[0]
-            nominal = flange_kinematics(self.model, np.radians([joints_deg]))[0]
-            reading = PoseReading(points, flange, nominal)
-            refused = refusal(previous, reading, tol, earlier)
-            if refused is None:
-                return reading
-            kind, why = refused
-            last_refusal = why
-            self.discarded[kind] += 1
-            await self.events.publish("discarded", phase=phase, index=idx, reason=why,
-                                      seqs=list(holes.seqs))
+    def _reading_of(self, points_mm: np.ndarray, joints_deg: Any) -> PoseReading:
+        """Three measured points as a reading: the flange's pose from them, and the nominal
+        flange at the joints the controller read."""
+        assert self.flange is not None
+        flange = self.flange.flange_poses(np.asarray(points_mm, dtype=float))[0]
+        nominal = flange_kinematics(self.model, np.radians([joints_deg]))[0]
+        return PoseReading(np.asarray(points_mm, dtype=float), flange, nominal)
 
     def _count_discarded(self) -> None:
         """The result says how many arm readings were refused and why (and the arm's lines
         that were not readings at all)."""
-        assert self.arm is not None
-        if not self.discarded and not self.arm.problems:
+        if not isinstance(self.instrument, ArmInstrument) or self.instrument.arm is None:
+            return
+        arm = self.instrument.arm
+        if not self.discarded and not arm.problems:
             return
         result = self.store.job(self.job_id).result
         result.arm_readings_discarded = DiscardedReadings(
             duplicate=self.discarded["duplicate"], stale=self.discarded["stale"],
-            motion=self.discarded["motion"], bad_lines=len(self.arm.problems),
+            motion=self.discarded["motion"], bad_lines=len(arm.problems),
             meaning="arm triples not used as a pose's reading: repeats of the previous "
                     "pose's, re-probes of a pose the robot had left (stale), readings whose "
                     "measured motion disagreed with the commanded one (early, foreign), and "
@@ -349,9 +317,8 @@ class Acquisition:
         self.store.set_result(self.job_id, result)
 
     async def _before_move(self, phase: str, planned: PlannedPose, note: str = "") -> None:
-        """Before the robot moves to `planned`: the previous pose is committed; drop stale arm
-        lines; then the operator's gate."""
+        """Before the robot moves to `planned`: the previous pose is committed; the instrument
+        told (the arm drops its stale lines); then the operator's gate."""
         self.gate.check_aborted()
-        assert self.arm is not None
-        await asyncio.to_thread(self.arm.drain)
+        await self.instrument.before_move()
         await self.gate.wait(phase, planned, self.events, note)

@@ -27,7 +27,7 @@ from screwcal.kinematics.compliance import Payload
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
-from screwcal.kinematics.se3 import Array, invert_transform
+from screwcal.kinematics.se3 import Array, invert_transform, transform_points
 from screwcal.performance.evaluate import PerformanceData, PointData, performance_section
 from screwcal.performance.straightness import straightness
 from service.document import (
@@ -44,6 +44,7 @@ from service.document import (
 )
 from service.phases import PERF_PHASES, ROUND_SUFFIXES, Round, compensated_list, list_kind
 from service.plans import BACKLASH_ROLES, PlannedPose
+from service.robot_record import RobotRecord
 
 POOR_FIT_CHI2 = 10.0  # chi2/dof above this with the stated noise: the model misses something
 
@@ -53,8 +54,8 @@ def measurement_set(rows: Sequence[Mapping[str, Any]],
     """The committed poses of a phase as the identification reads them, in the order measured:
     each pose's previous readings are those of the pose the robot came from (the read-back
     lag's `q_previous`; unknown for the first): the pose before it, or a pose of `interleaved`
-    (the drift checks) committed between the two."""
-    T = transform_from_pose(np.array([r["flange_pose"] for r in rows]))
+    (the drift checks) committed between the two. Poses of one measured point (a tracker's
+    one SMR) are positions only, each with the covariance the instrument stated."""
     q = np.radians([r["joints_deg"] for r in rows])
     previous = np.full_like(q, np.nan)
     previous[1:] = q[:-1]
@@ -66,8 +67,20 @@ def measurement_set(rows: Sequence[Mapping[str, Any]],
         after_pose_before = (last >= 0) & (ids[np.maximum(last, 0)] > row_ids[:-1])
         q_between = np.radians([r["joints_deg"] for r in between])
         previous[1:][after_pose_before] = q_between[last[after_pose_before]]
-    return MeasurementSet(q, T[:, :3, 3].copy(), T[:, :3, :3].copy(),
-                          tuple(str(r["idx"]) for r in rows), q_previous=previous)
+    names = tuple(str(r["idx"]) for r in rows)
+    if positions_only(rows):
+        cov = np.array([r["covariance_mm2"][0] for r in rows], dtype=float) \
+            if all(r.get("covariance_mm2") for r in rows) else None
+        return MeasurementSet(q, np.array([r["holes_mm"][0] for r in rows], dtype=float),
+                              None, names, q_previous=previous, position_cov_mm2=cov)
+    T = transform_from_pose(np.array([r["flange_pose"] for r in rows]))
+    return MeasurementSet(q, T[:, :3, 3].copy(), T[:, :3, :3].copy(), names,
+                          q_previous=previous)
+
+
+def positions_only(rows: Sequence[Mapping[str, Any]]) -> bool:
+    """Poses measured as one point each (no flange pose): positions only."""
+    return bool(rows) and not rows[0]["flange_pose"]
 
 
 def backlash_summary(result: CalibrationResult, rows: Sequence[Mapping[str, Any]],
@@ -229,12 +242,28 @@ def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
 
 
 def performance_figures(rows: Sequence[Mapping[str, Any]], plan: Mapping[int, PlannedPose],
-                        base: Array) -> PerformanceSection:
+                        base: Array, point_in_tool0_mm: Array | None = None
+                        ) -> PerformanceSection:
     """ISO 9283 per point and straightness of one performance list's committed poses, as the
     performance package computes them (`performance_section`: the evaluate command's), attained
-    poses in the robot base frame."""
-    attained = pose_from_transform(invert_transform(base) @ transform_from_pose(
-        np.array([r["flange_pose"] for r in rows])))
+    poses in the robot base frame. Poses of one measured point (positions only): the point's
+    positions, commanded where the commanded tool0 puts `point_in_tool0_mm`."""
+    full = not positions_only(rows)
+    to_base = invert_transform(base)
+    if full:
+        attained = pose_from_transform(to_base @ transform_from_pose(
+            np.array([r["flange_pose"] for r in rows])))
+    else:
+        attained = transform_points(to_base, np.array([r["holes_mm"][0] for r in rows]))
+    point = np.zeros(3) if point_in_tool0_mm is None else np.asarray(point_in_tool0_mm)
+
+    def commanded(p: PlannedPose) -> Array:
+        cmd = np.array(p.commanded)
+        if full:
+            return cmd
+        return np.concatenate([transform_points(transform_from_pose(cmd), point[None])[0],
+                               cmd[3:]])
+
     by_point: dict[str, list[int]] = {}
     line = []
     for k, r in enumerate(rows):
@@ -242,10 +271,10 @@ def performance_figures(rows: Sequence[Mapping[str, Any]], plan: Mapping[int, Pl
         if p.role == "target":
             by_point.setdefault(p.point, []).append(k)
         elif p.role == "line":
-            line.append(r["flange_pose"][:3])
+            line.append(attained[k][:3] if not full else r["flange_pose"][:3])
     data = PerformanceData("measurements", tuple(
-        PointData(label, np.array(plan[rows[ks[0]]["idx"]].commanded), attained[ks])
-        for label, ks in sorted(by_point.items()) if len(ks) >= 2), full_pose=True)
+        PointData(label, commanded(plan[rows[ks[0]]["idx"]]), attained[ks])
+        for label, ks in sorted(by_point.items()) if len(ks) >= 2), full_pose=full)
     path = straightness(np.array(line)) if len(line) >= 3 else None
     return PerformanceSection.model_validate(performance_section(data, path))
 
@@ -258,6 +287,8 @@ def home_check(nominal: SerialModel, last_home_rows: Mapping[str, Mapping[str, A
     home = flange_kinematics(nominal, np.zeros((1, nominal.n_joints)))[0, :3, 3]
     measured: dict[str, HomeMeasurement] = {}
     for phase, row in last_home_rows.items():
+        if not row["flange_pose"]:  # one point measured: not the flange
+            continue
         T = invert_transform(base) @ transform_from_pose(np.array(row["flange_pose"]))
         error = T[:3, 3] - home
         measured[phase.removeprefix("home_")] = HomeMeasurement(
@@ -274,16 +305,17 @@ def home_check(nominal: SerialModel, last_home_rows: Mapping[str, Mapping[str, A
                 "robot's uncorrected one"})
 
 
-def iso_test_conditions(robot: Mapping[str, Any], model: SerialModel,
+def iso_test_conditions(robot: RobotRecord, model: SerialModel,
                         options: JobOptions, plan: Mapping[int, PlannedPose],
                         created: float | None) -> dict[str, str | int | float]:
     """The conditions ISO 9283 asks a report to state."""
     centre = next(p.commanded[:3] for p in plan.values()
                   if p.point == "P1" and p.role == "target")
     return {
-        "robot": f"{robot['name']} (model {model.name})",
-        "controller": f"{robot['controller_host']}:{robot['controller_port']}",
-        "measuring arm": robot["arm_url"],
+        "robot": f"{robot.name} (model {model.name})",
+        "controller": f"{robot.controller_host}:{robot.controller_port}",
+        **({"measuring arm": robot.arm_url} if robot.arm_url else
+           {"instrument": robot.instrument_text()}),
         "cube edge mm": float(options.cube_edge_mm),
         "cube centre (P1) mm": ", ".join(f"{v:.1f}" for v in centre),
         "cycles": int(options.cycles),

@@ -144,7 +144,8 @@ def drift_section(schedule: DriftSchedule, drift_rows: Sequence[Mapping[str, Any
     before = [bisect_left(ids, i) for i in first_ids]  # the poses committed before each check
     lists = [_list_of(others, ids, i) for i in first_ids]
     t = np.array([float(checks[k][labels[0]]["created"]) for k in ks])
-    p = np.array([[checks[k][label]["flange_pose"][:3] for label in labels] for k in ks])
+    p = np.array([[checks[k][label]["flange_pose"][:3] or checks[k][label]["holes_mm"][0]
+                   for label in labels] for k in ks])  # (one point measured: its position)
     deviation = np.zeros((len(ks), len(labels)))
     for load in dict.fromkeys(list_payloads.get(x, "") for x in lists):
         rows = [i for i, x in enumerate(lists) if list_payloads.get(x, "") == load]

@@ -132,8 +132,8 @@ def robot_history(store: Store, robot_id: int, threshold_mm: float) -> RobotHist
                               store.confirmations(job.id)))
     trend = [(e.job, e.finished or e.created, e.ap_mm) for e in entries
              if e.ap_mm is not None]
-    return RobotHistory(robot=robot_id, name=robot["name"],
-                        identity={k: robot[k] for k in IDENTITY}, entries=entries,
+    return RobotHistory(robot=robot_id, name=robot.name,
+                        identity=robot.model_dump(include=set(IDENTITY)), entries=entries,
                         trend=trend, alarm=drift_alarm(entries, threshold_mm))
 
 

@@ -4,7 +4,7 @@ service/database.py). A database records the last one it ran; a newer release ad
 never edits one that was released, so a database written by this version opens in the next.
 """
 
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 8
 # Each migration is written once for both databases: {pk}, {int} and {real} are the column
 # types of the database it runs on (service/database.py). Never edit one that was released:
 # add the next.
@@ -85,5 +85,16 @@ MIGRATIONS = {
         one {int} PRIMARY KEY CHECK (one = 1), last_id {int} NOT NULL, last_hash TEXT NOT NULL);
     INSERT INTO audit_head (one, last_id, last_hash) VALUES
         (1, 0, '0000000000000000000000000000000000000000000000000000000000000000');
+    """,
+    # Version 8: the instrument of a robot (JSON, service/robot_record.py: arm, tracker or
+    # external; NULL for the robots of older databases, whose arm_url names their arm), and of a
+    # measurement what the instrument said beside the points (holes_mm): their covariance
+    # (mm^2, one 3x3 per point), the conditions (temperature, pressure, humidity) and when it
+    # measured; NULL where it did not say (the arm, older rows).
+    8: """
+    ALTER TABLE robots ADD COLUMN instrument TEXT;
+    ALTER TABLE measurements ADD COLUMN covariance_mm2 TEXT;
+    ALTER TABLE measurements ADD COLUMN conditions TEXT;
+    ALTER TABLE measurements ADD COLUMN measured_at {real};
     """,
 }

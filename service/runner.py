@@ -40,13 +40,14 @@ import numpy as np
 
 from protocol.errors import ControllerError
 from screwcal.calibration.correction import CorrectionRefusedError, after_zero
-from screwcal.calibration.identify import identify
+from screwcal.calibration.identify import Frames, identify
 from screwcal.calibration.residual_model import residual_from_document
 from screwcal.calibration.residual_stage import learn_residual
 from screwcal.calibration.resultfile import result_document
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.modelfile import model_document, parse_model
+from screwcal.kinematics.se3 import Array
 from service import analysis
 from service.acquisition import LINK_ERRORS, Acquisition, JobAborted, OperatorGate
 from service.document import JobRecord, PhaseRecord, ResultDocument
@@ -77,6 +78,7 @@ from service.phases import (
     list_kind,
 )
 from service.plans import LISTS_OF_KIND, PlannedPose, plan_for
+from service.robot_record import RobotRecord
 from service.settings import ServiceSettings
 from service.store import Store
 from service.verify import VERIFY_PHASE, verification_targets
@@ -88,12 +90,12 @@ class JobRunner:
     loop serves every other job and client meanwhile); `open` reads the job and its robot."""
 
     def __init__(self, store: Store, settings: ServiceSettings, events: JobEvents,
-                 job: JobRecord, robot: dict, on_fatal: Callable[[str], None] | None = None,
+                 job: JobRecord, robot: RobotRecord, on_fatal: Callable[[str], None] | None = None,
                  plans: dict[str, list[PlannedPose]] | None = None):
         self.store, self.settings, self.events, self.job_id = store, settings, events, job.id
         self.on_fatal = on_fatal
         self.job, self.robot = job, robot
-        self.model = parse_model(self.robot["model"], f"robot {self.robot['id']}")
+        self.model = parse_model(self.robot.model, f"robot {self.robot.id}")
         self.options = self.job.options
         self.gate = OperatorGate(step_mode=self.job.mode == "STEP")
         self.outage = StoreOutage(store, events, job.id, settings.reconnect_interval_s)
@@ -116,7 +118,7 @@ class JobRunner:
         """The job's "cal" or "perf" list (deterministic from its options; built once: by the
         request that posted the job, else by `_build_plans` when the runner starts)."""
         if kind not in self._plans:
-            self._plans[kind] = plan_for(self.model, kind, self.options)
+            self._plans[kind] = plan_for(self.model, kind, self.options, self.robot.instrument)
         return self._plans[kind]
 
     async def _build_plans(self) -> None:
@@ -125,7 +127,8 @@ class JobRunner:
         for kind in LISTS_OF_KIND[self.job.kind]:
             if kind not in self._plans:
                 self._plans[kind] = await asyncio.to_thread(plan_for, self.model, kind,
-                                                            self.options)
+                                                            self.options,
+                                                            self.robot.instrument)
 
     @property
     def route(self) -> str:
@@ -288,12 +291,17 @@ class JobRunner:
         rows = by_phase.get(calibration_list(suffix), [])
         data = analysis.measurement_set(rows, by_phase.get(DRIFT_PHASE, []))
         nominal = replace(self.model, payload=analysis.list_payload(self.options, "cal"))
-        result = identify(nominal, data, kind=kind, frames="base",
+        frames: Frames = "base"
+        if data.rotations is None:  # one point measured (a tracker's SMR): where it sits on
+            # the flange is identified too, from where the record says it is
+            nominal = nominal.with_frames(tool=self.point_frame())
+            frames = "unknown"
+        result = identify(nominal, data, kind=kind, frames=frames,
                           compliance=self.options.compliance, lag=self.options.lag)
         doc = self.job.result.with_round(
             suffix, estimation=analysis.estimation_summary(result),
             calibration=result_document(
-                result, self.model.name, {"model": kind, "frames": "base", "poses": len(data),
+                result, self.model.name, {"model": kind, "frames": frames, "poses": len(data),
                                           "job": self.job_id, "phase": calibration_list(suffix),
                                           "compliance": self.options.compliance,
                                           "lag": self.options.lag})
@@ -351,7 +359,9 @@ class JobRunner:
                               f"{source}'s calibration")
         else:  # a performance job alone: the measuring frame from its own data
             data = analysis.measurement_set(by_phase.get(PERF_PHASES[0], []))
-            doc.base = identify(self.model, data, kind="frames", frames="base").model.base.tolist()
+            nominal = self.model if data.rotations is not None else \
+                self.model.with_frames(tool=self.point_frame())
+            doc.base = identify(nominal, data, kind="frames", frames="base").model.base.tolist()
             doc.frame_note = (
                 "accuracy measured in a robot base frame fitted to this performance data "
                 "itself (no calibration in this job): it hides any error such a frame absorbs, "
@@ -361,8 +371,9 @@ class JobRunner:
                               "frame to measure in")
         base = np.array(doc.base)
         plan = {p.idx: p for p in self.plan("perf")}
+        point = self.measured_point(by_phase)
         doc.performance = {
-            phase: analysis.performance_figures(rows, plan, base) for phase in PERF_PHASES
+            phase: analysis.performance_figures(rows, plan, base, point) for phase in PERF_PHASES
             if (rows := by_phase.get(phase))}
         last_home = {phase: rows[-1] for phase in HOME_PHASES if (rows := by_phase.get(phase))}
         home = analysis.home_check(self.model, last_home, base)
@@ -376,6 +387,21 @@ class JobRunner:
             doc.warnings += alarm_warnings(self.store, self.job, doc,
                                            self.settings.drift_alarm_mm)
         self.job = self.store.set_result(self.job_id, doc)
+
+    def point_frame(self) -> Array:
+        """tool0 -> the one point the instrument measures, as the robot's record states it."""
+        frame = np.eye(4)
+        frame[:3, 3] = self.robot.targets_mm()[0]
+        return frame
+
+    def measured_point(self, by_phase: dict[str, list[dict]]) -> Array | None:
+        """Of one-point data: the point in tool0 the calibration identified (else the record's);
+        None for poses measured whole."""
+        if not any(analysis.positions_only(rows) for rows in by_phase.values()):
+            return None
+        doc = self.job.result.calibration_of(self.job.result.latest_round())
+        tool = parse_model(doc["model"]).tool if doc else self.point_frame()
+        return np.asarray(tool[:3, 3], dtype=float)
 
     def drift_schedule(self) -> DriftSchedule | None:
         """The job's drift checks (service/drift.py), from its performance list."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from protocol.arm_url import HOSTNAME, ArmUrlError, check_arm_url
 from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM, FlangeError, MeasuringFlange
@@ -17,6 +17,7 @@ from service.document import (
     ResultDocument,
 )
 from service.job_state import JobState
+from service.robot_record import ArmSetup, InstrumentSetup, RobotRecord, TrackerSetup
 
 __all__ = ["SQLITE_MAX_ID", "GoAhead", "Id", "JobCreate", "JobOptions", "JobPublic", "JobResult",
            "MeasurementPublic", "RobotCreate", "RobotPublic"]
@@ -29,9 +30,14 @@ class RobotCreate(BaseModel):
     controller_host: str = Field("127.0.0.1", min_length=1, max_length=253,
                                  description="host name or IP address of the controller")
     controller_port: int = Field(4012, ge=1, le=65535)
-    arm_url: str = Field(min_length=1, max_length=200,
-                         description="the measuring arm: a serial device (/dev/ttyUSB0, COM3), "
-                         "socket://HOST:PORT, rfc2217://HOST:PORT or loop://")
+    instrument: InstrumentSetup | None = Field(
+        None, description="what measures the robot: the arm (kind 'arm', its url), a laser "
+        "tracker over emScon (kind 'tracker', host, port, SMRs) or another instrument posting "
+        "its measurements (kind 'external')")
+    arm_url: str | None = Field(None, min_length=1, max_length=200,
+                                description="the older form of an arm instrument: a serial "
+                                "device (/dev/ttyUSB0, COM3), socket://HOST:PORT, "
+                                "rfc2217://HOST:PORT or loop://")
     model: str | dict[str, Any] = Field(
         "irb1600", description="a built-in robot name or a model document (never a server path)")
     holes_mm: list[list[float]] = Field(
@@ -64,28 +70,44 @@ class RobotCreate(BaseModel):
             raise ValueError("a host name or an IP address (letters, digits, '.', '-', ':')")
         return v
 
-    @field_validator("arm_url")
-    @classmethod
-    def _url(cls, v: str) -> str:
+    @model_validator(mode="after")
+    def _one_instrument(self) -> RobotCreate:
+        """`instrument`, or `arm_url` (the older form of an arm), checked."""
+        if self.instrument is None:
+            if self.arm_url is None:
+                raise ValueError("name the robot's instrument: instrument {kind: arm, url} | "
+                                 "{kind: tracker, host, port} | {kind: external}, or arm_url")
+            self.instrument = ArmSetup(url=self.arm_url)
+        elif self.arm_url is not None and self.instrument != ArmSetup(url=self.arm_url):
+            raise ValueError("arm_url and instrument name two instruments: send one of them")
+        ins = self.instrument
         try:  # no scheme or path a cell does not use (spy:// writes files, paths open files)
-            return check_arm_url(v)
+            if isinstance(ins, ArmSetup):
+                check_arm_url(ins.url)
         except ArmUrlError as err:
-            raise ValueError(str(err)) from None
+            raise ValueError(f"the arm's url: {err}") from None
+        if isinstance(ins, TrackerSetup) and not HOSTNAME.match(ins.host):
+            raise ValueError("the tracker's host: a host name or an IP address (letters, "
+                             "digits, '.', '-', ':')")
+        targets = getattr(ins, "smrs_mm", None) or getattr(ins, "targets_mm", None)
+        if targets is not None and len(targets) not in (1, 3):
+            raise ValueError(f"the instrument's targets: one point (positions) or three (the "
+                             f"pose), not {len(targets)}")
+        if targets is not None and len(targets) == 3:
+            try:
+                MeasuringFlange.from_holes_in_flange(targets)
+            except FlangeError as err:
+                raise ValueError(f"the instrument's three targets cannot define the flange "
+                                 f"frame: {err}") from None
+        return self
+
+    @property
+    def setup(self) -> InstrumentSetup:
+        assert self.instrument is not None  # set by the validator
+        return self.instrument
 
 
-class RobotPublic(BaseModel):
-    id: int
-    name: str
-    controller_host: str
-    controller_port: int
-    arm_url: str
-    model: dict[str, Any]
-    holes_mm: list[list[float]]
-    serial: str = ""
-    controller_software: str = ""
-    tool: str = ""
-    payload_kg: float | None = None
-    emulation: list[str] = Field(default_factory=list)
+RobotPublic = RobotRecord
 
 
 class RobotIdentity(BaseModel):
@@ -145,8 +167,15 @@ class MeasurementPublic(BaseModel):
     idx: int = Field(description="the pose's index in its list")
     joints_deg: list[float] = Field(description="what the encoders read (j packet)")
     tool0: list[float] = Field(description="nominal tool0 x, y, z mm, rx, ry, rz deg (p packet)")
-    holes_mm: list[list[float]] = Field(description="P1, P2, P3 as the arm measured them")
-    flange_pose: list[float] = Field(description="measured tool0 (Eq. 4.6) in the arm's frame")
+    holes_mm: list[list[float]] = Field(description="the points the instrument measured: P1, "
+                                        "P2, P3 as the arm measured them, the SMRs, ...")
+    flange_pose: list[float] = Field(description="measured tool0 (Eq. 4.6) in the "
+                                     "instrument's frame; empty: one point, positions only")
+    covariance_mm2: list[list[list[float]]] | None = Field(
+        None, description="each point's covariance (3x3 mm^2) as the instrument stated it")
+    conditions: dict[str, float] | None = Field(
+        None, description="temperature_c, pressure_mbar, humidity_pct the instrument measured in")
+    measured_at: float | None = Field(None, description="when the instrument measured (Unix s)")
     created: float
 
 

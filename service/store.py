@@ -50,6 +50,7 @@ from service.errors import (
 )
 from service.job_state import UNFINISHED, JobState, check_transition, sql_list
 from service.migrations import MIGRATIONS, SCHEMA_VERSION
+from service.robot_record import ArmSetup, InstrumentSetup, RobotRecord
 
 if TYPE_CHECKING:
     from service.settings import ServiceSettings
@@ -65,7 +66,8 @@ def _row(row: dict[str, Any] | None, what: str) -> dict[str, Any]:
         raise NotFoundError(f"no such {what}")
     out = dict(row)
     for key in ("model", "holes_mm", "options", "phases", "result", "joints_deg", "tool0",
-                "flange_pose", "robot_identity", "emulation"):
+                "flange_pose", "robot_identity", "emulation", "instrument", "covariance_mm2",
+                "conditions"):
         if key in out and isinstance(out[key], str):
             out[key] = json.loads(out[key])
     return out
@@ -126,25 +128,30 @@ class Store:
         return self.db.schema_version()
 
     # -- robots --------------------------------------------------------------------------------
-    def add_robot(self, name: str, controller_host: str, controller_port: int, arm_url: str,
-                  model: dict, holes_mm: list, identity: dict | None = None,
-                  emulation: list[str] | None = None) -> dict:
-        """A robot cell; `identity` its serial number, controller software, tool and payload
-        (IDENTITY: each optional); `emulation` what an emulated robot carries (its realism,
-        one line per effect), none for a real robot."""
+    def add_robot(self, name: str, controller_host: str, controller_port: int,
+                  instrument: InstrumentSetup | str, model: dict, holes_mm: list,
+                  identity: dict | None = None, emulation: list[str] | None = None
+                  ) -> RobotRecord:
+        """A robot cell measured by `instrument` (service/robot_record.py; a string: the
+        measuring arm's address); `identity` its serial number, controller software, tool and
+        payload (IDENTITY: each optional); `emulation` what an emulated robot carries (its
+        realism, one line per effect), none for a real robot."""
+        setup = ArmSetup(url=instrument) if isinstance(instrument, str) else instrument
         ident = self._identity(identity or {})
         try:
             with self.db.tx() as db:
                 rid = db.execute(
                     "INSERT INTO robots (name, controller_host, controller_port, arm_url, model, "
                     "holes_mm, created, serial, controller_software, tool, payload_kg, "
-                    "emulation) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
-                    (name, controller_host, controller_port, arm_url, json.dumps(model),
+                    "emulation, instrument) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
+                    "RETURNING id",
+                    (name, controller_host, controller_port,
+                     setup.url if isinstance(setup, ArmSetup) else "", json.dumps(model),
                      json.dumps(holes_mm), time.time(), *ident.values(),
-                     json.dumps(emulation or []))).fetchone()["id"]
+                     json.dumps(emulation or []), setup.model_dump_json())).fetchone()["id"]
         except self.db.integrity_errors:
             other = self.robot_named(name)
-            raise ConflictError(f"a robot named {name!r} exists already (robot {other['id']}): "
+            raise ConflictError(f"a robot named {name!r} exists already (robot {other.id}): "
                                 "robot names are unique") from None
         return self.robot(int(rid))
 
@@ -156,7 +163,7 @@ class Store:
                              f"(fields: {', '.join(IDENTITY)})")
         return {k: identity.get(k, None if k == "payload_kg" else "") for k in IDENTITY}
 
-    def set_identity(self, robot_id: int, identity: dict) -> dict:
+    def set_identity(self, robot_id: int, identity: dict) -> RobotRecord:
         """Change a robot's identity (a new controller software, tool or payload): the jobs
         made before keep the identity they were made with."""
         self.robot(robot_id)
@@ -167,24 +174,24 @@ class Store:
                 db.execute(f"UPDATE robots SET {cols} WHERE id = ?", (*fields.values(), robot_id))
         return self.robot(robot_id)
 
-    def robot(self, robot_id: int) -> dict:
-        return _row(self.db.row("SELECT * FROM robots WHERE id = ?", (robot_id,)),
-                    f"robot {robot_id}")
+    def robot(self, robot_id: int) -> RobotRecord:
+        return RobotRecord.model_validate(_row(self.db.row(
+            "SELECT * FROM robots WHERE id = ?", (robot_id,)), f"robot {robot_id}"))
 
-    def robot_named(self, name: str) -> dict:
-        return _row(self.db.row("SELECT * FROM robots WHERE name = ?", (name,)),
-                    f"robot named {name!r}")
+    def robot_named(self, name: str) -> RobotRecord:
+        return RobotRecord.model_validate(_row(self.db.row(
+            "SELECT * FROM robots WHERE name = ?", (name,)), f"robot named {name!r}"))
 
-    def robots(self) -> list[dict]:
-        return [_row(r, "robot") for r in self.db.rows("SELECT * FROM robots ORDER BY id")]
+    def robots(self) -> list[RobotRecord]:
+        return [RobotRecord.model_validate(_row(r, "robot"))
+                for r in self.db.rows("SELECT * FROM robots ORDER BY id")]
 
     # -- jobs ----------------------------------------------------------------------------------
     def add_job(self, robot_id: int, kind: str, mode: str, options: dict) -> JobRecord:
         """A new queued job, held by this service; ConflictError when the robot has an
         unfinished job (the database's unique index decides, in the inserting transaction: no
         race between services)."""
-        robot = self.robot(robot_id)
-        identity = {k: robot[k] for k in IDENTITY}
+        identity = self.robot(robot_id).model_dump(include=set(IDENTITY))
         now = time.time()
         try:
             with self.db.tx() as db:
@@ -376,19 +383,27 @@ class Store:
 
     # -- measurements ----------------------------------------------------------------------------
     def add_measurement(self, job_id: int, phase: str, idx: int, joints_deg: list,
-                        tool0: list, holes_mm: list, flange_pose: list) -> None:
+                        tool0: list, holes_mm: list, flange_pose: list,
+                        covariance_mm2: list | None = None, conditions: dict | None = None,
+                        measured_at: float | None = None) -> None:
         """Commit one pose (its own transaction), renewing the job's lease: LeaseLostError when
         another service holds the job (the robot must not be moved on), an integrity error when
-        the pose is stored already."""
+        the pose is stored already. `holes_mm`: the points the instrument measured (the arm's
+        holes, the SMRs, ...), `flange_pose` the tool0 pose from three of them (empty: one
+        point, positions only); what the instrument said beside: each point's covariance,
+        the conditions, when it measured."""
         with self.db.tx() as db:
             self._check_held(db, job_id)
             db.execute(f"UPDATE jobs SET lease_expires = {self.db.now_sql} + ? WHERE id = ?",
                        (self.lease_s, job_id))
             db.execute(
                 "INSERT INTO measurements (job_id, phase, idx, joints_deg, tool0, holes_mm, "
-                "flange_pose, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                "flange_pose, created, covariance_mm2, conditions, measured_at) VALUES "
+                "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 (job_id, phase, idx, json.dumps(joints_deg), json.dumps(tool0),
-                 json.dumps(holes_mm), json.dumps(flange_pose), time.time()))
+                 json.dumps(holes_mm), json.dumps(flange_pose), time.time(),
+                 None if covariance_mm2 is None else json.dumps(covariance_mm2),
+                 None if conditions is None else json.dumps(conditions), measured_at))
 
     def measurements(self, job_id: int, phase: str | None = None) -> list[dict]:
         sql = "SELECT * FROM measurements WHERE job_id = ?"

@@ -7,7 +7,6 @@ waited for, and the pose measured once), and what was measured (`TrackerRun`).
 from __future__ import annotations
 
 import asyncio
-import contextlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -17,7 +16,6 @@ from protocol.client import ControllerClient
 from protocol.errors import (
     BeamBrokenError,
     LinkError,
-    ProtocolError,
     TrackerNotInitialisedError,
     TrackerWarmingUpError,
 )
@@ -28,9 +26,9 @@ from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import Array
 from service.errors import ServiceError
+from service.instruments import measure_others
 
 MAX_TRIES = 6  # a pose measured after at most this many link failures, else the run stops
-RIGIDITY_MM = 1.0  # the SMRs measured at a pose keep the nests' distances within this
 Point = tuple[float, float, float]
 
 
@@ -84,23 +82,8 @@ class Cell:
             tracker.go_position(self._anchor)
         first = tracker.measure()
         self._anchor = first.xyz_mm
-        points = [first]
-        if len(self.smrs) == 1:
-            return points
         R = self.to_tracker @ flange_kinematics(self.nominal, np.radians([joints_deg]))[0][:3, :3]
-        try:
-            for smr in self.smrs[1:]:
-                tracker.go_position(np.asarray(first.xyz_mm) + R @ (smr - self.smrs[0]))
-                points.append(tracker.measure())
-        finally:
-            with contextlib.suppress(ProtocolError):  # tracked through the next move
-                tracker.go_position(first.xyz_mm)
-        measured = np.array([p.xyz_mm for p in points])
-        mismatch = _triangle_mismatch_mm(measured, self.smrs)
-        if mismatch > RIGIDITY_MM:
-            raise BeamBrokenError(f"the reflectors measured are not the SMRs' triangle (sides "
-                                  f"off by {mismatch:.2f} mm): a wrong reflector was locked")
-        return points
+        return measure_others(tracker, first, self.smrs, R)
 
     async def measure(self, run: TrackerRun, joints_deg: Sequence[float]
                       ) -> list[TrackerPoint] | None:
@@ -163,11 +146,3 @@ class Cell:
                 run.others.append(None if got is None else got[1:])
             self.last_deg = pose.joints_deg
 
-
-def _triangle_mismatch_mm(measured: Array, nests: Array) -> float:
-    """The largest difference between the measured SMRs' mutual distances and the nests'."""
-    k = len(nests)
-    pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
-    return max((abs(float(np.linalg.norm(measured[i] - measured[j])
-                          - np.linalg.norm(nests[i] - nests[j]))) for i, j in pairs),
-               default=0.0)

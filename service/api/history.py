@@ -8,6 +8,7 @@ from fastapi import APIRouter, Request
 
 from service.api.deps import Auth, Read, RobotId, StoreDep
 from service.history import RobotHistory, robot_history
+from service.robot_record import RobotRecord
 from service.schemas import RobotIdentity, RobotPublic
 
 router = APIRouter(prefix="/robots", tags=["robots"])
@@ -19,5 +20,6 @@ def history(robot_id: RobotId, _: Read, request: Request, store: StoreDep) -> Ro
 
 
 @router.put("/{robot_id}/identity", response_model=RobotPublic)
-def set_identity(robot_id: RobotId, body: RobotIdentity, _: Auth, store: StoreDep) -> dict:
+def set_identity(robot_id: RobotId, body: RobotIdentity, _: Auth, store: StoreDep
+                 ) -> RobotRecord:
     return store.set_identity(robot_id, body.model_dump(exclude_none=True))

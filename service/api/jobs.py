@@ -18,6 +18,7 @@ from service.manager import JobManager
 from service.phases import STEP_OF, Action
 from service.plans import LISTS_OF_KIND, plan_for
 from service.report import report_html
+from service.robot_record import RobotRecord
 from service.roles import OPERATOR_JOB_KINDS, Grant
 from service.schemas import GoAhead, JobCreate, JobPublic, JobResult, MeasurementPublic
 from service.store import Store
@@ -47,7 +48,7 @@ async def create_job(body: JobCreate, who: Auth, request: Request, store: StoreD
         planning.discard(body.robot_id)
 
 
-def _admit(store: Store, body: JobCreate) -> tuple[dict, JobCreate]:
+def _admit(store: Store, body: JobCreate) -> tuple[RobotRecord, JobCreate]:
     """The store's checks of a new job (in a worker thread): its robot exists and is not busy,
     a verify job's options from the robot's newest model, a frame's source job has one."""
     robot = store.robot(body.robot_id)
@@ -66,12 +67,13 @@ def _admit(store: Store, body: JobCreate) -> tuple[dict, JobCreate]:
     return robot, body
 
 
-async def _plan_and_add(body: JobCreate, robot: dict, store: Store, manager: JobManager,
+async def _plan_and_add(body: JobCreate, robot: RobotRecord, store: Store, manager: JobManager,
                         plans: asyncio.Semaphore) -> JobPublic:
     try:  # a job that cannot run is refused now, with the reason, not at run time
-        model = parse_model(robot["model"], f"robot {body.robot_id}")
+        model = parse_model(robot.model, f"robot {body.robot_id}")
         async with plans:  # a bounded number of plans at once: each takes a worker thread
-            built = {kind: await asyncio.to_thread(plan_for, model, kind, body.options)
+            built = {kind: await asyncio.to_thread(plan_for, model, kind, body.options,
+                                                   robot.instrument)
                      for kind in LISTS_OF_KIND[body.kind]}
     except ScrewcalError as err:
         raise HTTPException(422, f"this job cannot run on robot {body.robot_id}: "
@@ -131,4 +133,4 @@ def calibrated_model(job_id: JobId, _: Read, store: StoreDep,
 def report(job_id: JobId, _: Read, store: StoreDep) -> str:
     """(A sync route: FastAPI runs it in its thread pool, the store's reads and the page.)"""
     job = store.job(job_id)
-    return report_html(job, store.robot(job.robot_id))
+    return report_html(job, store.robot(job.robot_id).model_dump())

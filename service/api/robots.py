@@ -8,6 +8,7 @@ from screwcal.errors import ScrewcalError
 from screwcal.kinematics.modelfile import model_document, parse_model
 from screwcal.kinematics.robots import BUILTIN_MODELS, builtin_model
 from service.api.deps import Auth, Read, RobotId, StoreDep
+from service.robot_record import RobotRecord
 from service.schemas import RobotCreate, RobotPublic
 from service.store import IDENTITY
 
@@ -15,7 +16,7 @@ router = APIRouter(prefix="/robots", tags=["robots"])
 
 
 @router.post("", status_code=201, response_model=RobotPublic)
-def create_robot(body: RobotCreate, _: Auth, store: StoreDep) -> dict:
+def create_robot(body: RobotCreate, _: Auth, store: StoreDep) -> RobotRecord:
     if isinstance(body.model, str) and body.model not in BUILTIN_MODELS:
         # never a path on the server: not opened, and one message whatever the path
         raise HTTPException(422, f"model: {body.model[:80]!r} is not a built-in robot "
@@ -29,13 +30,13 @@ def create_robot(body: RobotCreate, _: Auth, store: StoreDep) -> dict:
         raise HTTPException(422, f"model: {err}") from None
     doc = model_document(model)
     return store.add_robot(body.name, body.controller_host, body.controller_port,
-                           body.arm_url, doc, body.holes_mm,
+                           body.setup, doc, body.holes_mm,
                            body.model_dump(include=set(IDENTITY)), body.emulation)
 
 @router.get("", response_model=list[RobotPublic])
-def list_robots(_: Read, store: StoreDep) -> list[dict]:
+def list_robots(_: Read, store: StoreDep) -> list[RobotRecord]:
     return store.robots()
 
 @router.get("/{robot_id}", response_model=RobotPublic)
-def get_robot(robot_id: RobotId, _: Read, store: StoreDep) -> dict:
+def get_robot(robot_id: RobotId, _: Read, store: StoreDep) -> RobotRecord:
     return store.robot(robot_id)

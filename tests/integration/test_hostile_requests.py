@@ -104,7 +104,7 @@ async def test_a_bad_stored_record_fails_its_job_and_the_service_still_starts(tm
     store = Store(db)
     robot = store.add_robot("old", "127.0.0.1", 4012, "socket://127.0.0.1:1",
                             {"name": "x"}, [[0, 0, 0], [0, 0, 0], [1, 0, 0]])
-    job = store.add_job(robot["id"], "calibration", "AUTO", {})
+    job = store.add_job(robot.id, "calibration", "AUTO", {})
     store.close()
     app = create_app(ServiceSettings(db_path=db, token=TOKEN))
     async with app.router.lifespan_context(app):

@@ -71,9 +71,9 @@ def test_at_most_one_unfinished_job_per_robot_is_held_by_the_database(tmp_path):
     store = Store(tmp_path / "jobs.db")
     robot = store.add_robot("cell", "127.0.0.1", 4012, "loop://", {"name": "x"},
                             [[0, 0, 0], [10, 0, 0], [0, 10, 0]])
-    store.add_job(robot["id"], "calibration", "AUTO", {})
+    store.add_job(robot.id, "calibration", "AUTO", {})
     with pytest.raises(ConflictError):
-        store.add_job(robot["id"], "calibration", "AUTO", {})
+        store.add_job(robot.id, "calibration", "AUTO", {})
     with pytest.raises(ConflictError, match="cell"):  # names are unique too
         store.add_robot("cell", "127.0.0.1", 4012, "loop://", {"name": "x"},
                         [[0, 0, 0], [10, 0, 0], [0, 10, 0]])
@@ -157,7 +157,7 @@ def test_disk_full_is_said_as_such_and_loses_nothing_committed(tmp_path):
     store = Store(tmp_path / "jobs.db")
     robot = store.add_robot("cell", "127.0.0.1", 4012, "loop://", {"name": "x"},
                             [[0, 0, 0], [10, 0, 0], [0, 10, 0]])
-    job = store.add_job(robot["id"], "calibration", "AUTO", {})
+    job = store.add_job(robot.id, "calibration", "AUTO", {})
     store.add_measurement(job.id, "cal", 0, [0.0] * 6, [0.0] * 7, [[0.0] * 3] * 3, [0.0] * 6)
     pages = store.db.row("PRAGMA page_count")["page_count"]
     store.db.execute(f"PRAGMA max_page_count = {pages}")  # the disk is full now

@@ -324,9 +324,9 @@ async def test_a_posted_jobs_plan_is_built_once_and_never_on_the_event_loop(serv
     link waited meanwhile)."""
     built = []
 
-    def counted(model, kind, options):
+    def counted(model, kind, options, instrument=None):
         built.append((kind, threading.current_thread() is threading.main_thread()))
-        return plan_for(model, kind, options)
+        return plan_for(model, kind, options, instrument)
 
     monkeypatch.setattr(api_jobs, "plan_for", counted)
     monkeypatch.setattr(runner_module, "plan_for", counted)

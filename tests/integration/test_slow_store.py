@@ -51,7 +51,7 @@ async def slow_service(tmp_path):
     store = SlowStore(tmp_path / "jobs.db")
     robot = store.add_robot("cell", "127.0.0.1", 1, "socket://127.0.0.1:1",
                             {"name": "IRB 1600"}, [[0, 0, 0], [10, 0, 0], [0, 10, 0]])
-    job = store.add_job(robot["id"], "calibration", "AUTO", {})
+    job = store.add_job(robot.id, "calibration", "AUTO", {})
     sock = socket.socket()
     sock.bind(("127.0.0.1", 0))
     sock.listen(64)
@@ -65,7 +65,7 @@ async def slow_service(tmp_path):
                 await asyncio.sleep(0.01)
         await http.get("/openapi.json")  # built once, before anything is timed
         store.delay_s = DELAY_S
-        yield server, http, robot["id"], job.id
+        yield server, http, robot.id, job.id
     server.uvicorn.should_exit = True
     await serving
     sock.close()

@@ -21,7 +21,7 @@ POSE = ([0.0] * 6, [0.0] * 7, [[0.0] * 3] * 3, [0.0] * 6)
 
 def robot_and_job(store: Store, name: str = "cell") -> tuple[int, int]:
     robot = store.add_robot(name, "127.0.0.1", 4012, "loop://", {"name": "x"}, HOLES)
-    return robot["id"], store.add_job(robot["id"], "calibration", "AUTO", {"cycles": 3}).id
+    return robot.id, store.add_job(robot.id, "calibration", "AUTO", {"cycles": 3}).id
 
 
 def second_service(db_target, lease_s: float = 10.0) -> Store:
@@ -32,8 +32,8 @@ def second_service(db_target, lease_s: float = 10.0) -> Store:
 def test_robots_and_jobs_round_trip_with_their_json(db_target):
     store = Store(db_target)
     robot_id, job_id = robot_and_job(store)
-    assert store.robot(robot_id)["holes_mm"] == HOLES
-    assert store.robot_named("cell")["id"] == robot_id
+    assert store.robot(robot_id).holes_mm == HOLES
+    assert store.robot_named("cell").id == robot_id
     job = store.job(job_id)
     assert (job.state, job.options.cycles, job.phases) == ("queued", 3, {})
     assert store.jobs() == [job] and store.unfinished_jobs() == [job_id]
@@ -188,8 +188,8 @@ def test_a_database_of_the_previous_release_opens_and_migrates(tmp_path):
     store = Store(path)
     assert store.schema_version() == SCHEMA_VERSION
     assert store.job(1).result.document() == {"rms": 0.1} and store.job(2).state == "running"
-    assert store.robot(1)["serial"] == "" and store.robot(1)["payload_kg"] is None
-    assert store.robot(1)["emulation"] == []  # an older robot states no emulation
+    assert store.robot(1).serial == "" and store.robot(1).payload_kg is None
+    assert store.robot(1).emulation == []  # an older robot states no emulation
     _, provenance = store.robot_jobs(1)[0]  # made before provenance was kept: said so
     assert provenance["software"] == "" and provenance["robot_identity"] is None
     assert store.adoptable() == [2] and store.take(2)  # its running job goes on, no holder
