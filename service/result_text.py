@@ -3,10 +3,16 @@ identified, the home check, the correction route, the warnings."""
 
 from __future__ import annotations
 
+from collections import Counter
+
 from service.document import CorrectionPlan, EstimationSummary, ResultDocument
 from service.phases import PERF_PHASE_NAMES, ROUND_SUFFIXES
 from service.schemas import JobResult
 from service.summary import before_after
+
+# What the parameters that are not a joint's place (their names' first part), in words
+FRAME_WORDS = {"base": "the robot base frame", "tool": "the tool (the measured point)",
+               "home": "the flange at home"}
 
 
 def result_table(result: JobResult, times: bool = True) -> str:
@@ -47,17 +53,22 @@ def result_table(result: JobResult, times: bool = True) -> str:
 
 def _estimation_lines(est: EstimationSummary) -> list[str]:
     """The joints' identified parameters, the noise levels measured, what was not separable."""
-    lines = [f"  identified ({est.rank} parameters, chi2/dof {est.chi2_reduced:.2f}):"]
-    for p in est.parameters:
-        if p.name.startswith("J"):
-            lines.append(f"    {p.name:<8}{p.value:>10.4f} {p.unit:<3} ± {p.std_error:.4f}")
+    joints = [p for p in est.parameters if p.name.startswith("J")]
+    others = Counter(p.name.split(".")[0] for p in est.parameters if not p.name.startswith("J"))
+    rest = "; the other " + ", ".join(
+        f"{n} of {FRAME_WORDS.get(group, group)}" for group, n in others.items()) + \
+        " are in the result" if others else ""
+    lines = [f"  identified ({len(est.parameters)} parameters, chi2/dof "
+             f"{est.chi2_reduced:.2f}): the {len(joints)} of the joints below{rest}:"]
+    for p in joints:
+        lines.append(f"    {p.name:<8}{p.value:>10.4f} {p.unit:<3} ± {p.std_error:.4f}")
     if est.noise:
         lines.append("    noise levels: " + ", ".join(
             f"{k} {v['value']:.4g} {v['unit']}" + (f" ± {v['std']:.2g}" if v["std"] else "")
             for k, v in est.noise.items() if isinstance(v, dict) and v["measured"]))
     if est.removed:
-        lines.append("    not separable from these data (not corrected): " + ", ".join(
-            r.name for r in est.removed))
+        lines.append(f"    {len(est.removed)} held at nominal, not separable from these data "
+                     "(not corrected): " + ", ".join(r.name for r in est.removed))
     lines += [f"    {line}" for line in beyond_geometry(est)]
     return lines
 

@@ -116,3 +116,29 @@ def test_phase_times_are_named_in_words_and_an_emulated_robots_are_said_scaled()
     assert "calibration poses" in emulated and ">cal<" not in emulated
     assert "faster than real time" in emulated and "faster than real time" not in real
     assert "e-05" not in emulated
+
+
+def test_the_terminal_counts_what_it_lists_and_says_where_the_rest_is():
+    """Issue 38: "identified (32 parameters)" was followed by 22 lines (the joints' only): the
+    count and the list now agree, the frames' parameters are counted by frame, and what was held
+    at nominal is counted and named."""
+    from service.document import EstimatedParameter
+    from service.result_text import _estimation_lines
+
+    names = ["base.x", "base.y", "base.rz", "tool.x", "tool.y", "home.z", "J1", "J2",
+             "J2.dir.u", "J3c"]
+    est = EstimationSummary(
+        parameters=[EstimatedParameter(name=n, unit="mm", value=0.1, std_error=0.01)
+                    for n in names],
+        removed=[RemovedParameter(name="J6", reason="not separable from tool.rz"),
+                 RemovedParameter(name="base.z", reason="not separable from J2")],
+        rank=10, condition_number=50.0, chi2_reduced=1.0, converged=True,
+        residual_before_mm=10.0, residual_after_mm=0.1)
+    lines = _estimation_lines(est)
+    assert lines[0] == ("  identified (10 parameters, chi2/dof 1.00): the 4 of the joints below; "
+                        "the other 3 of the robot base frame, 2 of the tool (the measured point), "
+                        "1 of the flange at home are in the result:")
+    listed = [line.split()[0] for line in lines[1:] if line.startswith("    J")]
+    assert listed == ["J1", "J2", "J2.dir.u", "J3c"]
+    assert "    2 held at nominal, not separable from these data (not corrected): J6, base.z" \
+        in lines
