@@ -53,7 +53,8 @@ def rotation_from_rotvec(phi: ArrayLike) -> Array:
 
 def rotvec_from_rotation(R: ArrayLike) -> Array:
     """The rotation vector of rotations (..., 3, 3), the inverse of `rotation_from_rotvec`.
-    Angles within 0.1 rad of 180 deg, where this formula loses precision, go to scipy."""
+    Angles within 0.1 rad of 180 deg, where this formula loses precision, are read off the
+    unit quaternion (`_rotvec_near_half_turn`)."""
     R = np.asarray(R, dtype=float)
     cos = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
     theta = np.arccos(cos)
@@ -65,10 +66,22 @@ def rotvec_from_rotation(R: ArrayLike) -> Array:
     out: Array = v * scale[..., None]
     near_pi = theta > np.pi - 0.1
     if np.any(near_pi):
-        from scipy.spatial.transform import Rotation
-
-        out[near_pi] = Rotation.from_matrix(R[near_pi]).as_rotvec()
+        out[near_pi] = _rotvec_near_half_turn(R[near_pi])
     return out
+
+
+def _rotvec_near_half_turn(R: Array) -> Array:
+    """Rotation vectors (M, 3) of rotations (M, 3, 3) near a half turn, from their unit
+    quaternions (Shepperd's method, well conditioned there): angle 2 atan2(|v|, w) along v.
+    (Once scipy's Rotation: importing scipy.spatial cost a third of a second of every
+    `compensate` whose program had one such target.)"""
+    from screwcal.kinematics.pose import quaternion_wxyz_from_rotation  # pose imports se3
+
+    q = quaternion_wxyz_from_rotation(R)
+    norm = np.linalg.norm(q[:, 1:], axis=1)
+    angle = 2.0 * np.arctan2(norm, q[:, 0])
+    rotvec: Array = q[:, 1:] * (angle / norm)[:, None]
+    return rotvec
 
 
 def transform_from_rotation_translation(R: ArrayLike, t: ArrayLike) -> Array:

@@ -69,6 +69,33 @@ def test_rodrigues_exp_and_log_match_scipy(rng):
                                atol=1e-9)
 
 
+def test_log_near_a_half_turn_matches_scipy_without_importing_it(rng):
+    """Within 0.1 rad of 180 deg the rotation vector comes from the quaternion (the trace
+    formula loses its precision there); exactly at 180 deg it is one of the two valid ones."""
+    import subprocess
+    import sys
+
+    from scipy.spatial.transform import Rotation
+
+    from screwcal.kinematics.se3 import rotation_from_rotvec, rotvec_from_rotation
+
+    axis = rng.normal(size=(2000, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    angle = np.concatenate([rng.uniform(np.pi - 0.12, np.pi - 1e-9, 1997), [np.pi] * 3])
+    axis[-3:] = np.eye(3)
+    R = Rotation.from_rotvec(axis * angle[:, None]).as_matrix()
+    phi = rotvec_from_rotation(R)
+    np.testing.assert_allclose(phi[:-3], Rotation.from_matrix(R[:-3]).as_rotvec(), atol=1e-12)
+    np.testing.assert_allclose(rotation_from_rotvec(phi), R, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(phi, axis=1), angle, atol=1e-12)
+    code = ("import sys, numpy as np; from screwcal.kinematics.se3 import rotvec_from_rotation;"
+            "rotvec_from_rotation(np.diag([1.0, -1.0, -1.0])[None]);"
+            "print('scipy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "False"
+
+
 def test_euler_triple_nearest_the_reference():
     from screwcal.kinematics.pose import euler_zyx_deg_near
 
