@@ -47,6 +47,8 @@ _FOLD_BASE = re.compile(r"\bBase\[(\d+)\]", re.I)
 _TYPED = re.compile(r"[ \t]*[A-Za-z_]\w*[ \t]*:(?!:)")
 _AXES = re.compile(r"[{,:][ \t]*A[1-6][ \t]", re.I)
 _CARTESIAN = re.compile(r"[{,:][ \t]*X[ \t]", re.I)
+_AGGREGATE_CHARS = re.compile(r'["{},]')
+_ITEM = re.compile(r"\s*([$A-Za-z_]\w*(?:\[\])?)\s+")
 _ASSIGN = re.compile(r"^[ \t]*([A-Za-z_]\w*)(?:\[[^\]]*\])?(?:\.[A-Za-z]\w*)?[ \t]*=(?!=)",
                      re.M)
 
@@ -59,16 +61,18 @@ class _Item:
 
 def _aggregate(path: str, text: str, start: int) -> tuple[dict[str, _Item], int]:
     """The items of the aggregate opening at text[start] == '{' (nested ones as raw text), and
-    the offset after its '}'."""
+    the offset after its '}'. The scan jumps from one of `"{},` to the next."""
     items: dict[str, _Item] = {}
     i, depth, item_start = start + 1, 1, start + 1
     typed = _TYPED.match(text, start + 1)  # {FRAME: X 0.0, ...}: the type named first
     if typed:
         i = item_start = typed.end()
     while depth:
-        if i >= len(text):
+        found = _AGGREGATE_CHARS.search(text, i)
+        if found is None:
             raise ProgramSyntaxError(path, _line(text, start), "an aggregate '{' is never "
                                      "closed by '}'")
+        i = found.start()
         c = text[i]
         if c == '"':
             i = text.find('"', i + 1)
@@ -87,11 +91,10 @@ def _aggregate(path: str, text: str, start: int) -> tuple[dict[str, _Item], int]
 
 
 def _item(text: str, a: int, b: int, items: dict[str, _Item]) -> None:
-    raw = text[a:b]
-    m = re.match(r"\s*([$A-Za-z_]\w*(?:\[\])?)\s+", raw)
+    m = _ITEM.match(text, a, b)
     if not m:
         return
-    value_start = a + m.end()
+    value_start = m.end()
     value = text[value_start:b].rstrip()
     items[m.group(1).upper()] = _Item(value, (value_start, value_start + len(value)))
 
@@ -302,6 +305,17 @@ def _motion(path: str, text: str, line: int, m: re.Match[str],
 def _arguments(args: str, offset: int, count: int) -> list[tuple[str, int]]:
     """The first `count` comma-separated arguments of a motion (braces kept whole), with the
     offset of each in the text."""
+    if "{" not in args and "}" not in args:  # names only (PTP XP1): the commas split them
+        plain: list[tuple[str, int]] = []
+        at = 0
+        for raw in args.split(","):
+            stripped = raw.strip()
+            if stripped:
+                plain.append((stripped.split()[0], offset + at + len(raw) - len(raw.lstrip())))
+                if len(plain) == count:
+                    break
+            at += len(raw) + 1
+        return plain
     out, depth, start = [], 0, 0
     for i, c in enumerate(args + ","):
         if c == "{":

@@ -26,61 +26,67 @@ _TCP = re.compile(r"\bset_tcp[ \t]*\(")
 _VAR = re.compile(r"^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*=(?!=)[ \t]*",
                   re.M)
 _NAME = re.compile(r"[A-Za-z_]\w*")
+_BLANKED = re.compile(r"#[^\n]*|\"[^\"]*(?:\"|\Z)|'[^']*(?:'|\Z)")
+_NOT_NEWLINE = re.compile(r"[^\n]")
+_BRACKETS = {"()": re.compile(r"[()]"), "[]": re.compile(r"[\[\]]")}
+_SEPARATORS = re.compile(r"[()\[\],]")
 _NUM = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
 def _code(text: str) -> str:
-    """The text with comments and strings blanked (offsets kept)."""
-    out = list(text)
-    i, n = 0, len(text)
-    while i < n:
-        c = text[i]
-        if c == "#":
-            while i < n and text[i] != "\n":
-                out[i] = " "
-                i += 1
-        elif c in "\"'":
-            j = text.find(c, i + 1)
-            j = n - 1 if j < 0 else j
-            for k in range(i + 1, j):
-                out[k] = " " if text[k] != "\n" else "\n"
-            i = j + 1
-        else:
-            i += 1
-    return "".join(out)
+    """The text with comments and strings blanked (offsets kept): a comment whole, a string's
+    inside but its newlines (a string never closed: up to the text's last character)."""
+    return _BLANKED.sub(_blank, text)
+
+
+def _blank(m: re.Match[str]) -> str:
+    s = m.group()
+    if s[0] == "#":
+        return " " * len(s)
+    if len(s) < 2:
+        return s
+    return s[0] + _NOT_NEWLINE.sub(" ", s[1:-1]) + s[-1]
 
 
 def _close(code: str, open_at: int, pair: str = "()") -> int:
     """The offset of the bracket closing the one at open_at."""
     depth = 0
-    for i in range(open_at, len(code)):
-        if code[i] == pair[0]:
+    for m in _BRACKETS[pair].finditer(code, open_at):
+        if m.group() == pair[0]:
             depth += 1
-        elif code[i] == pair[1]:
+        else:
             depth -= 1
             if depth == 0:
-                return i
+                return m.start()
     return len(code)
 
 
 def _split(code: str, a: int, b: int) -> list[tuple[int, int]]:
-    """Top-level comma-separated spans of code[a:b], stripped."""
+    """Top-level comma-separated spans of code[a:b], stripped (none after an unclosed
+    bracket)."""
     out, depth, start = [], 0, a
-    for i in range(a, b + 1):
-        c = code[i] if i < b else ","
+    for m in _SEPARATORS.finditer(code, a, b):
+        c = m.group()
         if c in "([":
             depth += 1
         elif c in ")]":
             depth -= 1
-        elif c == "," and depth == 0:
-            s, e = start, i
-            while s < e and code[s].isspace():
-                s += 1
-            while e > s and code[e - 1].isspace():
-                e -= 1
-            out.append((s, e))
-            start = i + 1
+        elif depth == 0:
+            out.append(_stripped(code, start, m.start()))
+            start = m.end()
+    if depth == 0:
+        out.append(_stripped(code, start, b))
     return out
+
+
+def _stripped(code: str, s: int, e: int) -> tuple[int, int]:
+    """The span code[s:e] without its leading and trailing white space."""
+    piece = code[s:e]
+    kept = piece.strip()
+    if not kept:
+        return e, e
+    lead = len(piece) - len(piece.lstrip())
+    return s + lead, s + lead + len(kept)
 
 
 def _literal(path: str, text: str, code: str, at: int, name: str) -> Target:

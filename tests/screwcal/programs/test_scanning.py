@@ -1,0 +1,67 @@
+"""The readers' scanners at their edges: strings, comments, brackets and names next to other
+words, in each language; what each finds, line and span, stays as written."""
+
+from screwcal.programs import read_program
+from screwcal.programs.urscript import _code, _split
+
+
+def _one(texts):
+    return read_program(texts)
+
+
+def test_urscript_blanks_comments_and_strings_keeping_offsets_and_newlines():
+    text = 'a = "x # y\nz" # p[1,2,3,4,5,6]\nb = \'q\'\nc = "never closed\nXY'
+    code = _code(text)
+    assert len(code) == len(text)
+    assert code == ('a = "' + " " * 5 + '\n "' + " " * 17 + "\nb = ' '\nc = \"" + " " * 12
+                    + "\n Y")  # never closed: up to the last character
+
+
+def test_urscript_split_keeps_nested_brackets_and_strips_spaces():
+    code = "f( a, p[1, 2], (b, c) ,  , d )"
+    spans = _split(code, 2, len(code) - 1)
+    assert [code[s:e] for s, e in spans] == ["a", "p[1, 2]", "(b, c)", "", "d"]
+    assert _split("x, (y", 0, 5) == [(0, 1)]  # an unclosed bracket: nothing after it
+
+
+def test_urscript_targets_inside_comments_and_strings_are_not_read():
+    text = ("def prog():\n"
+            "  # movel(p[9, 9, 9, 0, 0, 0])\n"
+            "  popup(\"movel(p[8, 8, 8, 0, 0, 0])\")\n"
+            "  movel( p[0.4, -0.1, 0.3, 0.0, 3.14, 0.0] , a=1.2)\n"
+            "end\n")
+    program = _one({"a.script": text})
+    (t,) = program.targets
+    assert t.line == 4 and t.values == (0.4, -0.1, 0.3, 0.0, 3.14, 0.0)
+    assert [text[a:b] for a, b in t.spans] == ["0.4", "-0.1", "0.3", "0.0", "3.14", "0.0"]
+
+
+def test_krl_aggregate_with_strings_nested_braces_and_names_in_several_motions():
+    dat = ('DEFDAT d\n'
+           'DECL E6POS XP1={X 1.5,Y -2,Z 3, A 4,B 5,C 6,S 2,T 35,E1 0.0}\n'
+           'DECL FDAT FP1={TOOL_NO 1,BASE_NO 0,IPO_FRAME #BASE,NAME[] "a,}{b"}\n'
+           'DECL E6POS XP2={X 7,Y 8,Z 9,A 0,B 0,C 0,S 6,T 2,E1 {0}}\n'
+           'ENDDAT\n')
+    src = "DEF d()\nFDAT_ACT=FP1\nPTP XP1\nLIN  XP2 , C_DIS\nCIRC XP1, XP2\nEND\n"
+    program = _one({"d.dat": dat, "d.src": src})
+    t1, t2 = program.targets
+    assert (t1.name, t1.line, t1.values) == ("XP1", 2, (1.5, -2.0, 3.0, 4.0, 5.0, 6.0))
+    assert [dat[a:b] for a, b in t1.spans] == ["1.5", "-2", "3", "4", "5", "6"]
+    assert (t1.flags["S"].text, t1.flags["T"].text) == ("2", "35")
+    assert (t2.name, t2.line, t2.values) == ("XP2", 4, (7.0, 8.0, 9.0, 0.0, 0.0, 0.0))
+    # XP1 is moved to with tool 1 (FP1) and then without it (CIRC): one value cannot serve
+    assert "several tools" in t1.problem
+
+
+def test_fanuc_fields_are_whole_words_of_any_case():
+    ls = ("/PROG  T\n/MN\n   1:J P[1] 100% FINE    ;\n/POS\n"
+          "P[1]{\n   GP1:\n\tuf : 0, UT : 0,\tconfig : 'N U T, 0, 0, 0',\n"
+          "\tAX = 99.0 mm, X = 1.0  mm,\tY = 2.0  mm,\tz = 3.0  mm,\n"
+          "\tw = 4.0 deg,\tP = 5.0 deg,\tR = 6.0 deg\n};\n/END\n")
+    program = _one({"t.ls": ls})
+    (t,) = program.targets
+    assert t.values == (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
+    assert [ls[a:b] for a, b in t.spans] == ["1.0", "2.0", "3.0", "4.0", "5.0", "6.0"]
+    assert t.flags["CONFIG"].text == "N U T, 0, 0, 0"
+    joints = ls.replace("X = 1.0  mm", "J1 = 1.0 deg")
+    assert _one({"t.ls": joints}).joint_targets == 1
