@@ -126,34 +126,36 @@ class Realism:
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
 
     def describe(self) -> list[str]:
-        """What the robot carries, one line per effect: its name in words, then the realism
-        file's key (to write one) and the values with their units."""
+        """What the robot carries, one line per effect, in words with their units (the
+        realism file's keys are this module's docstring's and the dataclass's fields)."""
         if self.is_ideal:
             return ["geometric errors only (realism ideal): no compliance, backlash, read-back "
                     "lag, drift or repeatability error"]
 
-        def joints(values: tuple[float, ...], fmt: str = "{:g}") -> str:
-            return ", ".join(f"J{j + 1} {fmt.format(v)}" for j, v in enumerate(values) if v)
+        def joints(values: tuple[float, ...], unit: str = "") -> str:
+            return ", ".join(f"J{j + 1} {v:g}{unit}" for j, v in enumerate(values) if v)
 
         out = []
         if any(self.compliance_deg_per_knm):
-            out.append(f"joint compliance (compliance_deg_per_knm): "
-                       f"{joints(self.compliance_deg_per_knm)} deg/kNm "
-                       f"(own masses: nominal +-{100 * self.mass_spread:g} %, centres moved "
-                       f"+-{self.centre_shift_mm:g} mm)")
-        out.append(f"payload (payload_kg, payload_cog_mm): {self.payload_kg:g} kg, centre of "
-                   f"gravity ({', '.join(f'{v:g}' for v in self.payload_cog_mm)}) mm")
+            out.append(f"joint compliance under gravity: "
+                       f"{joints(self.compliance_deg_per_knm, ' deg/kNm')} (the robot's own "
+                       f"masses {100 * self.mass_spread:g} % off the nominal table at most, "
+                       f"their centres moved up to {self.centre_shift_mm:g} mm)")
+        out.append(f"payload: {self.payload_kg:g} kg, centre of gravity at "
+                   f"({', '.join(f'{v:g}' for v in self.payload_cog_mm)}) mm in the flange "
+                   "frame")
         if any(self.backlash_deg):
-            out.append(f"backlash, lost motion (backlash_deg): {joints(self.backlash_deg)} deg")
+            out.append(f"backlash (lost motion): {joints(self.backlash_deg, ' deg')}")
         if any(self.lag):
-            out.append(f"read-back lag (lag): {joints(self.lag)} (fraction of the previous move "
-                       "the readings trail)")
+            out.append(f"read-back lag: {joints(self.lag)} (the fraction of the previous move "
+                       "the joint readings trail)")
         if self.drift_ppm:
-            out.append(f"thermal drift (drift_ppm, warmup_s): links {self.drift_ppm:g} ppm "
-                       f"longer once warm, after {self.warmup_s:g} s of running (emulated time)")
+            out.append(f"thermal drift: the links grow {self.drift_ppm:g} ppm once warm, with a "
+                       f"warm-up time constant of {self.warmup_s:g} s of running (emulated "
+                       "time)")
         if self.repeatability_deg:
-            out.append(f"repeatability error (repeatability_deg): {self.repeatability_deg:g} "
-                       "deg, 1 sigma per joint and stop")
+            out.append(f"repeatability error: {self.repeatability_deg:g} deg per joint and stop "
+                       "(1 sigma)")
         return out
 
 

@@ -42,6 +42,8 @@ def run_list(args: argparse.Namespace) -> int:
 
 
 def run_show(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from screwcal.kinematics.modelfile import resolve_model
     from screwcal.kinematics.pose import pose_from_transform
     from screwcal.kinematics.robots import LIBRARY, reach_mm
@@ -51,9 +53,7 @@ def run_show(args: argparse.Namespace) -> int:
     print(f"{model.name}: {entry.title if entry else args.robot}")
     if entry:
         print(f"  source: {entry.source}")
-        c = entry.check
-        print(f"  checked against: {c.source} ({c.what} {', '.join(f'{v:g}' for v in c.value)}"
-              f", within {c.tol_mm:g} mm)")
+        print(f"  checked against: {entry.check.text()}")
         if entry.note:
             print(f"  note: {entry.note}")
         print(f"  frames: {entry.frames_text()} (`robot import {entry.name} --base-link NAME`"
@@ -71,7 +71,8 @@ def run_show(args: argparse.Namespace) -> int:
     if model.ratings:
         print("  joints as the description names them: "
               + "; ".join(_rating_text(model, i) for i in range(model.n_joints)))
-    fl = pose_from_transform(model.home_flange)
+    fl = pose_from_transform(model.home_flange) + 0.0  # no -0.000
+    fl[np.abs(fl) < 5e-4] = 0.0
     print(f"  tool0 at home: x {fl[0]:.3f} y {fl[1]:.3f} z {fl[2]:.3f} mm, rx {fl[3]:.3f} "
           f"ry {fl[4]:.3f} rz {fl[5]:.3f} deg")
     if model.masses:

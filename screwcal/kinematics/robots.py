@@ -58,6 +58,16 @@ class DatasheetCheck:
     tol_mm: float
     source: str
 
+    def text(self) -> str:
+        """In words with units: 'KR 16-2 datasheet: max. reach 1611 mm; the model's reach (the
+        wrist centre's largest distance from axis 1) is 1611 mm within 8.1 mm'."""
+        values = ", ".join(f"{v:g}" for v in self.value)
+        if len(self.value) > 1:
+            values = f"({values})"
+        what = {"reach_mm": "reach (the wrist centre's largest distance from axis 1)",
+                "home_flange_mm": "tool0 position at home"}.get(self.what, self.what)
+        return f"{self.source}; the model's {what} is {values} mm within {self.tol_mm:.2g} mm"
+
 
 @dataclass(frozen=True)
 class RobotEntry:

@@ -19,7 +19,7 @@ from tests.integration.test_jobs import wait_state
 
 # the typical robot carrying the 5 kg the job says it carries
 CARRYING = replace(TYPICAL, payload_kg=5.0, payload_cog_mm=(0.0, 0.0, 80.0))
-EMULATION = ["geometric errors drawn from seed 1; realism typical:", *CARRYING.describe()]
+EMULATION = ["geometric errors drawn from seed 1; realism typical", *CARRYING.describe()]
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",

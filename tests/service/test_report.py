@@ -142,3 +142,33 @@ def test_the_terminal_counts_what_it_lists_and_says_where_the_rest_is():
     assert listed == ["J1", "J2", "J2.dir.u", "J3c"]
     assert "    2 held at nominal, not separable from these data (not corrected): J6, base.z" \
         in lines
+
+
+def test_the_robot_section_speaks_words_with_units():
+    """Issue 38: the robot section showed the realism file's keys (compliance_deg_per_knm,
+    drift_ppm, warmup_s) and a bullet ending in a colon."""
+    import re
+
+    from service.document import JobOptions, JobRecord, ResultDocument
+    from service.report.conditions import robot_section
+    from service.report.context import ReportContext
+    from simulators.realism import PRESETS
+
+    est = EstimationSummary(
+        parameters=[], rank=30, condition_number=92.3, chi2_reduced=1.0, converged=True,
+        residual_before_mm=12.9, residual_after_mm=0.1,
+        compliance={"joints": [{"name": "J2c", "compliance_deg_per_knm": 0.12,
+                                "std_error": 0.01}], "note": "", "payload": {
+            "kg": 5.0, "cog_mm": [0.0, 0.0, 80.0]}},
+        reading_lag={"per_joint": [0.0, 0.0002, 0.0002, 0.0, 0.0, 0.0], "note": ""})
+    job = JobRecord(id=1, robot_id=1, kind="procedure", mode="AUTO", state="done", reason="",
+                    options=JobOptions(), phases={}, created=0.0, updated=0.0,
+                    result=ResultDocument(estimation=est))
+    robot = {"name": "cell 1", "emulation": ["geometric errors drawn from seed 1; realism harsh",
+                                             *PRESETS["harsh"].describe()]}
+    html = robot_section(ReportContext(job, robot))
+    assert html is not None
+    text = re.sub(r"<[^>]+>", " ", html)
+    assert not re.findall(r"\b[a-z0-9]+_[a-z0-9_]+\b", text), text
+    assert "warm-up time constant of 1800 s" in text and "J2 0.24 deg/kNm" in text
+    assert not re.search(r":\s*</li>", html)

@@ -1,6 +1,7 @@
 """`screwcal robot list / show / import / export` (issue 27)."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -23,6 +24,35 @@ def test_show_gives_geometry_limits_masses_and_sources(capsys):
     out = capsys.readouterr().out
     assert "KR 16-2 datasheet: max. reach 1611 mm" in out
     assert "[ -185.0,   185.0]" in out and "kg moving with joint 2" in out
+
+
+CODE_NAME = re.compile(r"\b[a-z0-9]+_[a-z0-9_]+\b")  # reach_mm, drift_ppm, warmup_s
+
+
+@pytest.mark.parametrize("name", list(LIBRARY))
+def test_show_speaks_words_with_units_not_code_names(capsys, name):
+    """Issue 38: 'checked against: ... (reach_mm 1611, within 8.055 mm)', and 'rz -0.000'."""
+    assert main(["robot", "show", name]) == 0
+    out = capsys.readouterr().out
+    checked = next(line for line in out.splitlines() if "checked against" in line)
+    assert not CODE_NAME.findall(checked), checked
+    assert re.search(r"; the model's (reach \(the wrist centre's largest distance from axis 1\)|"
+                     r"tool0 position at home) is .+ mm within \d", checked), checked
+    assert "-0.000 " not in out and not out.rstrip().endswith("-0.000 deg"), out
+
+
+def test_the_emulated_robots_effects_are_words_with_units():
+    """What an emulated robot carries (the demo's terminal and the report's robot section):
+    it printed the realism file's keys (compliance_deg_per_knm, drift_ppm, warmup_s)."""
+    from simulators.realism import PRESETS
+
+    for realism in PRESETS.values():
+        lines = realism.describe()
+        assert lines and not [line for line in lines if CODE_NAME.search(line)], lines
+        assert all(not line.endswith(":") for line in lines), lines
+    harsh = "\n".join(PRESETS["harsh"].describe())
+    assert "J2 0.24 deg/kNm" in harsh and "warm-up time constant of 1800 s" in harsh
+    assert "80 ppm" in harsh and "0.0006 deg per joint and stop (1 sigma)" in harsh
 
 
 def test_export_import_round_trip_through_urdf(tmp_path, rng, capsys):
