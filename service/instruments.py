@@ -33,7 +33,13 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from protocol.arm import ArmReader
 from protocol.arm_url import check_arm_url
-from protocol.errors import ArmLineError, BeamBrokenError, LinkTimeoutError, ProtocolError
+from protocol.errors import (
+    ArmLineError,
+    BeamBrokenError,
+    LinkTimeoutError,
+    ProtocolError,
+    TrackerNotInitialisedError,
+)
 from protocol.tracker import TrackerClient, TrackerPoint
 from screwcal.instrument import POSITION_NOISE_MM
 from screwcal.kinematics.forward import flange_kinematics
@@ -242,16 +248,18 @@ class TrackerInstrument:
         self.to_tracker = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # <- robot
         self.tracker: TrackerClient | None = None
         self._anchor: Point | None = None  # the first SMR, as measured at the last pose
+        self._lost_initialisation = False  # the tracker said so: initialise it on reconnecting
 
     async def open(self) -> None:
         if self.tracker is None:
             tracker = await asyncio.to_thread(TrackerClient.open, self.setup.url)
+            initialise = self.setup.initialise or self._lost_initialisation
             try:
-                await asyncio.to_thread(tracker.setup, initialise=self.setup.initialise)
+                await asyncio.to_thread(tracker.setup, initialise=initialise)
             except BaseException:
                 tracker.close()
                 raise
-            self.tracker = tracker
+            self.tracker, self._lost_initialisation = tracker, False
 
     async def close(self) -> None:
         if self.tracker is not None:
@@ -262,9 +270,15 @@ class TrackerInstrument:
         return None
 
     async def measure(self, pose: PoseAt, seen: Seen) -> Measurement:
+        """The SMRs of the pose reached; a refusal is raised as the link error it is (the job
+        pauses, reconnects and measures the pose again)."""
         assert self.tracker is not None
-        return Measurement.of_tracker(await asyncio.to_thread(self._measure_all, self.tracker,
-                                                              pose.joints_deg))
+        try:
+            return Measurement.of_tracker(await asyncio.to_thread(
+                self._measure_all, self.tracker, pose.joints_deg))
+        except TrackerNotInitialisedError:
+            self._lost_initialisation = True
+            raise
 
     def _measure_all(self, tracker: TrackerClient, joints_deg: Sequence[float]
                      ) -> list[TrackerPoint]:
