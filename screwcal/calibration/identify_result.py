@@ -109,6 +109,7 @@ class CalibrationResult:
     prior_note: str = ""  # the prior's scales, when learned from a small set (empirical_prior)
     implausible: tuple[str, ...] = ()  # parameters beyond their plausible range
     orientation_unknown: str = ""  # why the model predicts positions, not the orientation
+    pose_ids: tuple[str, ...] = ()  # the ids of the poses fitted (the outliers' left out), in order
 
     @property
     def warnings(self) -> list[str]:

@@ -35,6 +35,8 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
                        "after": result.residuals_after.tolist(),
                        "summary_before": _summary(result.residuals_before),
                        "summary_after": _summary(result.residuals_after)}
+    if len(result.pose_ids) == len(result.residuals_after):  # per pose (not per pair)
+        residuals["poses"] = list(result.pose_ids)  # whose residuals, in order
     before_deg, after_deg = result.rotation_before_deg, result.rotation_after_deg
     if before_deg is not None and after_deg is not None:
         residuals |= {"rotation_before_deg": before_deg.tolist(),

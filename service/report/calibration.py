@@ -57,9 +57,26 @@ def fit_words(est: EstimationSummary) -> str:
         f"match the noise levels) is {est.chi2_reduced:.2f}{chi2}")
 
 
+REJECTED = "rejected (outlier)"
+
+
+def pose_numbers(fitted: list[str], rejected: list[str]) -> tuple[list[float], list[float]]:
+    """Where each fitted and each rejected pose sits on the chart's x axis: its id when every
+    id is a number (the job's pose numbers: a rejected pose in its place among the others),
+    else its place in the fitted order, the rejected after the last."""
+    try:
+        return [float(i) for i in fitted], [float(i) for i in rejected]
+    except ValueError:
+        n = len(fitted)
+        return [float(k) for k in range(1, n + 1)], [float(n + k) for k in
+                                                       range(1, len(rejected) + 1)]
+
+
 def residual_pair(calibration: dict[str, Any], est: EstimationSummary) -> str:
     """The residual per pose, before (nominal model) and after (calibrated model): a table of
-    mean, RMS and max beside the chart of the per-pose values."""
+    mean, RMS and max beside the chart of the per-pose values; the poses rejected as outliers
+    (left out of the fit) are a row of the table and ringed points of the chart, each at its
+    residual in the fit that flagged it."""
     residuals = calibration.get("residuals") or {}
     before, after = residuals.get("before"), residuals.get("after")
     if not before or not after:
@@ -70,13 +87,28 @@ def residual_pair(calibration: dict[str, Any], est: EstimationSummary) -> str:
     summary[names["before"]].setdefault("mean", est.residual_before_mm)
     summary[names["after"]].setdefault("mean", est.residual_after_mm)
     rows = [[name, s.get("mean"), s.get("rms"), s.get("max")] for name, s in summary.items()]
+    rejected = [o for o in calibration.get("outliers") or [] if o.get("rejected")]
+    fitted_ids = residuals.get("poses") or [str(k) for k in range(1, len(after) + 1)]
+    x_fitted, x_rejected = pose_numbers([str(i) for i in fitted_ids],
+                                        [str(o["id"]) for o in rejected])
+    poses = {names["before"]: x_fitted, names["after"]: x_fitted}
+    series = {names["before"]: before, names["after"]: after}
+    words = ""
+    if rejected:
+        r = [float(o["residual_mm"]) for o in rejected]
+        rows.append([REJECTED, sum(r) / len(r), (sum(v * v for v in r) / len(r)) ** 0.5,
+                     max(r)])
+        poses[REJECTED], series[REJECTED] = x_rejected, r
+        which = ", ".join(f"pose {o['id']} ({float(o['residual_mm']):.3f} mm)"
+                          for o in rejected)
+        words = sentence(
+            f"Rejected as {'an outlier' if len(rejected) == 1 else 'outliers'} and left out of "
+            f"the fit: {which}, {'each ' if len(rejected) > 1 else ''}ringed on the chart at "
+            "its residual in the fit that flagged it")
     tab = table(["model", "mean", "rms", "max"], rows, caption=RESIDUAL, digits=4)
-    poses = {names["before"]: list(range(1, len(before) + 1)),
-             names["after"]: list(range(1, len(after) + 1))}
-    chart = line_chart("calibration residual per pose", poses,
-                       {names["before"]: before, names["after"]: after},
-                       y_label=RESIDUAL, x_label="calibration pose")
-    return pair(tab, chart)
+    chart = line_chart("calibration residual per pose", poses, series, y_label=RESIDUAL,
+                       x_label="calibration pose", marked=(REJECTED,))
+    return pair(tab, chart) + words
 
 
 def symbols_list(est: EstimationSummary) -> str:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import html
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 LOG_RATIO = 20.0
@@ -24,7 +24,7 @@ LEFT, RIGHT, BOTTOM = 70, 16, 48
 LEGEND_ROW = 20  # the legend's band: one row per `LEGEND_PER_ROW` series, above the plot
 LEGEND_PER_ROW = 3
 COLOURS = {"before": "#d95f02", "after": "#1b9e77", "round 2": "#7570b3",
-           "verification": "#e7298a"}
+           "verification": "#e7298a", "rejected": "#c00000"}
 OTHER_COLOURS = ("#66a61e", "#e6ab02", "#a6761d", "#666666")
 
 
@@ -168,8 +168,10 @@ def bar_chart(title: str, categories: Sequence[str],
 
 def line_chart(title: str, x: Mapping[str, Sequence[float]],
                series: Mapping[str, Sequence[float]], y_label: str, x_label: str,
-               zero_line: bool = False) -> str:
-    """Lines through points, one per series, against their own x (`x[name]`)."""
+               zero_line: bool = False, marked: Collection[str] = ()) -> str:
+    """Lines through points, one per series, against their own x (`x[name]`); the series
+    named in `marked` are points set apart (larger, ringed, no line): e.g. the poses a fit
+    left out."""
     axis = value_axis([v for vs in series.values() for v in vs], zero=False)
     xs = [v for vs in x.values() for v in vs]
     x_axis = value_axis(xs, zero=False, log=False) if xs else Axis(0.0, 1.0, False, (0.0, 1.0))
@@ -186,11 +188,15 @@ def line_chart(title: str, x: Mapping[str, Sequence[float]],
     for k, (name, values) in enumerate(series.items()):
         colour = _colour(name, k)
         pts = sorted(zip(x[name], values, strict=True))
-        path = " ".join(f"{px(a):.1f},{frame.y(b):.1f}" for a, b in pts)
-        parts.append(f"<polyline class='line' points='{path}' fill='none' stroke='{colour}' "
-                     "stroke-width='1.5'/>")
-        parts += [f"<circle class='point' data-series='{html.escape(name)}' data-value='{b!r}' "
-                  f"cx='{px(a):.1f}' cy='{frame.y(b):.1f}' r='2.5' "
-                  f"fill='{colour}'><title>{html.escape(name)}: {b:.4g}</title></circle>"
-                  for a, b in pts]
+        ring = name in marked
+        if not ring:
+            path = " ".join(f"{px(a):.1f},{frame.y(b):.1f}" for a, b in pts)
+            parts.append(f"<polyline class='line' points='{path}' fill='none' "
+                         f"stroke='{colour}' stroke-width='1.5'/>")
+        look = (f"r='5' fill='{colour}' fill-opacity='0.35' stroke='{colour}' "
+                "stroke-width='2'") if ring else f"r='2.5' fill='{colour}'"
+        parts += [f"<circle class='point{' marked' if ring else ''}' "
+                  f"data-series='{html.escape(name)}' data-value='{b!r}' "
+                  f"cx='{px(a):.1f}' cy='{frame.y(b):.1f}' {look}>"
+                  f"<title>{html.escape(name)}: {b:.4g}</title></circle>" for a, b in pts]
     return frame.svg(title, "".join(parts))

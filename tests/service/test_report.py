@@ -172,3 +172,52 @@ def test_the_robot_section_speaks_words_with_units():
     assert not re.findall(r"\b[a-z0-9]+_[a-z0-9_]+\b", text), text
     assert "warm-up time constant of 1800 s" in text and "J2 0.24 deg/kNm" in text
     assert not re.search(r":\s*</li>", html)
+
+
+def test_the_rejected_pose_is_ringed_on_the_residual_chart_in_its_place(tmp_path):
+    """Issue 38: the pose the fit rejected as an outlier was on no chart (the residuals are of
+    the poses fitted, numbered 1..n as if it had never been measured). A calibration of 30
+    poses, pose 12 moved 3 mm: the result names the poses fitted, and the chart rings pose 12
+    at its residual in the fit that flagged it, between poses 11 and 13, with the table's row
+    of the same figure."""
+    import json
+    import re
+
+    from screwcal.calibration.posesets import random_configurations
+    from screwcal.commands.main import main
+    from screwcal.kinematics.robots import irb1600
+    from screwcal.studies.simulated_measurements import simulate_measurements
+    from service.report.calibration import REJECTED, residual_pair
+    from tests.screwcal.calibration.test_identify import BASE, TOOL
+    from tests.screwcal.commands.test_calibrate_cli import _write_measurements
+
+    rng = np.random.default_rng(12)
+    data = simulate_measurements(irb1600().with_frames(BASE, TOOL),
+                                 random_configurations(30, rng), rng, full_pose=False)
+    data.positions_mm[11] += [3.0, 0.0, 0.0]
+    path = _write_measurements(tmp_path / "m.csv", data, full_pose=False)
+    with path.open() as f:  # ids 1..30, as a job numbers its poses
+        lines = f.read().splitlines()
+    path.write_text("\n".join([lines[0], *(re.sub(r"^p(\d+),", lambda m: f"{int(m[1]) + 1},",
+                                                  line) for line in lines[1:])]) + "\n")
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "--robot", "irb1600", "--data", str(path), "--out", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    rejected = [o for o in doc["outliers"] if o["rejected"]]
+    assert [o["id"] for o in rejected] == ["12"], doc["outliers"]
+    assert doc["residuals"]["poses"] == [str(k) for k in range(1, 31) if k != 12]
+    est = EstimationSummary(parameters=[], rank=1, condition_number=1.0, chi2_reduced=1.0,
+                            converged=True, residual_before_mm=1.0, residual_after_mm=0.1)
+    html = residual_pair(doc, est)
+    points = re.findall(r"<circle class='point( marked)?' data-series='([^']+)' "
+                        r"data-value='([^']+)' cx='([\d.]+)'", html)
+    ringed = [(float(v), float(x)) for m, s, v, x in points if s == REJECTED]
+    assert [m for m, s, _, _ in points if s == REJECTED] == [" marked"]
+    assert ringed[0][0] == pytest.approx(rejected[0]["residual_mm"])
+    after = {float(x): float(v) for _, s, v, x in points if s.startswith("after")}
+    xs = sorted(after)
+    assert len(xs) == 29 and xs[10] < ringed[0][1] < xs[11]  # between poses 11 and 13
+    row = re.search(rf"<tr><td[^>]*>{re.escape(REJECTED)}</td>(.*?)</tr>", html).group(1)
+    cells = [float(c) for c in re.findall(r">([-\d.]+)<", row)]
+    assert cells[-1] == pytest.approx(rejected[0]["residual_mm"], abs=5e-5)
+    assert "Rejected as an outlier and left out of the fit: pose 12 (" in html
