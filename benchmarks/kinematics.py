@@ -20,8 +20,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from screwcal.calibration.error_parameters import ErrorModel, candidate_params
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
-from screwcal.kinematics.forward import forward_kinematics, parameter_jacobian
+from screwcal.kinematics.forward import forward_kinematics
 from screwcal.kinematics.ik import closed_form_ik, numerical_ik
 from screwcal.kinematics.ik_solutions import IKSolutions
 from screwcal.kinematics.robots import irb1600
@@ -60,11 +61,15 @@ def main() -> None:
     checked(closed_form_ik(model, T1), q1, "closed-form IK, one pose")
     checked(numerical_ik(calibrated, T_cal), q_ik[:n_num], "numerical IK")
     calls = 2000
+    full = ErrorModel(model, tuple(candidate_params(model, "full", base=True, tool_rotation=True,
+                                                    tool_position=True)))
+    x0 = np.zeros(len(full.params))
     # label, poses per run, run, target (poses/s; None: none), per-call unit
     cases: list[tuple[str, int, Callable[[], object], float | None]] = [
         (f"FK, {args.poses:,} configurations", args.poses,
          lambda: forward_kinematics(model, q_fk), 1e6),
-        (f"parameter Jacobian, {n_ik:,}", n_ik, lambda: parameter_jacobian(model, q_ik), None),
+        (f"parameter Jacobian (full model), {n_ik:,}", n_ik,
+         lambda: full.linearisation(x0, q_ik), None),
         (f"closed-form IK (8 branches), {n_ik:,}", n_ik, lambda: closed_form_ik(model, T_ik),
          5e4),
         (f"numerical IK (8 branches), {n_num:,}", n_num,

@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from screwcal.calibration.program_filter import CONVENTIONS, matrices, world_frame
-from screwcal.kinematics.forward import flange_kinematics, perturb_model
+from screwcal.calibration.virtual_joints import perturbed_axes
+from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.ik_branches import all_branches
 from screwcal.kinematics.maker_configs import branch_index, fanuc_config, kuka_status_turn
 from screwcal.kinematics.model import SerialModel
@@ -30,12 +31,8 @@ HERE = Path(__file__).parent
 
 
 def _truth(nominal: SerialModel, rng: np.random.Generator) -> SerialModel:
-    dx = np.zeros(7 * 6 + 18)
-    steps = dx[:42].reshape(6, 7)
-    steps[:, :3] = rng.normal(0, np.radians(0.02), (6, 3))
-    steps[:, 3:6] = rng.normal(0, 0.3, (6, 3))
-    steps[:, 6] = rng.normal(0, np.radians(0.05), 6)
-    return perturb_model(nominal, dx)
+    return perturbed_axes(nominal, rng, tilt_deg=0.02, shift_mm=0.3, zero_deg=0.05,
+                          flange=False)
 
 
 def _measurements(nominal: SerialModel, truth: SerialModel, rng: np.random.Generator,

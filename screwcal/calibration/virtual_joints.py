@@ -61,12 +61,22 @@ def apply_virtual_joints(model: SerialModel, errors: Mapping[str, float]) -> Ser
     return replace(model, joint_zero=zero, axis_points_mm=points, home_flange=flange)
 
 
-def perturbed_axes(model: SerialModel, rng: np.random.Generator) -> SerialModel:
+def perturbed_axes(model: SerialModel, rng: np.random.Generator, *, tilt_deg: float = 0.05,
+                   shift_mm: float = 0.2, zero_deg: float | None = None,
+                   flange: bool = True) -> SerialModel:
     """`model` with the small errors no virtual joint describes, drawn from `rng`: every axis
-    tilted by ~0.05 deg and shifted by ~0.2 mm (1 sigma), the home flange moved by ~0.06 deg and
-    ~0.2 mm. The true robots of the simulated studies and of the emulators are drawn so."""
-    dirs = model.axis_dirs + rng.normal(0, np.radians(0.05), model.axis_dirs.shape)
+    tilted by ~`tilt_deg` and shifted by ~`shift_mm` (1 sigma, each direction and point
+    component), with `zero_deg` every joint's zero offset by ~that much, and with `flange` the
+    home flange moved by ~0.06 deg and ~0.2 mm; drawn in that order. The true robots of the
+    simulated studies, of the emulators and of the tests are drawn so."""
+    dirs = model.axis_dirs + rng.normal(0, np.radians(tilt_deg), model.axis_dirs.shape)
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    points = model.axis_points_mm + rng.normal(0, 0.2, model.axis_points_mm.shape)
-    flange = exp_twist(np.r_[rng.normal(0, 1e-3, 3), rng.normal(0, 0.2, 3)]) @ model.home_flange
-    return replace(model, axis_dirs=dirs, axis_points_mm=points, home_flange=flange)
+    points = model.axis_points_mm + rng.normal(0, shift_mm, model.axis_points_mm.shape)
+    zero = model.joint_zero
+    if zero_deg is not None:
+        zero = zero + rng.normal(0, np.radians(zero_deg), model.n_joints)
+    home = model.home_flange
+    if flange:
+        home = exp_twist(np.r_[rng.normal(0, 1e-3, 3), rng.normal(0, 0.2, 3)]) @ home
+    return replace(model, axis_dirs=dirs, axis_points_mm=points, joint_zero=zero,
+                   home_flange=home)

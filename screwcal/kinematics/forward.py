@@ -4,6 +4,12 @@ Every function takes joint values `q` with shape (N, n) (rad for revolute joints
 prismatic ones; the joint zero of the model is added inside) and loops over joints, never over
 poses.
 
+One chain per case: the partial products from the base, for what needs each joint's frame
+(the Jacobians, the gravity torques, the skeleton: `screw_chain`); the tool pose of a few
+configurations (`_few_poses`) and of many (`_many_poses`), equal to rounding and to the partial
+products' last one (tests/screwcal/kinematics/test_forward.py). The parameters of an error
+model and their Jacobian are `screwcal.calibration.error_parameters.ErrorModel`'s.
+
 Jacobians are *spatial*: column k is the twist (omega, v) in the world frame such that
 dT/dx_k T^-1 = hat(column k). `point_jacobian` turns them into the rates of the tool point's
 position and of the rotation vector, the order of a pose residual (dx, dy, dz, dphi_x, ...).
@@ -11,14 +17,12 @@ position and of the rotation vector, the order of a pose residual (dx, dy, dz, d
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-
 import numpy as np
 from numpy.typing import ArrayLike
 
 from screwcal.kinematics.compliance import gravity_torques_by_mass
 from screwcal.kinematics.model import SerialModel, once_per_object
-from screwcal.kinematics.se3 import Array, adjoint, cross, exp_twist, invert_transform, skew
+from screwcal.kinematics.se3 import Array, cross, invert_transform, skew
 
 _EYE4 = np.eye(4)
 
@@ -186,9 +190,7 @@ def _many_poses(model: SerialModel, q: Array) -> Array:
 def _few_poses(model: SerialModel, q: Array) -> Array:
     """A few configurations (N, n). One matrix product gives every exponential of every
     configuration from their rows (1, f(q_i), g(q_i)) (the joints' tables side by side in a
-    block-diagonal table, `_few_pose_tables`), then the chain. One pose: 2-D products
-    (`ndarray.dot` costs half of matmul's stacked machinery at this size); several: pairwise,
-    stacked."""
+    block-diagonal table, `_few_pose_tables`), then `_chained` multiplies them."""
     B = _few_pose_tables(model)
     N, n = q.shape
     sc = np.empty((N, n, 3))
@@ -201,23 +203,31 @@ def _few_poses(model: SerialModel, q: Array) -> Array:
         sc[:, :, 1] = np.where(rev, np.sin(q), q)
         sc[:, :, 2] = np.where(rev, np.cos(q), 0.0)
     E: Array = sc.reshape(N, 3 * n).dot(B)  # (N, 16 n): each joint's exponential, row-major
-    T: Array
     if N == 1:
-        E = E.reshape(n, 4, 4)
-        T = E[0]
-        for k in range(1, n):
-            T = T.dot(E[k])
-        return T[None]
-    if n == 6:  # pairwise: (E1 E2)(E3 E4)(E5 E6) in one call, then two
-        E = E.reshape(N, 3, 2, 4, 4)
-        P = E[:, :, 0] @ E[:, :, 1]
-        T = P[:, 0] @ P[:, 1] @ P[:, 2]
-        return T
-    E = E.reshape(N, n, 4, 4)
-    T = E[:, -1]
-    for k in range(n - 2, -1, -1):
-        T = E[:, k] @ T
-    return T
+        return _chained(E.reshape(n, 4, 4))[None]
+    return _chained(E.reshape(N, n, 4, 4))
+
+
+def _chained(E: Array) -> Array:
+    """The product E_1 E_2 ... E_n of the exponentials, one pose's (n, 4, 4) or a stack's
+    (N, n, 4, 4), in one order: the pairs (E_1 E_2)(E_3 E_4)..., then those left to right.
+    A stack's pairs in one call (three calls for six joints); one pose's with ndarray.dot, the
+    same products (a stack of one costs matmul's stacked machinery, twice dot's at 4 x 4)."""
+    n = E.shape[-3]
+    half = n // 2
+    T: Array
+    if E.ndim == 3:
+        T = E[0] if n == 1 else E[0].dot(E[1])
+        for k in range(2, 2 * half, 2):
+            T = T.dot(E[k].dot(E[k + 1]))
+        return T.dot(E[-1]) if n % 2 and n > 1 else T
+    if n == 1:
+        return E[:, 0]
+    pairs = E[:, 0:2 * half:2] @ E[:, 1:2 * half:2]
+    T = pairs[:, 0]
+    for k in range(1, half):
+        T = T @ pairs[:, k]
+    return T @ E[:, -1] if n % 2 else T
 
 
 @once_per_object
@@ -332,103 +342,3 @@ def point_jacobian(J_spatial: ArrayLike, T: ArrayLike) -> Array:
     v = J[:, 3:, :]
     dp = v + np.swapaxes(cross(np.swapaxes(w, 1, 2), p[:, None, :]), 1, 2)
     return np.concatenate([dp, w], axis=1)
-
-
-# ----------------------------------------------------------------------------------------------
-# Model parameters and their Jacobian
-
-@dataclass(frozen=True)
-class ParameterLayout:
-    """Names and units of the raw geometric parameters of a model, in Jacobian column order.
-
-    Per joint i: direction (3, unitless; the component along the axis has no effect), point on the
-    axis (3, mm; the component along the axis has no effect), zero (1, rad or mm). Then the home
-    flange, base and tool perturbations (rotation vector 3 in rad, translation 3 in mm each):
-    home_flange <- exp(d) home_flange (robot base frame), base <- exp(d) base (world frame),
-    tool <- tool exp(d) (tool frame).
-    """
-
-    n_joints: int
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        out: list[str] = []
-        for i in range(1, self.n_joints + 1):
-            out += [f"J{i}.dir.{c}" for c in "xyz"]
-            out += [f"J{i}.point.{c}" for c in "xyz"]
-            out.append(f"J{i}.zero")
-        for frame in ("home", "base", "tool"):
-            out += [f"{frame}.rot.{c}" for c in "xyz"] + [f"{frame}.pos.{c}" for c in "xyz"]
-        return tuple(out)
-
-    @property
-    def size(self) -> int:
-        return 7 * self.n_joints + 18
-
-    def joint_slice(self, i: int) -> slice:
-        """Columns of joint i (0-based): dir 0:3, point 3:6, zero 6."""
-        return slice(7 * i, 7 * i + 7)
-
-    def frame_slice(self, frame: str) -> slice:
-        k = ("home", "base", "tool").index(frame)
-        start = 7 * self.n_joints + 6 * k
-        return slice(start, start + 6)
-
-
-def parameter_jacobian(model: SerialModel, q: ArrayLike) -> Array:
-    """Derivative of the tool pose w.r.t. every raw model parameter, shape (N, 6, 7n + 18).
-
-    Spatial twists (omega, v) in the world frame, columns as `ParameterLayout`. A change of
-    joint i's axis is a small rigid displacement delta of the axis (conjugation
-    D exp(S t) D^-1), whose effect is Ad_{A_{i-1}} (I - Ad_{E_i}) delta = (Ad_{A_{i-1}} -
-    Ad_{A_i}) delta; a direction change dw moves the axis by delta = (w x dw, p x (w x dw)),
-    a point change dp by delta = (0, dp).
-    """
-    q = checked_joints(model, q)
-    N, n = q.shape
-    layout = ParameterLayout(n)
-    A_end, partial = screw_chain(model, q, keep=True)
-    J = np.zeros((N, 6, layout.size))
-    ad = [adjoint(A) for A in partial]
-    for i in range(n):
-        cols = layout.joint_slice(i)
-        D = ad[i] - ad[i + 1]  # (N, 6, 6): effect of a displacement of axis i
-        w = model.axis_dirs[i]
-        p = model.axis_points_mm[i]
-        Kw = skew(w)
-        dir_map = np.vstack([Kw, skew(p) @ Kw])  # (6, 3): dw -> delta
-        J[:, :, cols.start:cols.start + 3] = D @ dir_map
-        if model.joint_types[i] == "R":
-            J[:, :, cols.start + 3:cols.start + 6] = D[:, :, 3:]
-        J[:, :, cols.start + 6] = _joint_twist(model, i, partial[i])
-    J[:, :, layout.frame_slice("home")] = ad[n]
-    J[:, :, layout.frame_slice("base")] = np.eye(6)
-    T_tool = homogeneous((A_end.reshape(-1, 4) @ (model.home_flange @ model.tool))
-                         .reshape(-1, 3, 4))
-    J[:, :, layout.frame_slice("tool")] = adjoint(T_tool)
-    return J
-
-
-def perturb_model(model: SerialModel, dx: ArrayLike) -> SerialModel:
-    """Apply a raw parameter step dx (length 7n + 18, `ParameterLayout` order) to a model.
-
-    To first order, forward_kinematics(perturb_model(m, dx)) moves by parameter_jacobian(m) @ dx.
-    """
-    n = model.n_joints
-    layout = ParameterLayout(n)
-    dx = np.asarray(dx, dtype=float)
-    if dx.shape != (layout.size,):
-        raise ValueError(f"parameter step must have shape ({layout.size},), got {dx.shape}")
-    steps = dx[: 7 * n].reshape(n, 7)
-    dirs = model.axis_dirs + steps[:, 0:3]
-    dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
-    points = model.axis_points_mm + steps[:, 3:6]
-    zero = model.joint_zero + steps[:, 6]
-
-    def frame_step(frame: str) -> Array:
-        return exp_twist(dx[layout.frame_slice(frame)])
-
-    return replace(model, axis_dirs=dirs, axis_points_mm=points, joint_zero=zero,
-                   home_flange=frame_step("home") @ model.home_flange,
-                   base=frame_step("base") @ model.base,
-                   tool=model.tool @ frame_step("tool"))

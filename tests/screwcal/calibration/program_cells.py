@@ -12,7 +12,8 @@ from screwcal.calibration.program_filter import (
     parse_fanuc_config,
     world_frame,
 )
-from screwcal.kinematics.forward import flange_kinematics, perturb_model
+from screwcal.calibration.virtual_joints import perturbed_axes
+from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.ik_branches import all_branches
 from screwcal.kinematics.maker_configs import (
     branch_index,
@@ -30,13 +31,8 @@ from screwcal.programs import Program
 
 def true_robot(nominal: SerialModel, rng: np.random.Generator) -> SerialModel:
     """The nominal with 0.3 mm / 0.02 deg axis errors and 0.05 deg zero offsets everywhere."""
-    n = nominal.n_joints
-    dx = np.zeros(7 * n + 18)
-    steps = dx[:7 * n].reshape(n, 7)
-    steps[:, :3] = rng.normal(0, np.radians(0.02), (n, 3))
-    steps[:, 3:6] = rng.normal(0, 0.3, (n, 3))
-    steps[:, 6] = rng.normal(0, np.radians(0.05), n)
-    return perturb_model(nominal, dx)
+    return perturbed_axes(nominal, rng, tilt_deg=0.02, shift_mm=0.3, zero_deg=0.05,
+                          flange=False)
 
 
 def pose(language: str, frame: np.ndarray, tool: np.ndarray, nominal: SerialModel,

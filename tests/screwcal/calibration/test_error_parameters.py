@@ -5,7 +5,21 @@ from screwcal.calibration.error_parameters import ErrorModel, candidate_params
 from screwcal.kinematics.forward import forward_kinematics, point_jacobian, spatial_jacobian
 from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import exp_twist
-from tests.conftest import point_rates, random_q
+from tests.conftest import point_rates, random_model, random_q
+
+
+def assert_central_differences(errors: ErrorModel, x: np.ndarray, q: np.ndarray,
+                               J: np.ndarray) -> None:
+    """Each parameter's column of J (N, 6, P) against central differences of the tool point
+    and of its rotation."""
+    h = 1e-6
+    for k, p in enumerate(errors.params):
+        step = np.zeros(len(errors.params))
+        step[k] = h
+        fd = point_rates(forward_kinematics(errors.apply(x + step), q),
+                         forward_kinematics(errors.apply(x - step), q), 2 * h)
+        np.testing.assert_allclose(J[:, :, k], fd, atol=2e-5 * max(1, np.abs(fd).max()),
+                                   err_msg=p.name)
 
 
 @pytest.mark.parametrize("kind", ["joints", "thesis", "full"])
@@ -19,14 +33,51 @@ def test_error_model_linearisation_is_exact_away_from_zero(rng, kind):
     x = rng.normal(0, 0.02, len(params)) * np.where([p.unit == "mm" for p in params], 100, 1)
     q = random_q(model, rng, 8)
     _, J, _ = errors.linearisation(x, q)
-    h = 1e-6
-    for k, p in enumerate(params):
-        step = np.zeros(len(params))
-        step[k] = h
-        fd = point_rates(forward_kinematics(errors.apply(x + step), q),
-                         forward_kinematics(errors.apply(x - step), q), 2 * h)
-        np.testing.assert_allclose(J[:, :, k], fd, atol=2e-5 * max(1, np.abs(fd).max()),
-                                   err_msg=p.name)
+    assert_central_differences(errors, x, q, J)
+
+
+@pytest.mark.parametrize("types", ["RRRRRR", "RPRRPR", "PPP"])
+def test_full_model_linearisation_is_exact_for_any_joint_types(rng, types):
+    """Random arms with prismatic joints too (a prismatic axis has its direction and its zero;
+    its location is no parameter), every frame identified, at a random x."""
+    model = random_model(rng, types)
+    params = candidate_params(model, "full", base=True, tool_rotation=True, tool_position=True)
+    errors = ErrorModel(model, tuple(params))
+    x = rng.normal(0, 0.01, len(params)) * np.where([p.unit == "mm" for p in params], 50, 1)
+    q = random_q(model, rng, 10)
+    _, J, Jq = errors.linearisation(x, q)
+    assert_central_differences(errors, x, q, J)
+    T = forward_kinematics(errors.apply(x), q)
+    np.testing.assert_allclose(Jq, point_jacobian(spatial_jacobian(errors.apply(x), q), T),
+                               atol=1e-9 * np.abs(Jq).max())
+
+
+@pytest.mark.parametrize("types", ["RRRRRR", "RPRRPR", "RRRRRRR"])
+def test_linearisation_of_a_batch_equals_one_pose_at_a_time(rng, types):
+    model = random_model(rng, types)
+    params = candidate_params(model, "full", base=True, tool_rotation=True, tool_position=True)
+    errors = ErrorModel(model, tuple(params))
+    x = rng.normal(0, 0.01, len(params))
+    q = random_q(model, rng, 30)
+    T, J, Jq = errors.linearisation(x, q)
+    one = [errors.linearisation(x, q[k:k + 1]) for k in range(len(q))]
+    for whole, each in ((T, 0), (J, 1), (Jq, 2)):
+        alone = np.concatenate([o[each] for o in one])
+        np.testing.assert_allclose(whole, alone, rtol=0, atol=1e-12 * np.abs(whole).max())
+
+
+def test_a_revolute_axis_has_four_independent_parameters(rng):
+    """Two turns about the axis' normals and two shifts along them: independent columns (a turn
+    or a shift along the axis itself would change nothing)."""
+    model = random_model(rng)
+    params = candidate_params(model, "full", base=False, tool_rotation=False,
+                              tool_position=False)
+    errors = ErrorModel(model, tuple(params))
+    _, J, _ = errors.linearisation(np.zeros(len(params)), random_q(model, rng, 30))
+    axis = [k for k, p in enumerate(params) if p.joint == 2 and p.kind in ("dir", "point")]
+    assert [params[k].name for k in axis] == ["J3.dir.u", "J3.dir.v", "J3.pos.u", "J3.pos.v"]
+    columns = J[:, :, axis].reshape(-1, 4)
+    assert np.linalg.matrix_rank(columns, tol=1e-8 * np.abs(columns).max()) == 4
 
 
 def test_full_model_candidate_count():
@@ -57,14 +108,8 @@ def test_linearisation_is_exact_for_parameters_and_joints(rng, compliance):
     x[bending] = 0.0
     q = random_q(model, rng, 7)
     T, J, Jq = errors.linearisation(x, q)
+    assert_central_differences(errors, x, q, J)
     h = 1e-6
-    for k, p in enumerate(params):
-        step = np.zeros(len(params))
-        step[k] = h
-        fd = point_rates(forward_kinematics(errors.apply(x + step), q),
-                         forward_kinematics(errors.apply(x - step), q), 2 * h)
-        np.testing.assert_allclose(J[:, :, k], fd, atol=2e-5 * max(1, np.abs(fd).max()),
-                                   err_msg=p.name)
     straight = errors.apply(x)
     for j in range(model.n_joints):
         step = np.zeros(model.n_joints)

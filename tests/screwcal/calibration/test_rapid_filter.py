@@ -13,10 +13,14 @@ from screwcal.calibration.identify import NoiseModel, identify
 from screwcal.calibration.posesets import random_configurations
 from screwcal.calibration.rapid_filter import _frame, _targets, filter_rapid
 from screwcal.calibration.rapid_source import NUMBER, read_rapid_module
-from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
+from screwcal.calibration.virtual_joints import (
+    THESIS_TABLE11,
+    apply_virtual_joints,
+    perturbed_axes,
+)
 from screwcal.errors import DataFileError
 from screwcal.kinematics.confdata import confdata, solution_for_confdata
-from screwcal.kinematics.forward import flange_kinematics, perturb_model
+from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.modelfile import save_model
 from screwcal.kinematics.pose import quaternion_wxyz_from_rotation, rotation_angle_deg
 from screwcal.kinematics.robots import irb1600
@@ -140,13 +144,7 @@ def _simulated_robots(rng):
     """A true robot with errors everywhere, and the model identified from its measurements
     (flange poses in the robot base frame, so no frame is left to guess)."""
     nominal = irb1600()
-    n = nominal.n_joints
-    dx = np.zeros(7 * n + 18)
-    steps = dx[:7 * n].reshape(n, 7)
-    steps[:, :3] = rng.normal(0, np.radians(0.02), (n, 3))  # axes tilted
-    steps[:, 3:6] = rng.normal(0, 0.2, (n, 3))  # and shifted
-    dx[7 * n:7 * n + 6] = np.r_[rng.normal(0, 1e-3, 3), rng.normal(0, 0.2, 3)]  # flange
-    truth = perturb_model(_table11(), dx)
+    truth = perturbed_axes(_table11(), rng, tilt_deg=0.02)  # axes tilted and shifted, flange
     data = simulate_measurements(truth, random_configurations(80, rng), rng,
                                  joint_noise_deg=0.0)
     calibrated = identify(nominal, data, kind="full", frames="known",

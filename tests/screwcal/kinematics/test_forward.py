@@ -3,12 +3,9 @@ import pytest
 
 from screwcal.kinematics import forward
 from screwcal.kinematics.forward import (
-    ParameterLayout,
     flange_kinematics,
     forward_kinematics,
     joint_axis_lines,
-    parameter_jacobian,
-    perturb_model,
     point_jacobian,
     spatial_jacobian,
 )
@@ -74,9 +71,19 @@ def test_batch_equals_one_by_one(rng, types):
     # (1, sin, cos), then their product pairwise): equal to rounding, not bit for bit
     for other in (single, few):
         np.testing.assert_allclose(batch, other, rtol=0, atol=1e-12 * np.abs(batch).max())
-    Jb = parameter_jacobian(model, q)
-    Js = np.stack([parameter_jacobian(model, q[k:k + 1])[0] for k in range(len(q))])
-    np.testing.assert_allclose(Jb, Js, rtol=0, atol=1e-12 * np.abs(Jb).max())
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 6, 7])
+def test_the_exponentials_are_chained_in_one_order_for_one_pose_and_for_several(rng, n):
+    """One pose's product (2-D) and a stack's are the same products in the same order: the
+    pairs (E1 E2)(E3 E4)... then left to right, bit for bit."""
+    E = np.stack([forward_kinematics(random_model(rng), random_q(irb1600(), rng, n))
+                  for _ in range(4)], axis=0)  # (4 configurations, n matrices, 4, 4)
+    stacked = forward._chained(E)
+    alone = np.stack([forward._chained(E[k]) for k in range(4)])
+    np.testing.assert_array_equal(stacked, alone)
+    expected = [np.linalg.multi_dot(list(E[k])) if n > 1 else E[k, 0] for k in range(4)]
+    np.testing.assert_allclose(stacked, expected, rtol=0, atol=1e-9)
 
 
 @pytest.mark.parametrize("types", ["RRRRRR", "RPRRPR", "PPP", "RRRRRRR"])
@@ -137,25 +144,6 @@ def test_joint_axis_lines_are_the_spatial_jacobian_columns(rng, joints):
     np.testing.assert_allclose(np.sum(p * w, axis=-1), 0.0, atol=1e-9)
 
 
-@pytest.mark.parametrize("types", ["RRRRRR", "RPRRPR"])
-def test_parameter_jacobian_matches_finite_differences(rng, types):
-    model = random_model(rng, types)
-    q = random_q(model, rng, 10)
-    J = parameter_jacobian(model, q)
-    layout = ParameterLayout(model.n_joints)
-    assert J.shape == (10, 6, layout.size) and len(layout.names) == layout.size
-    T = forward_kinematics(model, q)
-    h = 1e-6
-    for k, name in enumerate(layout.names):
-        step = np.zeros(layout.size)
-        step[k] = h
-        fd = twist_from_transform_difference(forward_kinematics(perturb_model(model, step), q),
-                                             forward_kinematics(perturb_model(model, -step), q),
-                                             T, h)
-        scale = max(1.0, np.abs(fd).max())
-        np.testing.assert_allclose(J[:, :, k], fd, atol=1e-5 * scale, err_msg=name)
-
-
 def test_point_jacobian_gives_position_and_rotation_rates(rng):
     model = random_model(rng)
     q = random_q(model, rng, 10)
@@ -171,16 +159,6 @@ def test_point_jacobian_gives_position_and_rotation_rates(rng):
         np.testing.assert_allclose(Jp[:, 3:, i],
                                    twist_from_transform_difference(Tp, Tm, T, h)[:, :3],
                                    atol=1e-6)
-
-
-def test_revolute_axis_displacement_has_rank_four(rng):
-    """A revolute axis has 4 independent geometric parameters (2 direction, 2 location)."""
-    model = random_model(rng)
-    q = random_q(model, rng, 30)
-    J = point_jacobian(parameter_jacobian(model, q), forward_kinematics(model, q))
-    cols = ParameterLayout(6).joint_slice(2)
-    axis_cols = J[:, :, cols.start:cols.start + 6].reshape(-1, 6)
-    assert np.linalg.matrix_rank(axis_cols, tol=1e-8 * np.abs(axis_cols).max()) == 4
 
 
 def test_with_frames_checks_the_new_frames_only():
