@@ -165,11 +165,28 @@ class Operator:
                         return "waiting"
                 elif kind in ("phase", "paused", "resumed", "corrected", "failed", "warning",
                               "discarded", "stale"):
-                    out(f"{kind}: " + ", ".join(f"{k} {_shown(v)}" for k, v in event.items()
-                                               if k not in ("kind", "seq", "time")))
+                    out(event_text(event))
                 elif kind == "end":
                     return event["state"]
         return self.job(job_id)["state"]
+
+
+def event_text(event: dict) -> str:
+    """A job's event as `job watch` prints it: 'done: calibration poses in 1.35 s', not
+    'phase: phase=cal, seconds=1.3487892850002936'."""
+    kind = event["kind"]
+    if kind == "phase":  # a phase ended
+        return f"done: {_phase(event['phase'])} in {_shown(event['seconds'])} s"
+    return f"{kind}: " + ", ".join(
+        _phase(v) if k == "phase" else str(v) if k in ("message", "reason", "note") else
+        f"{k} {_shown(v)}" for k, v in event.items() if k not in ("kind", "seq", "time"))
+
+
+def _phase(key: object) -> str:
+    """A phase as the report names it: 'calibration poses', not 'cal'."""
+    from service.phases import PHASE_WORDS
+
+    return PHASE_WORDS.get(str(key), str(key))
 
 
 def _shown(value: object) -> str:

@@ -17,7 +17,10 @@ FRAME_WORDS = {"base": "the robot base frame", "tool": "the tool (the measured p
 
 def result_table(result: JobResult, times: bool = True) -> str:
     """The before/after table a person reads (`times`: the seconds each phase took)."""
-    lines = [f"job {result.id}: {result.state} {result.reason}".rstrip()]
+    reason = result.reason or ""  # "aborted by the operator" says its state itself
+    said = reason if reason.startswith(str(result.state)) else \
+        f"{result.state} {reason}".rstrip()
+    lines = [f"job {result.id}: {said}"]
     phases, rows = before_after(result.performance or {})
     if rows:
         lines.append(f"  {'ISO 9283':<36}" + "".join(f"{PERF_PHASE_NAMES[p]:>12}" for p in phases)

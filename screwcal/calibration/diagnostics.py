@@ -21,6 +21,7 @@ from scipy.special import chdtri, stdtr  # chi-square quantile, Student's t (not
 
 # a tenth of its import time, and this runs with every calibration)
 from screwcal.kinematics.se3 import Array
+from screwcal.words import counted
 
 OUTLIER_ALPHA = 0.01  # family-wise: each pose tested at alpha / N
 MAX_OUTLIER_FRACTION = 0.1  # never reject more than this share of the poses
@@ -239,7 +240,8 @@ def data_quality(e: Array, Jq: Array, q_deg: Array, test: PoseTest, ids: tuple[s
     mean = float(test.leverage.mean())
     idle = tuple(ids[k] for k in np.flatnonzero(test.leverage < LOW_LEVERAGE * mean))
     leverage = LeverageFinding(mean, idle, None if not idle else (
-        f"{len(idle)} poses add almost nothing to the fit (leverage under "
+        f"{counted(len(idle), 'pose')} {'adds' if len(idle) == 1 else 'add'} almost nothing "
+        f"to the fit (leverage under "
         f"{LOW_LEVERAGE:g} of the mean): {', '.join(idle[:10])}"))
     # A fit poorer than the instrument: the noise the data need against what is stated.
     ratio = None if position_noise_mm is None else position_noise_mm / stated_noise_mm

@@ -45,6 +45,7 @@ import numpy as np
 from screwcal.calibration.error_parameters import Param
 from screwcal.calibration.plausible import RANGE_SIGMAS, PlausibleRanges
 from screwcal.kinematics.se3 import Array
+from screwcal.words import counted
 
 SMALL_SET_NUMBERS = 5.0  # measured numbers per identified parameter below which it applies
 ROUNDS = 4  # at most this many refits
@@ -106,8 +107,8 @@ def describe(learned: PlausibleRanges, plausible: PlausibleRanges, rounds: int,
              flagged: int = 0) -> str:
     """The note a result carries: the scales and where they came from; `flagged`: poses that
     looked like outliers under the next, narrower scales (where the rounds stopped)."""
-    stop = f"; stopped before narrower scales under which {flagged} poses looked like " \
-        "outliers" if flagged else ""
+    stop = f"; stopped before narrower scales under which {counted(flagged, 'pose')} " \
+        f"looked like {'an outlier' if flagged == 1 else 'outliers'}" if flagged else ""
     if not rounds:
         return f"the plausible ranges (a small set for the model{stop})"
     return (f"learned from the data (empirical Bayes, {rounds} refits; a small set for the "

@@ -15,6 +15,7 @@ from screwcal.calibration.error_parameters import Param
 from screwcal.calibration.identifiability import Residual
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
+from screwcal.words import counted
 
 
 @dataclass(frozen=True)
@@ -124,12 +125,14 @@ class CalibrationResult:
                        "targets with an orientation")
         rejected = [o for o in self.outliers if o.rejected]
         if rejected:
-            poses = "pose" if len(rejected) == 1 else "poses"
-            out.append(f"{len(rejected)} {poses} rejected as outliers: " + ", ".join(
+            out.append(f"{counted(len(rejected), 'pose')} rejected as "
+                       f"{'an outlier' if len(rejected) == 1 else 'outliers'}: " + ", ".join(
                 o.describe() for o in rejected[:10]))
         kept = [o for o in self.outliers if not o.rejected]
         if kept:
-            out.append(f"{len(kept)} poses look like outliers but were kept: " + ", ".join(
+            look = "looks" if len(kept) == 1 else "look"
+            out.append(f"{counted(len(kept), 'pose')} {look} like outliers but "
+                       f"{'was' if len(kept) == 1 else 'were'} kept: " + ", ".join(
                 o.describe() for o in kept[:10]))
         return out
 

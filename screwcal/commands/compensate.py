@@ -74,6 +74,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.kinematics.modelfile import parse_model, read_model_document
     from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
+    from screwcal.words import counted
 
     if args.program and is_rapid(args.program):
         args.rapid, args.program = list(args.program), None
@@ -132,7 +133,8 @@ def run_compensate(args: argparse.Namespace) -> int:
              else "") + ("" if seen is None else f"; {seen.summary()}"))
     print(branch_note(choice, table.ids, table.lines, comp.q_rad, ok))
     if comp.refused:
-        print(f"{len(comp.refused)} targets refused (listed on stderr), not in {args.out}")
+        print(f"{counted(len(comp.refused), 'target')} refused (listed on stderr), not in "
+              f"{args.out}")
         return PARTIAL_EXIT
     return 0
 

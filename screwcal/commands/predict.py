@@ -35,6 +35,7 @@ def run(args: argparse.Namespace) -> int:
     from screwcal.kinematics.pose import pose_from_transform
     from screwcal.kinematics.readings import serial_from_readings
     from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
+    from screwcal.words import counted
 
     given = args.result or args.robot or args.model
     check_outputs([args.out], [args.joints, given])
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         write_csv_atomic(args.out, OUTPUT_COLUMNS, (
             [pid] + [f"{v:.6f}" for v in pose] for pid, pose in zip(table.ids, poses,
                                                                   strict=True)))
-        print(f"predicted {len(poses)} poses with model '{model.name}' -> {args.out}")
+        print(f"predicted {counted(len(poses), 'pose')} with model '{model.name}' -> {args.out}")
         return 0
     seen = residual.predict(q_rad)
     poses[:, :3] += seen.correction_mm
@@ -68,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
         [pid, *(f"{v:.6f}" for v in pose), *(f"{v:.6f}" for v in d), f"{s:.6f}", seen.note(k)]
         for k, (pid, pose, d, s) in enumerate(zip(table.ids, poses, seen.correction_mm,
                                                   seen.std_mm, strict=True))))
-    print(f"predicted {len(poses)} poses with model '{model.name}' and its "
+    print(f"predicted {counted(len(poses), 'pose')} with model '{model.name}' and its "
           f"{seen.summary()} -> {args.out}")
     return 0
 

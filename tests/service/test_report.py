@@ -206,6 +206,8 @@ def test_the_rejected_pose_is_ringed_on_the_residual_chart_in_its_place(tmp_path
     rejected = [o for o in doc["outliers"] if o["rejected"]]
     assert [o["id"] for o in rejected] == ["12"], doc["outliers"]
     assert doc["residuals"]["poses"] == [str(k) for k in range(1, 31) if k != 12]
+    assert any(w.startswith("1 pose rejected as an outlier: pose 12 (line 13)")
+               for w in doc["warnings"]), doc["warnings"]  # not '1 poses'
     est = EstimationSummary(parameters=[], rank=1, condition_number=1.0, chi2_reduced=1.0,
                             converged=True, residual_before_mm=1.0, residual_after_mm=0.1)
     html = residual_pair(doc, est)

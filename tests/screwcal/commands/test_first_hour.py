@@ -317,3 +317,42 @@ def test_robot_list_is_a_small_command():
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu_s = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
     assert "irb1600" in done.stdout and cpu_s < 0.5, cpu_s
+
+
+def test_a_jobs_state_is_said_once():
+    """Issue 38: 'job 3: aborted aborted by the operator' (the state, then a reason that says it
+    again); `job watch` already said it once."""
+    from service.result_text import result_table
+    from service.schemas import JobResult
+
+    aborted = JobResult(id=3, state="aborted", reason="aborted by the operator", phases={})
+    assert result_table(aborted).splitlines()[0] == "job 3: aborted by the operator"
+    failed = JobResult(id=4, state="failed", reason="the arm stopped answering", phases={})
+    assert result_table(failed).splitlines()[0] == "job 4: failed the arm stopped answering"
+
+
+def test_job_watch_says_its_events_in_words():
+    """Issue 38: raw progress dumps ('phase: phase=cal, seconds=1.3487892850002936')."""
+    from service.operator import event_text
+
+    assert event_text({"kind": "phase", "seq": 4, "time": 1.0, "phase": "cal",
+                       "seconds": 1.3487892850002936}) == "done: calibration poses in 1.35 s"
+    assert event_text({"kind": "resumed", "seq": 5, "phase": "perf_after"}) == \
+        "resumed: performance after (ISO 9283)"
+    assert event_text({"kind": "warning", "message": "the fit is poor"}) == \
+        "warning: the fit is poor"
+    assert event_text({"kind": "corrected", "route": "compensate", "note": "nothing sent"}) == \
+        "corrected: route compensate, nothing sent"
+
+
+def test_one_is_said_in_the_singular(tmp_path, capsys):
+    """Issue 38: '1 poses'."""
+    from screwcal.words import counted
+
+    joints = tmp_path / "j.csv"
+    joints.write_text("q1,q2,q3,q4,q5,q6\n10,20,30,0,40,0\n")
+    assert main(["predict", "--robot", "irb1600", "--joints", str(joints), "--out",
+                 str(tmp_path / "p.csv")]) == 0
+    assert "predicted 1 pose with model 'irb1600'" in capsys.readouterr().out
+    assert [counted(n, "pose") for n in (0, 1, 2)] == ["0 poses", "1 pose", "2 poses"]
+    assert counted(1, "axis", "axes") == "1 axis" and counted(3, "axis", "axes") == "3 axes"

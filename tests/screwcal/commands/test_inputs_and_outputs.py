@@ -224,7 +224,7 @@ def test_targets_writes_every_target_it_can_and_lists_the_rest(tmp_path, model_f
     assert main(["compensate", "--result", str(model_file), "--robot", "irb1600", "--targets",
                  str(targets), "--out", str(out)]) == 3
     captured = capsys.readouterr()
-    assert "t.csv, line 3 (id far)" in captured.err and "1 targets refused" in captured.out
+    assert "t.csv, line 3 (id far)" in captured.err and "1 target refused" in captured.out
     with out.open() as f:
         assert [r["id"] for r in csv.DictReader(f)] == ["t0", "t1", "t2"]
 
