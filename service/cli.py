@@ -3,8 +3,10 @@
     screwcal serve [--db screwcal.db | postgresql://...] [--host 127.0.0.1] [--port 8080]
                    [--token T]
     screwcal job robot-add --name N --controller HOST:PORT --arm URL [--robot irb1600]
+                           (or --tracker HOST[:PORT] [--tracker-stand-mm X Y Z], or --external)
     screwcal job start --robot ID --kind procedure|calibration|performance [--mode STEP]
     screwcal job watch ID        # progress; in STEP mode asks before every move
+    screwcal job measure ID --point X Y Z [--u95-mm U] | --file F.json   # another instrument
     screwcal job abort ID
     screwcal job result ID       # the before/after table
     screwcal job report ID --out report.html
@@ -114,6 +116,24 @@ def _model_argument(model: str) -> str | dict:
     return model if model in BUILTIN_MODELS else model_document(resolve_model(model))
 
 
+def _instrument(args: argparse.Namespace) -> dict[str, Any]:
+    """The robot's instrument from robot-add's --arm, --tracker or --external."""
+    if args.arm is not None:
+        return {"kind": "arm", "url": args.arm}
+    if args.external:
+        return {"kind": "external"}
+    host, _, port = args.tracker.rpartition(":") if args.tracker.count(":") == 1 else \
+        (args.tracker, "", "")
+    if port and not port.isdigit():
+        raise ServiceError(f"--tracker is HOST[:PORT] (e.g. 10.0.0.5:700), not {args.tracker!r}")
+    tracker: dict[str, Any] = {"kind": "tracker", "host": host}
+    if port:
+        tracker["port"] = int(port)
+    if args.tracker_stand_mm:
+        tracker["stand_mm"] = list(args.tracker_stand_mm)
+    return tracker
+
+
 def _write(path: str, text: str) -> None:
     try:
         Path(path).write_text(text, encoding="utf-8")
@@ -175,15 +195,18 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                 raise ServiceError(f"--controller is HOST:PORT (e.g. 127.0.0.1:4012), not "
                                    f"{args.controller!r}")
             robot = op.add_robot(name=args.name, controller_host=host,
-                                 controller_port=int(port), arm_url=args.arm,
+                                 controller_port=int(port), instrument=_instrument(args),
                                  model=_model_argument(args.robot), serial=args.serial,
                                  controller_software=args.controller_software,
                                  tool=args.tool, payload_kg=args.payload_kg)
             print(f"robot {robot['id']}: {robot['name']}")
         elif args.action == "robot-list":
             for r in op.robots():
+                ins = r.get("instrument") or {"kind": "arm", "url": r["arm_url"]}
+                where = ins.get("url") or (f"{ins['host']}:{ins['port']}" if "host" in ins
+                                           else "measurements posted")
                 print(f"{r['id']:>4}  {r['name']:<24} controller {r['controller_host']}:"
-                      f"{r['controller_port']}  arm {r['arm_url']}")
+                      f"{r['controller_port']}  {ins['kind']} {where}")
         elif args.action == "list":
             for j in op.jobs():
                 print(f"{j['id']:>4}  robot {j['robot_id']:<4} {j['kind']:<12} {j['mode']:<5} "
@@ -220,6 +243,13 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
             history = RobotHistory.model_validate(op.history(op.robot_id(args.robot)))
             print(history_text(history))
             return 2 if history.alarm is not None else 0
+        elif args.action == "measure":
+            from service.measure_cli import measurement_body
+
+            body = measurement_body(args, op)
+            answer = op.measure(args.id, body)
+            print(f"job {args.id}: {answer['phase']} pose {answer['index']}: "
+                  f"{answer['outcome']}")
         elif args.action == "abort":
             op.abort(args.id)
             print(f"job {args.id}: abort requested")
@@ -260,7 +290,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     r = actions.add_parser("robot-add", parents=[common], help="register a robot cell")
     r.add_argument("--name", required=True, help="the cell's name (unique on the service)")
     r.add_argument("--controller", required=True, help="HOST:PORT of the controller")
-    r.add_argument("--arm", required=True, help="pyserial URL of the measuring arm")
+    which = r.add_mutually_exclusive_group(required=True)
+    which.add_argument("--arm", help="pyserial URL of the measuring arm")
+    which.add_argument("--tracker", metavar="HOST[:PORT]",
+                       help="a laser tracker's emScon TPI (port 700 by default), one SMR")
+    which.add_argument("--external", action="store_true", help="another instrument, whose "
+                       "software posts each pose's measurement (screwcal job measure)")
+    add_vector(r, "--tracker-stand-mm", help="where the tracker stands, roughly, in the robot "
+               "base frame (mm; the job's poses are planned for its beam)")
     add_option(r, "--robot", renamed=["--model"], default="irb1600",
                help="library robot (screwcal robot list), or a robot or calibrated model file "
                "read here (relative to this directory) and sent to the service")
@@ -309,6 +346,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     rep = actions.add_parser("report", parents=[common], help="save a job's report page")
     rep.add_argument("id", type=positive_int, help="the job's id (screwcal job list)")
     rep.add_argument("--out", required=True, help="HTML file to write")
+    from service.measure_cli import add_measure_parser
+
+    add_measure_parser(actions, common)
     for a in actions.choices.values():
         a.set_defaults(func=run_job)
 

@@ -333,6 +333,14 @@ class ExternalInstrument:
         self.setup, self.events, self.aborted, self.n_points = setup, events, aborted, n_points
         self.waiting_for: PoseAt | None = None
         self._posted: asyncio.Future[Measurement] | None = None
+        self.accepted: dict[tuple[str, int], Measurement] = {}  # what was posted, by pose
+
+    def wanted(self) -> dict[str, Any] | None:
+        """The pose whose measurement the job waits for now (the API shows it), or None."""
+        pose = self.waiting_for
+        return None if pose is None else {"phase": pose.phase, "index": pose.idx,
+                                          "joints_deg": list(pose.joints_deg),
+                                          "points": self.n_points}
 
     async def open(self) -> None:
         return None
@@ -349,6 +357,7 @@ class ExternalInstrument:
         if pose is None or posted is None or posted.done() or (pose.phase, pose.idx) != (
                 phase, idx):
             return False
+        self.accepted[(phase, idx)] = measurement
         posted.set_result(measurement)
         return True
 

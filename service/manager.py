@@ -16,9 +16,10 @@ import sys
 import threading
 from collections.abc import Callable
 
-from screwcal.errors import ScrewcalError
+from screwcal.errors import InputError, ScrewcalError
 from service.errors import ConflictError, ServiceError, StoreError, StoreLostError
 from service.events import EventBus
+from service.instruments import ExternalInstrument, Measurement, measurement_of_row
 from service.plans import PlannedPose
 from service.runner import JobRunner
 from service.settings import ServiceSettings
@@ -150,6 +151,46 @@ class JobManager:
         if waiting is not None:
             await asyncio.to_thread(self.store.add_confirmation, job_id, waiting[0], index,
                                     operator or "not named")
+
+    async def measurement(self, job_id: int, phase: str, idx: int,
+                          measurement: Measurement) -> bool:
+        """Another instrument's measurement of pose (phase, idx) of the job: True when taken
+        now (the runner commits it before the robot moves on), False when the same
+        measurement was taken already (a repeated post). ConflictError when the pose was
+        measured otherwise, or the job waits for no such pose (naming the one it waits for);
+        InputError when the measurement does not fit the robot's targets."""
+        committed = await asyncio.to_thread(self._committed, job_id, phase, idx)
+        runner = self.runners.get(job_id)
+        instrument = runner.acquisition.instrument if runner is not None else None
+        taken = instrument.accepted.get((phase, idx)) \
+            if isinstance(instrument, ExternalInstrument) else None
+        before = committed or taken
+        if before is not None:
+            if before == measurement:
+                return False
+            raise ConflictError(f"job {job_id}: {phase} pose {idx} was measured already, with "
+                                "other values: a pose is measured once (send the same "
+                                "measurement again, or nothing)")
+        runner = await self.runner(job_id)
+        instrument = runner.acquisition.instrument
+        if not isinstance(instrument, ExternalInstrument):
+            raise ConflictError(f"job {job_id} is measured by its robot's "
+                                f"{runner.robot.instrument.kind}, not by posted measurements")
+        if len(measurement.points_mm) != instrument.n_points:
+            raise InputError(f"{len(measurement.points_mm)} points posted: the robot's "
+                             f"instrument measures {instrument.n_points} per pose (its targets)")
+        if not instrument.post(phase, idx, measurement):
+            wanted = instrument.wanted()
+            now = "no pose now" if wanted is None else \
+                f"{wanted['phase']} pose {wanted['index']}"
+            raise ConflictError(f"job {job_id} waits for the measurement of {now}, not "
+                                f"{phase} pose {idx}")
+        return True
+
+    def _committed(self, job_id: int, phase: str, idx: int) -> Measurement | None:
+        self.store.job(job_id)  # NotFoundError for a job that does not exist
+        rows = [r for r in self.store.measurements(job_id, phase) if r["idx"] == idx]
+        return measurement_of_row(rows[0]) if rows else None
 
     async def abort(self, job_id: int) -> None:
         await (await self.runner(job_id)).abort()

@@ -80,6 +80,10 @@ class Operator:
         self._check(self.http.post(f"/jobs/{job_id}/go",
                                    json={"index": index, "operator": _who()}))
 
+    def measure(self, job_id: int, body: dict[str, Any]) -> dict:
+        """Post another instrument's measurement of a pose the job waits for."""
+        return self._check(self.http.post(f"/jobs/{job_id}/measurement", json=body))
+
     def abort(self, job_id: int) -> None:
         self._check(self.http.post(f"/jobs/{job_id}/abort"))
 

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from protocol.arm_url import HOSTNAME, ArmUrlError, check_arm_url
 from screwcal.calibration.flange import DEFAULT_HOLES_IN_FLANGE_MM, FlangeError, MeasuringFlange
+from screwcal.calibration.point_export import covariance_of_u95
 from service.document import (
     SQLITE_MAX_ID,
     Id,
@@ -16,11 +18,12 @@ from service.document import (
     PhaseRecord,
     ResultDocument,
 )
+from service.instruments import Conditions, Measurement
 from service.job_state import JobState
 from service.robot_record import ArmSetup, InstrumentSetup, RobotRecord, TrackerSetup
 
 __all__ = ["SQLITE_MAX_ID", "GoAhead", "Id", "JobCreate", "JobOptions", "JobPublic", "JobResult",
-           "MeasurementPublic", "RobotCreate", "RobotPublic"]
+           "MeasurementPost", "MeasurementPublic", "RobotCreate", "RobotPublic"]
 
 
 
@@ -139,15 +142,21 @@ class JobPublic(BaseModel):
     options: dict[str, Any]
     phases: dict[str, Any]
     waiting_for: dict[str, Any] | None = None
+    measurement_for: dict[str, Any] | None = Field(
+        None, description="the pose whose measurement the job waits for (an external "
+        "instrument's: POST /jobs/ID/measurement): phase, index, joints_deg, points")
 
     @classmethod
-    def of(cls, job: JobRecord, waiting_for: tuple[str, int] | None) -> JobPublic:
-        """A stored job and the pose its runner waits for now (phase, index), if any."""
+    def of(cls, job: JobRecord, waiting_for: tuple[str, int] | None,
+           measurement_for: dict[str, Any] | None = None) -> JobPublic:
+        """A stored job and the pose its runner waits for now (phase, index), if any: for the
+        go-ahead, or for its measurement."""
         return cls(id=job.id, robot_id=job.robot_id, kind=job.kind, mode=job.mode,
                    state=job.state, reason=job.reason, options=job.options.model_dump(),
                    phases={k: v.document() for k, v in job.phases.items()},
                    waiting_for=None if waiting_for is None else
-                   {"phase": waiting_for[0], "index": waiting_for[1]})
+                   {"phase": waiting_for[0], "index": waiting_for[1]},
+                   measurement_for=measurement_for)
 
 
 class GoAhead(BaseModel):
@@ -156,6 +165,43 @@ class GoAhead(BaseModel):
                        "move to")
     operator: str = Field("", max_length=80, description="who gives it: kept in the job's "
                           "provenance (who confirmed a ZERO, and when)")
+
+
+class MeasurementPost(BaseModel):
+    """The measurement of the pose a job waits for, from another instrument's software
+    (POST /jobs/ID/measurement): the points, their uncertainty (covariance or U95) and when."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    phase: str = Field(min_length=1, max_length=40, description="the pose's list, as the job's "
+                       "`measurement_for` names it (cal, perf_before, ...)")
+    index: int = Field(ge=0, le=100_000, description="the pose's index in its list")
+    points_mm: list[Annotated[list[float], Field(min_length=3, max_length=3)]] = Field(
+        min_length=1, max_length=3, description="X, Y, Z of each target (mm, the "
+        "instrument's frame), in the order of the robot record's targets")
+    covariance_mm2: list[list[list[float]]] | None = Field(
+        None, max_length=3, description="each point's 3x3 covariance (mm^2)")
+    u95_mm: list[Annotated[float, Field(gt=0.0, le=100.0)]] | None = Field(
+        None, max_length=3, description="or each point's expanded uncertainty at 95 % (k = 2, "
+        "mm): covariance (U95 / 2)^2 I, as `screwcal calibrate` reads a point export's U95")
+    time_s: float = Field(gt=0.0, description="when the instrument measured (Unix time, s)")
+    conditions: Conditions | None = Field(None, description="the air it measured in")
+
+    @model_validator(mode="after")
+    def _one_uncertainty(self) -> MeasurementPost:
+        if self.covariance_mm2 is not None and self.u95_mm is not None:
+            raise ValueError("give covariance_mm2 or u95_mm, not both")
+        if self.u95_mm is not None and len(self.u95_mm) != len(self.points_mm):
+            raise ValueError(f"{len(self.u95_mm)} U95 values for {len(self.points_mm)} "
+                             "points: one per point")
+        return self
+
+    def measurement(self) -> Measurement:
+        """As the job commits it (ValueError naming what is wrong)."""
+        cov: Any = self.covariance_mm2
+        if self.u95_mm is not None:
+            cov = covariance_of_u95(np.array(self.u95_mm)).tolist()
+        return Measurement(points_mm=self.points_mm, covariance_mm2=cov,
+                           conditions=self.conditions, time_s=self.time_s)
 
 
 class MeasurementPublic(BaseModel):

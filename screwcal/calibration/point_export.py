@@ -152,13 +152,17 @@ def read_points_and_joints(points_path: str | Path, joints_path: str | Path,
     if outside.size:
         raise DataFileError(str(joints_path), f"joint values outside the limits of model "
                             f"'{model.name}'", line=table.lines[int(outside[0])])
-    cov = None
-    if export.u95_mm is not None:
-        sigma = export.u95_mm[rows] / 2.0
-        cov = (sigma**2)[:, None, None] * np.eye(3)
+    cov = None if export.u95_mm is None else covariance_of_u95(export.u95_mm[rows])
     return MeasurementSet(q, positions, None, tuple(export.names[k] for k in rows),
                           tuple(export.lines[k] for k in rows), previous_rows(q),
                           position_cov_mm2=cov)
+
+
+def covariance_of_u95(u95_mm: Array) -> Array:
+    """The covariances (N, 3, 3) mm^2 of points stated by their expanded uncertainty U95 (N,)
+    mm (k = 2, every direction alike): (U95 / 2)^2 I."""
+    sigma = np.asarray(u95_mm, dtype=float) / 2.0
+    return (sigma**2)[:, None, None] * np.eye(3)
 
 
 def _has_id_column(path: Path) -> bool:

@@ -8,6 +8,7 @@ from fastapi import Depends, Path, Request
 
 from service.api.auth import Who
 from service.document import SQLITE_MAX_ID, JobRecord
+from service.instruments import ExternalInstrument
 from service.job_state import JobState
 from service.manager import JobManager
 from service.schemas import JobPublic
@@ -33,7 +34,9 @@ def public(job: JobRecord, manager: JobManager) -> JobPublic:
     outage = runner.outage.reason
     if outage is not None and not job.state.finished:
         job = job.model_copy(update={"state": JobState.PAUSED, "reason": outage})
-    return JobPublic.of(job, runner.gate.waiting_for)
+    instrument = runner.acquisition.instrument
+    wanted = instrument.wanted() if isinstance(instrument, ExternalInstrument) else None
+    return JobPublic.of(job, runner.gate.waiting_for, wanted)
 
 
 # Every route's grant is declared once, in service/roles.py: both names check it.

@@ -4,23 +4,32 @@ calibrated model and report page."""
 from __future__ import annotations
 
 import asyncio
+import hashlib
 from typing import Annotated, Any
 
-from fastapi import APIRouter, HTTPException, Query, Request
+from fastapi import APIRouter, HTTPException, Query, Request, Response
 from fastapi.responses import HTMLResponse
 
-from screwcal.errors import ScrewcalError
+from screwcal.errors import InputError, ScrewcalError
 from screwcal.kinematics.modelfile import parse_model
 from service.api.auth import require
 from service.api.deps import Auth, JobId, ManagerDep, Read, StoreDep, public
-from service.errors import ConflictError, NotFoundError
+from service.audit import Event
+from service.errors import ConflictError, NotFoundError, ServiceError
 from service.manager import JobManager
 from service.phases import STEP_OF, Action
 from service.plans import LISTS_OF_KIND, plan_for
 from service.report import report_html
 from service.robot_record import RobotRecord
 from service.roles import OPERATOR_JOB_KINDS, Grant
-from service.schemas import GoAhead, JobCreate, JobPublic, JobResult, MeasurementPublic
+from service.schemas import (
+    GoAhead,
+    JobCreate,
+    JobPublic,
+    JobResult,
+    MeasurementPost,
+    MeasurementPublic,
+)
 from service.store import Store
 from service.verify import verify_options
 
@@ -102,6 +111,47 @@ async def go_ahead(job_id: JobId, body: GoAhead, who: Auth, manager: ManagerDep)
         require(who, Grant.ZERO)
     name = body.operator if who.legacy else who.name  # a shared token names nobody
     await manager.go(job_id, body.index, name)
+
+@router.post("/{job_id}/measurement", status_code=202, responses={
+    200: {"description": "the same measurement was posted already: nothing changed"},
+    409: {"description": "the job waits for no such pose, or the pose was measured otherwise"},
+    422: {"description": "not a measurement of the robot's targets"}})
+async def post_measurement(job_id: JobId, body: MeasurementPost, who: Auth, request: Request,
+                           response: Response, manager: ManagerDep) -> dict[str, Any]:
+    """The measurement of the pose a job waits for (its `measurement_for`), from another
+    instrument's software (SpatialAnalyzer, PolyWorks, a FARO or API SDK script): taken at
+    once (202) and committed before the robot moves on; the same measurement posted again is
+    200 and changes nothing; another one for a pose measured is 409. Each post is in the audit
+    trail with a digest of what was sent."""
+    where = f"job {job_id} {body.phase} pose {body.index}"
+    try:
+        measurement = body.measurement()
+        taken = await manager.measurement(job_id, body.phase, body.index, measurement)
+    except (ValueError, InputError) as err:
+        await _audit_measurement(request, who.name, where, "422 refused", body, str(err))
+        raise HTTPException(422, f"{where}: {err}") from None
+    except ServiceError as err:
+        await _audit_measurement(request, who.name, where, "refused", body, str(err))
+        raise
+    outcome = "taken" if taken else "the same measurement again: nothing changed"
+    await _audit_measurement(request, who.name, where, outcome, body)
+    response.status_code = 202 if taken else 200
+    return {"job": job_id, "phase": body.phase, "index": body.index, "outcome": outcome}
+
+
+async def _audit_measurement(request: Request, actor: str, where: str, outcome: str,
+                             body: MeasurementPost, why: str = "") -> None:
+    """The post in the audit trail: who, the pose, the outcome, and the SHA-256 of what was
+    sent (its canonical JSON), so a measurement can be traced to its post."""
+    trail = getattr(request.app.state, "audit", None)
+    if trail is None:
+        return
+    digest = hashlib.sha256(body.model_dump_json().encode()).hexdigest()
+    client = request.client
+    await asyncio.to_thread(trail.append, Event(
+        actor, client.host if client else "unknown", "measurement", where, outcome,
+        f"sha256 {digest}; {len(body.points_mm)} points{'; ' + why if why else ''}"))
+
 
 @router.post("/{job_id}/abort", status_code=204)
 async def abort(job_id: JobId, _: Auth, manager: ManagerDep) -> None:
