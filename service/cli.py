@@ -30,6 +30,7 @@ from screwcal.arguments import (
     ERROR_MODELS,
     add_option,
     add_vector,
+    bounded_float,
     bounded_int,
     check_outputs,
     non_negative_float,
@@ -218,6 +219,7 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
                                    "--no-watch and answer with `screwcal job watch ID` there")
             options: dict[str, Any] = {"cycles": args.cycles,
                                        "calibration_poses": args.poses,
+                                       "cube_edge_mm": args.cube_edge_mm,
                                        "model": args.error_model,
                                        "correction": args.correction}
             if args.arm_position_mm:
@@ -321,6 +323,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     help="ISO 9283 cycles (default 30)")
     st.add_argument("--poses", type=bounded_int(10, 400), default=40,
                     help="calibration poses (default 40)")
+    st.add_argument("--cube-edge-mm", type=bounded_float(0.0, 2000.0), default=300.0,
+                    help="edge of the ISO 9283 test cube (mm, default 300; a smaller one where "
+                    "300 mm does not fit the robot's workspace)")
     add_option(st, "--error-model", renamed=["--model"], choices=ERROR_MODELS, default="full",
                help="error model identified (default full)")
     st.add_argument("--correction", choices=["compensate", "zero", "zero+compensate"],

@@ -181,7 +181,8 @@ def find_test_cube(model: SerialModel, edge_mm: float | None = None, *,
             where = " inside the measuring arm's sphere" if arm else ""
             raise InfeasibleCubeError(
                 f"no {edge_mm:g} mm cube with orientation {orientation.tolist()} deg fits model "
-                f"'{model.name}' above z = {floor_z_mm:g} mm{where}; try a smaller edge")
+                f"'{model.name}' above z = {floor_z_mm:g} mm{where}; try a smaller edge "
+                "(testcube --edge-mm, job start --cube-edge-mm)")
         return cube
     lo, hi, found = 10.0, 2.0 * reach, None
     while hi - lo > 10.0:

@@ -24,6 +24,8 @@ SERVICE_MD = Path(__file__).resolve().parents[3] / "docs" / "service.md"
     (["job", "start", "--robot", "c", "--cycles", "61"], "--cycles"),
     (["job", "start", "--robot", "c", "--poses", "9"], "--poses"),
     (["job", "watch", "0"], "id"),
+    (["job", "start", "--robot", "c", "--cube-edge-mm", "0"], "--cube-edge-mm"),
+    (["job", "start", "--robot", "c", "--cube-edge-mm", "2500"], "--cube-edge-mm"),
 ])
 def test_numbers_are_refused_at_the_parser_with_their_bounds(capsys, argv, option):
     with pytest.raises(SystemExit) as done:
@@ -356,3 +358,16 @@ def test_one_is_said_in_the_singular(tmp_path, capsys):
     assert "predicted 1 pose with model 'irb1600'" in capsys.readouterr().out
     assert [counted(n, "pose") for n in (0, 1, 2)] == ["0 poses", "1 pose", "2 poses"]
     assert counted(1, "axis", "axes") == "1 axis" and counted(3, "axis", "axes") == "3 axes"
+
+
+def test_a_cube_that_does_not_fit_names_the_option_that_makes_it_smaller(tmp_path, capsys):
+    """Issue 38: `job start` said "try a smaller edge" and had no edge option; it has one now
+    (the job's cube_edge_mm), and the sentence names it and testcube's."""
+    assert main(["testcube", "--robot", "irb120", "--edge-mm", "1500", "--out",
+                 str(tmp_path / "c.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "try a smaller edge (testcube --edge-mm, job start --cube-edge-mm)" in err, err
+    from screwcal.commands.main import build_parser
+
+    args = build_parser().parse_args(["job", "start", "--robot", "c", "--cube-edge-mm", "150"])
+    assert args.cube_edge_mm == 150.0
