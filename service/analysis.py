@@ -22,7 +22,7 @@ from screwcal.calibration.correction import (
 from screwcal.calibration.identify import CalibrationResult
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.residual_model import ResidualModel
-from screwcal.calibration.resultfile import compliance_summary
+from screwcal.calibration.resultfile import compliance_summary, lost_motion_deg
 from screwcal.kinematics.compliance import Payload
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
@@ -53,9 +53,11 @@ def measurement_set(rows: Sequence[Mapping[str, Any]],
                     interleaved: Sequence[Mapping[str, Any]] = ()) -> MeasurementSet:
     """The committed poses of a phase as the identification reads them, in the order measured:
     each pose's previous readings are those of the pose the robot came from (the read-back
-    lag's `q_previous`; unknown for the first): the pose before it, or a pose of `interleaved`
-    (the drift checks) committed between the two. Poses of one measured point (a tracker's
-    one SMR) are positions only, each with the covariance the instrument stated."""
+    lag's `q_previous`): the pose before it, or the last pose of `interleaved` (the job's poses
+    of its other phases: the drift checks, the list before this one) committed between the
+    two, or before the first; unknown for a first pose nothing was committed before. Poses of
+    one measured point (a tracker's one SMR) are positions only, each with the covariance the
+    instrument stated."""
     q = np.radians([r["joints_deg"] for r in rows])
     previous = np.full_like(q, np.nan)
     previous[1:] = q[:-1]
@@ -63,10 +65,10 @@ def measurement_set(rows: Sequence[Mapping[str, Any]],
         between = sorted(interleaved, key=lambda r: int(r["id"]))
         ids = np.array([int(r["id"]) for r in between])
         row_ids = np.array([int(r["id"]) for r in rows])
-        last = np.searchsorted(ids, row_ids[1:]) - 1  # the last check committed before a pose
-        after_pose_before = (last >= 0) & (ids[np.maximum(last, 0)] > row_ids[:-1])
+        last = np.searchsorted(ids, row_ids) - 1  # the last pose committed before each
+        after_pose_before = (last >= 0) & (ids[np.maximum(last, 0)] > np.r_[-1, row_ids[:-1]])
         q_between = np.radians([r["joints_deg"] for r in between])
-        previous[1:][after_pose_before] = q_between[last[after_pose_before]]
+        previous[after_pose_before] = q_between[last[after_pose_before]]
     names = tuple(str(r["idx"]) for r in rows)
     if positions_only(rows):
         cov = np.array([r["covariance_mm2"][0] for r in rows], dtype=float) \
@@ -172,7 +174,8 @@ def estimation_summary(result: CalibrationResult) -> EstimationSummary:
         compliance=compliance_summary(result),
         reading_lag={"per_joint": None if result.reading_lag is None else
                      [float(v) for v in result.reading_lag], "note": result.lag_note,
-                     "meaning": "fraction of the previous move the joint readings trail"},
+                     "meaning": "fraction of the previous move the joint readings trail",
+                     "lost_motion_deg": lost_motion_deg(result)},
         explained_share=explained_share(result))
 
 

@@ -289,7 +289,10 @@ class JobRunner:
         kind = self.options.model
         by_phase = self._rows_by_phase()
         rows = by_phase.get(calibration_list(suffix), [])
-        data = analysis.measurement_set(rows, by_phase.get(DRIFT_PHASE, []))
+        # every other pose of the job: the one the robot came from to each (the lag's)
+        data = analysis.measurement_set(rows, [r for phase, others in by_phase.items()
+                                               if phase != calibration_list(suffix)
+                                               for r in others])
         nominal = replace(self.model, payload=analysis.list_payload(self.options, "cal"))
         frames: Frames = "base"
         if data.rotations is None:  # one point measured (a tracker's SMR): where it sits on

@@ -87,7 +87,8 @@ class BeamFit:
 def fit_residuals(result: CalibrationResult, data: MeasurementSet) -> Array:
     """The fit's position residuals (N, 3), model minus measured, the readings' lag undone as
     the fit undid it."""
-    seen = data if result.reading_lag is None else correct_lag(data, result.reading_lag)
+    seen = data if result.reading_lag is None else correct_lag(data, result.reading_lag,
+                                                                 result.reading_lost_motion)
     return np.asarray(forward_kinematics(result.model, seen.q)[:, :3, 3] - data.positions_mm,
                       dtype=float)
 

@@ -132,9 +132,10 @@ def identify(nominal: SerialModel, data: MeasurementSet, settings: IdentifySetti
     arm mass ("j23-free": the data correct the mass table's proportions) and keeps it when an
     F-test on the residual says so (p < `FREE_P`); the result says which and why
     (`compliance_note`). `lag="auto"`: when the diagnostics find joint readings that lag the
-    motion and the data know each pose's previous readings, the lag per joint is estimated
-    from the residuals and the readings corrected, in a few rounds while the residual falls
-    (`reading_lag`, `lag_note`; `screwcal.calibration.lag`).
+    motion and the data know each pose's previous readings, the lag per joint and the lost
+    motion (backlash) the same move carries are estimated with the fit's parameters and the
+    readings corrected, in a few rounds while the residual falls (`reading_lag`,
+    `reading_lost_motion`, `lag_note`; `screwcal.calibration.lag`).
 
     Poses whose residual says they do not belong (data snooping, `diagnostics.pose_tests`) are
     rejected, the worst first, and the fit repeated (`outliers="keep"`: listed, kept); at most

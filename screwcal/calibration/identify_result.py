@@ -104,6 +104,8 @@ class CalibrationResult:
     compliance_note: str = ""  # why (compliance="auto")
     unabsorbed: dict[str, float] = field(default_factory=dict)  # single_fit.unabsorbed
     reading_lag: Array | None = None  # (n,) per joint, when lag="auto" corrected the readings
+    # (n,) the lost motion (backlash, rad / mm) per joint the readings were corrected for with it
+    reading_lost_motion: Array | None = None
     lag_note: str = ""
     data_warnings: tuple[str, ...] = ()  # degenerate data, named before the fit
     held_by_prior: tuple[str, ...] = ()  # directions the data left to the prior (nominal)

@@ -24,7 +24,7 @@ from screwcal.calibration.diagnostics import (
 from screwcal.calibration.fit_state import FitState, Plan, run
 from screwcal.calibration.identify_result import Outlier
 from screwcal.calibration.identify_settings import IdentifySettings
-from screwcal.calibration.lag import correct_lag, lag_increment
+from screwcal.calibration.lag import READING_T, correct_lag, moving_terms, reading_increment
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.model_choice import first_fitted
 from screwcal.calibration.outlier_rounds import reject_in_rounds
@@ -83,28 +83,55 @@ def reject_outliers(state: FitState, below: Plan) -> FitState:
 
 def correct_readings_lag(state: FitState, below: Plan) -> FitState:
     """Stage (`lag="auto"`): when the diagnostics find joint readings that lag the motion and
-    the data know each pose's previous readings, the lag per joint estimated from the residuals
-    and the readings corrected, in a few rounds while the residual falls, on the poses the fit
-    kept (its outliers are not searched for again; its compliance stands)."""
+    the data know each pose's previous readings, each joint's lag and lost motion (backlash)
+    estimated with the fit's parameters (`lag.reading_increment`) and the readings corrected,
+    in a few rounds while the residual falls, on the poses the fit kept (its outliers stand;
+    the refits test the corrected poses again; its compliance stands); then the terms within
+    `lag.READING_T` standard errors of zero left out."""
     state = diagnose(state, below)
     result = state.fitted
     flagged = [] if result.diagnostics is None else result.diagnostics.lag.flagged
-    if state.data.q_previous is None or not flagged:
-        return state.with_result(lag_note="not corrected: " + (
-            "the data do not say which pose came before which" if state.data.q_previous is None
-            else "the readings do not lag the motion"))
-    kept, found = state.data, state.rejected()
-    best, lam = state, np.zeros(state.nominal.n_joints)
+    why = "the data do not say which pose came before which" if state.data.q_previous is None \
+        else "the readings do not lag the motion" if not flagged \
+        else "distance residuals carry no joint's rate" if result.residual_kind == "distance" \
+        or state.problem is None or state.x is None else ""
+    if why:
+        return state.with_result(lag_note="not corrected: " + why)
+    kept, found, n = state.data, state.rejected(), state.nominal.n_joints
+    terms = moving_terms(kept)
+    best, total = state, np.zeros(2 * n)
     for _ in range(LAG_ROUNDS):
-        trial_lag = lam + lag_increment(best.fitted.model, correct_lag(kept, lam))
-        trial = run(below, state.refit(correct_lag(kept, trial_lag), state.settings, found))
+        assert best.problem is not None and best.x is not None
+        trial_total = total + reading_increment(best.problem, best.x, terms)[0]
+        trial = run(below, state.refit(correct_lag(kept, trial_total[:n], trial_total[n:]),
+                                       state.settings, found))
         if trial.fitted.residuals_after.mean() >= best.fitted.residuals_after.mean():
             break
-        best, lam = trial, trial_lag
-    shown = ", ".join(f"J{j + 1} {v:.2e}" for j, v in enumerate(lam))
-    return best.with_result(reading_lag=lam, lag_note=(
+        best, total = trial, trial_total
+    if best is state:
+        return state.with_result(lag_note=f"not corrected: flagged joints {flagged}, but "
+                                 "correcting the readings did not lower the residual")
+    # the terms the corrected fit supports (beyond READING_T standard errors); the rest are
+    # noise: left out, and the readings fitted once more without them
+    assert best.problem is not None and best.x is not None
+    std = reading_increment(best.problem, best.x, terms)[1]
+    terms = terms & (np.abs(total) >= READING_T * std)
+    if not terms.any():
+        return state.with_result(lag_note=f"not corrected: flagged joints {flagged}, but no "
+                                 f"joint's lag or lost motion is beyond {READING_T:g} standard "
+                                 "errors")
+    if np.any(total[~terms]):
+        total = np.where(terms, total, 0.0)
+        best = run(below, state.refit(correct_lag(kept, total[:n], total[n:]), state.settings,
+                                      found))
+    lag, lost = total[:n], total[n:]
+    shown = ", ".join(f"J{j + 1} {v:.2e}" for j, v in enumerate(lag) if terms[j]) or "none"
+    lost_shown = ", ".join(f"J{j + 1} {np.degrees(v):.4f}" for j, v in enumerate(lost)
+                           if terms[n + j]) or "none"
+    return best.with_result(reading_lag=lag, reading_lost_motion=lost, lag_note=(
         f"corrected: the readings lagged the motion (flagged joints {flagged}); lag per joint "
-        f"(share of the previous move still in the reading): {shown}; residual mean "
+        f"(share of the previous move still in the reading): {shown}; lost motion (backlash, "
+        f"deg; half of it on the side each joint came from): {lost_shown}; residual mean "
         f"{result.residuals_after.mean():.3f} -> {best.fitted.residuals_after.mean():.3f} mm. "
         "Better: wait for the arm to settle, or calibrate with the commanded joints"))
 

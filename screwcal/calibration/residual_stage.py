@@ -30,7 +30,7 @@ def training_set(result: CalibrationResult, data: MeasurementSet, rejected: bool
     chosen = data.take(np.array([k for k, i in enumerate(data.ids) if (i in out) == rejected],
                                 int))
     if result.reading_lag is not None:
-        chosen = correct_lag(chosen, result.reading_lag)
+        chosen = correct_lag(chosen, result.reading_lag, result.reading_lost_motion)
     predicted = forward_kinematics(result.model, chosen.q)[:, :3, 3]
     return chosen.q, chosen.positions_mm - predicted
 
@@ -84,7 +84,8 @@ def held_out_figures(result: CalibrationResult, outcome: ResidualOutcome,
     the predictive uncertainty is honest: the share of held-out errors within their 95 % band
     (chi-square, three components). The corrected figures are what the user gets: the
     physical ones where `outcome` did not keep a residual model."""
-    seen = held_out if result.reading_lag is None else correct_lag(held_out, result.reading_lag)
+    seen = held_out if result.reading_lag is None else correct_lag(held_out, result.reading_lag,
+                                                                         result.reading_lost_motion)
     error = seen.positions_mm - forward_kinematics(result.model, seen.q)[:, :3, 3]
     physical = np.linalg.norm(error, axis=1)
     out: dict[str, float | int | bool] = {

@@ -51,7 +51,8 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
         "parameters": params,
         "compliance": compliance_summary(result),
         "reading_lag": {"per_joint": None if result.reading_lag is None else
-                        [float(v) for v in result.reading_lag], "note": result.lag_note},
+                        [float(v) for v in result.reading_lag], "note": result.lag_note,
+                        "lost_motion_deg": lost_motion_deg(result)},
         "removed_parameters": [{"name": n, "reason": why} for n, why in result.removed],
         "correlation": {"names": list(result.names), "matrix": result.correlation.tolist()},
         "identifiability": {
@@ -85,6 +86,13 @@ def result_document(result: CalibrationResult, robot: str, settings: dict,
         "model_note": model_note or "the identified model: the robot as the controller reads "
                                     "its joints during the calibration",
     }
+
+
+def lost_motion_deg(result: CalibrationResult) -> list[float] | None:
+    """The lost motion (backlash) per joint the readings were corrected for with their lag
+    (deg; mm for a prismatic joint), or None."""
+    lost = result.reading_lost_motion
+    return None if lost is None else [float(v) for v in result.model.joints_to_deg(lost)]
 
 
 def compliance_summary(result: CalibrationResult) -> dict:

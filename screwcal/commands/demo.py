@@ -116,6 +116,13 @@ def honest_lines(seed: int | None, realism_name: str, options: dict, result: dic
             f"J{k + 1} {v:.5f}" for k, v in enumerate(lag) if abs(v) >= 1e-5)
             if lag else "none") + " (imposed: " + (", ".join(
                 f"J{k + 1} {v:g}" for k, v in enumerate(realism.lag) if v) or "none") + ")")
+        lost = (est.get("reading_lag") or {}).get("lost_motion_deg")
+        if lost:
+            lines.append("  identified with it: lost motion " + (", ".join(
+                f"J{k + 1} {v:.4f}" for k, v in enumerate(lost) if v) or "none")
+                + " deg (imposed backlash: " + (", ".join(
+                    f"J{k + 1} {v:g}" for k, v in enumerate(realism.backlash_deg) if v)
+                    or "none") + ")")
     ours = _ap_after(result)
     lines.append("  AP mean after, on the same robot (mm):")
     if ours is not None:

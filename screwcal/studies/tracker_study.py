@@ -65,7 +65,8 @@ def run_study(dataset: TrackerData, seed: int = 0, full_pose: bool = True) -> di
     for label, (kind, compliance, lag) in MODELS.items():
         # noise levels from the data
         result = identify(irb120(), cal, kind=kind, compliance=compliance, lag=lag)
-        seen = val if result.reading_lag is None else correct_lag(val, result.reading_lag)
+        seen = val if result.reading_lag is None else correct_lag(val, result.reading_lag,
+                                                                 result.reading_lost_motion)
         e = position_errors(result, seen)  # held-out readings corrected as the fit's were
         noise = result.noise
         out["models"][label] = {"mean": float(e.mean()), "max": float(e.max()),
