@@ -164,6 +164,11 @@ def _physical(calibrated: SerialModel, nominal: SerialModel, T: Array,
     stuck = np.flatnonzero(~(reached & inside & plausible) & ~near_wrist)
     if stuck.size:
         q_s, met, gap = _near_singular_solutions(robot, T[stuck], ref[stuck])
+        # Gauss-Newton's joints outside the limits, where LM from the reference misses the
+        # target too: a run off along a singular direction (joint 6 at 9294 deg), not the
+        # target's solution; the target is out of the calibrated robot's reach there (which of
+        # the two a run ended in turned on the last bits of the reference)
+        reached[stuck[~met & ~inside[stuck]]] = False
         q[stuck[met]], reached[stuck[met]] = q_s[met], True
         inside[stuck] = calibrated.within_limits(q[stuck]).astype(bool)
         change[stuck] = calibrated.joints_to_deg(q[stuck] - ref[stuck])

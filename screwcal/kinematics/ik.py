@@ -13,6 +13,8 @@ found (not labelled branches). `local_ik`: the same refinement from a nearby see
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -52,8 +54,9 @@ def _flange_targets(model: SerialModel, T_world_tool: ArrayLike) -> tuple[Array,
     return T_world, T if tool_inv is None else T @ tool_inv
 
 def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike, require_all: bool = True,
-                   check: bool = True) -> IKSolutions:
-    """All eight closed-form solutions for targets (N, 4, 4) of an ideal ABB-type model.
+                   check: bool = True, branch: int | None = None) -> IKSolutions:
+    """All eight closed-form solutions for targets (N, 4, 4) of an ideal ABB-type model; with
+    `branch` (an index of BRANCHES), that one alone (second axis of length 1).
 
     Raises UnreachableError when a target is out of reach on every branch, unless
     `require_all` is False (for screening many candidate targets: read `reachable`).
@@ -61,12 +64,13 @@ def closed_form_ik(model: SerialModel, T_world_tool: ArrayLike, require_all: boo
     """
     geo = WristPartitionedGeometry.from_model(model)
     T_world, T_flange = _flange_targets(model, T_world_tool)
-    theta, reach = closed_form_one(geo, T_flange[0]) if len(T_flange) == 1 else \
-        closed_form_theta(geo, T_flange)
+    theta, reach = closed_form_one(geo, T_flange[0]) if len(T_flange) == 1 and branch is None \
+        else closed_form_theta(geo, T_flange, branch=branch)
     q, within = controller_readings(model, theta)
     if require_all:
         require_reachable(reach)
-    return solutions_of(model, q, reach, within, T_world, check)
+    out = solutions_of(model, q, reach, within, T_world, check)
+    return out if branch is None else replace(out, branches=(BRANCHES[branch],))
 
 def pose_error(T_target: Array, T: Array) -> Array:
     """(dp, dphi) taking T to T_target: position difference and world-frame rotation vector."""

@@ -19,12 +19,19 @@ never solved approximately.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from screwcal.errors import ModelError
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.ik import _signed_ideal
-from screwcal.kinematics.ik_solutions import IKSolutions, controller_readings, solutions_of
+from screwcal.kinematics.ik_solutions import (
+    BRANCHES,
+    IKSolutions,
+    controller_readings,
+    solutions_of,
+)
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, Mask
 from screwcal.kinematics.ur_closed_form import URGeometry, ur_closed_form
@@ -35,25 +42,29 @@ __all__ = ["EXACT_MM", "all_branches"]
 EXACT_MM = 1e-6  # a branch's flange this far from its target at most: a closed form is exact
 
 
-def all_branches(nominal: SerialModel, T_flange: Array) -> IKSolutions:
+def all_branches(nominal: SerialModel, T_flange: Array, branch: int | None = None
+                 ) -> IKSolutions:
     """The eight branches (N, 8, 6) rad (controller readings) reaching flange poses T_flange
     (N, 4, 4) in the robot base frame, with their masks; `residual_mm` holds each branch's
-    position error by the model's own FK. Raises ModelError for an arm of no known form."""
+    position error by the model's own FK. With `branch` (an index of BRANCHES), that branch
+    alone (second axis of length 1). Raises ModelError for an arm of no known form."""
     T = np.asarray(T_flange, float)
-    theta = _theta(nominal, T)
+    theta = _theta(nominal, T, branch)
     q, within = controller_readings(nominal, theta)
     reach: Mask = np.all(np.isfinite(theta), axis=-1)
     out = solutions_of(nominal, q, reach, within, T, check=False)
+    if branch is not None:
+        out = replace(out, branches=(BRANCHES[branch],))
     return _checked(nominal, out, T)
 
 
-def _theta(nominal: SerialModel, T: Array) -> Array:
-    """Joint angles (N, 8, 6), NaN where a branch does not exist."""
+def _theta(nominal: SerialModel, T: Array, branch: int | None = None) -> Array:
+    """Joint angles (N, 8, 6) (one branch: (N, 1, 6)), NaN where a branch does not exist."""
     if nominal.n_joints != 6 or not nominal.is_revolute.all():
         raise ModelError(f"robot '{nominal.name}': programs are compensated for 6R arms only")
     ur = URGeometry.of(nominal)
     if ur is not None:
-        return ur_closed_form(ur, T)
+        return ur_closed_form(ur, T, branch)
     signs, ideal = _signed_ideal(nominal)
     try:
         geo = WristPartitionedGeometry.from_model(ideal)
@@ -61,16 +72,16 @@ def _theta(nominal: SerialModel, T: Array) -> Array:
         raise ModelError(f"robot '{nominal.name}' is neither a wrist-partitioned arm (ABB, KUKA, "
                          "FANUC) nor a Universal Robots arm: no closed form solves its programs "
                          "as its controller does") from None
-    theta, _ = closed_form_theta(geo, T)
+    theta, _ = closed_form_theta(geo, T, branch=branch)
     return theta * signs
 
 
 def _checked(nominal: SerialModel, sol: IKSolutions, T: Array) -> IKSolutions:
     """The solutions with each branch's residual filled, a branch that misses its target by
     more than EXACT_MM (an arm only near one of the forms) marked unreachable."""
-    N = T.shape[0]
+    N, B = sol.q.shape[:2]
     q = np.nan_to_num(sol.q).reshape(-1, 6)
-    F = flange_kinematics(nominal, q).reshape(N, 8, 4, 4)
+    F = flange_kinematics(nominal, q).reshape(N, B, 4, 4)
     residual = np.linalg.norm(F[..., :3, 3] - T[:, None, :3, 3], axis=-1)
     rot = np.linalg.norm(F[..., :3, :3] - T[:, None, :3, :3], axis=(-2, -1))
     exact = (residual < EXACT_MM) & (rot < 1e-8) & sol.reachable

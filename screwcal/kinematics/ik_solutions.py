@@ -89,13 +89,25 @@ def controller_readings(model: SerialModel, theta: Array) -> tuple[Array, Mask]:
     so a reading is the window's start plus the angle's remainder modulo a turn: five array
     calls, three when no window is closed at its top."""
     sign, shift, start, lo, hi = _reading_tables(model)
+    if theta.shape[-2:] != shift.shape[-2:]:  # not eight branches: the tables' row per joint
+        shift, start, lo, hi = shift[0, 0], start[0, 0], lo[0, 0], hi[0, 0]
+        sign = None if sign is None else sign[0, 0]
     q = theta if sign is None else theta * sign
-    q = (q + shift) % _TAU
+    q = _remainder_of_turns(q + shift)
     if sign is not None:
         q *= sign
     q += start
     within: Mask = np.all((q >= lo) & (q <= hi), axis=-1)  # NaN compares False: out of reach
     return q, within
+
+
+def _remainder_of_turns(x: Array) -> Array:
+    """x % 2 pi, the same numbers as numpy's remainder (its own rule: fmod, a turn added to a
+    negative remainder, a zero made +0), at a third of its time, a tenth where x has NaN."""
+    r: Array = np.fmod(x, _TAU)
+    np.add(r, _TAU, out=r, where=r < 0.0)
+    r += 0.0
+    return r
 
 
 @once_per_object
@@ -129,7 +141,7 @@ def solutions_of(model: SerialModel, q: Array, reach: Mask, within: Mask, T_worl
                  check: bool = True) -> IKSolutions:
     if check:  # the FK of every branch against the target (NaN where out of reach)
         N = q.shape[0]
-        T = forward_kinematics(model, q.reshape(-1, 6)).reshape(N, 8, 4, 4)
+        T = forward_kinematics(model, q.reshape(-1, 6)).reshape(N, q.shape[1], 4, 4)
         residual = np.hypot.reduce(T[..., :3, 3] - T_world[:, None, :3, 3], axis=-1)
     else:
         residual = np.full(reach.shape, np.nan)

@@ -83,22 +83,27 @@ def _geometry(model: SerialModel) -> URGeometry | None:
     return geo
 
 
-def ur_closed_form(geo: URGeometry, T_flange: Array) -> Array:
+_SIGNS = np.array([1.0, -1.0])
+
+
+def ur_closed_form(geo: URGeometry, T_flange: Array, branch: int | None = None) -> Array:
     """Joint angles (N, 8, 6) rad reaching flange poses (N, 4, 4), NaN where a branch does not
     exist; the second axis in `ik_solutions.BRANCHES` order: shoulder (the sign before joint
     1's arccos), elbow (joint 3's sign: up is negative, as at UR's usual postures), wrist (no
-    flip: joint 5 positive)."""
+    flip: joint 5 positive). With `branch` (an index of BRANCHES), that one alone: (N, 1, 6)."""
     T = np.asarray(T_flange, float)
     N = T.shape[0]
+    shoulder, elbow, wrist = (slice(None),) * 3 if branch is None else \
+        (slice(b, b + 1) for b in (branch // 4, branch // 2 % 2, branch % 2))
     with np.errstate(invalid="ignore", divide="ignore"):
         p5 = T[:, :3, 3] - geo.d6 * T[:, :3, 2]  # the wrist-2 point, on axis 5
         psi = np.arctan2(p5[:, 1], p5[:, 0])
         phi = np.arccos(geo.d4 / np.hypot(p5[:, 0], p5[:, 1]))
-        t1 = psi[:, None] + np.array([1.0, -1.0]) * phi[:, None] + np.pi / 2  # (N, 2)
+        t1 = psi[:, None] + _SIGNS[shoulder] * phi[:, None] + np.pi / 2  # (N, 2)
         s1, c1 = np.sin(t1), np.cos(t1)
         p6 = T[:, :3, 3]
         c5 = (p6[:, 0, None] * s1 - p6[:, 1, None] * c1 - geo.d4) / geo.d6
-        t5 = np.arccos(c5)[..., None] * np.array([1.0, -1.0])  # (N, 2, 2): no flip, flip
+        t5 = np.arccos(c5)[..., None] * _SIGNS[wrist]  # (N, 2, 2): no flip, flip
         T60 = invert_transform(T)
         X, Y = T60[:, :3, 0], T60[:, :3, 1]  # the base's x and y axes in the flange frame
         s5 = np.sin(t5)
@@ -112,16 +117,17 @@ def ur_closed_form(geo: URGeometry, T_flange: Array) -> Array:
         y = T14[..., 1, 3] + geo.d4 * T14[..., 1, 1]
         L = np.hypot(x, y)
         c3 = (L ** 2 - geo.a2 ** 2 - geo.a3 ** 2) / (2 * geo.a2 * geo.a3)
-        t3 = np.arccos(c3)[..., None] * np.array([-1.0, 1.0])  # (N, 2, 2, 2): up, down
+        t3 = np.arccos(c3)[..., None] * -_SIGNS[elbow]  # (N, 2, 2, 2): up, down
         t2 = -np.arctan2(y, -x)[..., None] + np.arcsin(geo.a3 * np.sin(t3) / L[..., None])
         T13 = geo.link(2, t2) @ geo.link(3, t3)
         T34 = invert_transform(T13) @ T14[..., None, :, :]
         t4 = np.arctan2(T34[..., 1, 0], T34[..., 0, 0])
-    theta = np.empty((N, 2, 2, 2, 6))  # shoulder, wrist, elbow
+    theta = np.empty((*t2.shape, 6))  # shoulder, wrist, elbow
     theta[..., 0] = t1[:, :, None, None]
     theta[..., 1], theta[..., 2], theta[..., 3] = t2, t3, t4
     theta[..., 4] = t5[..., None]
     theta[..., 5] = t6[..., None]
-    out: Array = np.swapaxes(theta, 2, 3).reshape(N, 8, 6)  # shoulder, elbow, wrist
+    branches = t2.shape[1] * t2.shape[2] * t2.shape[3]
+    out: Array = np.swapaxes(theta, 2, 3).reshape(N, branches, 6)  # shoulder, elbow, wrist
     out[~np.isfinite(out).all(axis=-1)] = np.nan
     return out

@@ -81,22 +81,6 @@ _SHOULDER_T1_OFFSET = tuple(_ARM_T1_OFFSET[::2].tolist())  # per shoulder (front
 _ELBOW_SIGN = tuple(_ARM_ELBOW_SIGN[:2].tolist())  # per elbow (up, down)
 
 
-def _euler_xyx(W: Array) -> Array:
-    """Angles (a, b, c) with W = Rx(a) Ry(b) Rx(c), b in [0, pi] (N, 3, 3) -> (N, 3): the
-    wrist's joints 4, 5, 6. At b = 0 or pi only a +- c is defined: c is set to 0 (scipy's
-    convention for intrinsic angles)."""
-    b = np.arccos(np.clip(W[:, 0, 0], -1.0, 1.0))
-    a = np.arctan2(W[:, 1, 0], -W[:, 2, 0])
-    c = np.arctan2(W[:, 0, 1], W[:, 0, 2])
-    lock = np.abs(np.sin(b)) < _GIMBAL_TOL
-    if lock.any():
-        straight = lock & (W[:, 0, 0] > 0)  # b = 0: W = Rx(a + c)
-        a = np.where(straight, np.arctan2(W[:, 2, 1], W[:, 1, 1]), a)
-        a = np.where(lock & ~straight, np.arctan2(W[:, 1, 2], W[:, 1, 1]), a)  # b = pi
-        c = np.where(lock, 0.0, c)
-    return np.stack([a, b, c], axis=-1)
-
-
 def closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Mask]:
     """`closed_form_theta` for one flange target (4, 4) in scalar arithmetic: the same
     formulas, a fraction of the array calls' overhead (a test holds the two equal). Returns
@@ -135,7 +119,7 @@ def closed_form_one(geo: WristPartitionedGeometry, T: Array) -> tuple[Array, Mas
             a0, a1, a2 = c1 * s23, s1 * s23, c23
             w20 = a0 * M0[0] + a1 * M1[0] + a2 * M2[0]
             wb = math.acos(min(1.0, max(-1.0, w00)))
-            if abs(math.sin(wb)) < _GIMBAL_TOL:  # only a +- c defined: c = 0 (as _euler_xyx)
+            if abs(math.sin(wb)) < _GIMBAL_TOL:  # only a +- c defined: c = 0 (as closed_form_theta)
                 w11 = c1 * M1[1] - s1 * M0[1]
                 if w00 > 0:
                     wa = math.atan2(a0 * M0[1] + a1 * M1[1] + a2 * M2[1], w11)
@@ -162,42 +146,70 @@ def _one_target_tables(geo: WristPartitionedGeometry
 
 
 def closed_form_theta(geo: WristPartitionedGeometry, T_flange: Array, slack: float = _SLACK,
-                      elbow_floor: float = 0.0) -> tuple[Array, Mask]:
-    """Joint angles (N, 8, 6) of the ideal geometry and the reachable mask (N, 8).
+                      elbow_floor: float = 0.0, branch: int | None = None
+                      ) -> tuple[Array, Mask]:
+    """Joint angles (N, 8, 6) of the ideal geometry and the reachable mask (N, 8); with
+    `branch` (an index of `ik_solutions.BRANCHES`), that branch alone: (N, 1, 6) and (N, 1).
 
     For seeding a calibrated model: `slack` accepts targets slightly beyond full extension, and
     `elbow_floor` (rad) keeps the elbow-up and elbow-down seeds apart near it, so that each
     converges to its own branch.
+
+    The formulas of `closed_form_one` over arrays (N, arms), element by element: the wrist's
+    rotation W's five entries that its angles need, no 3x3 products per arm.
     """
     N = T_flange.shape[0]
+    arms = slice(None) if branch is None else slice(branch // 2, branch // 2 + 1)
+    o, R_M, (au, af, pu, pf) = _one_target_tables(geo)
     R = T_flange[:, :3, :3]
-    R_M = geo.home_flange[:3, :3]
+    M = R @ np.array(R_M).T  # R R_M^T: W = (Rz(t1) Ry(t2 + t3))^T M = Rx(t4) Ry(t5) Rx(t6)
     # Wrist centre: the flange carries the home offset (flange - wrist centre) rigidly.
-    wc = T_flange[:, :3, 3] - R @ (R_M.T @ (geo.home_flange[:3, 3] - geo.wrist_home))
-    u, f = geo.upper_arm, geo.forearm
-    # The four arms (shoulder front/back x elbow up/down) at once, (N, 4); BRANCHES order.
-    t1 = np.arctan2(wc[:, 1], wc[:, 0])[:, None] + _ARM_T1_OFFSET
+    wc = T_flange[:, :3, 3] - R @ np.array(o)
+    # The arms (shoulder front/back x elbow up/down), (N, arms); BRANCHES order.
+    t1 = np.arctan2(wc[:, 1], wc[:, 0])[:, None] + _ARM_T1_OFFSET[arms]
     c1, s1 = np.cos(t1), np.sin(t1)
-    r = wc[:, 0, None] * c1 + wc[:, 1, None] * s1
-    d = (r - geo.shoulder_x) + 1j * (wc[:, 2, None] - geo.shoulder_z)
-    k = (np.abs(d) ** 2 - abs(u) ** 2 - abs(f) ** 2) / (2 * abs(u) * abs(f))
+    dx = wc[:, 0, None] * c1 + wc[:, 1, None] * s1 - geo.shoulder_x
+    dz = np.broadcast_to(wc[:, 2, None] - geo.shoulder_z, dx.shape)
+    k = (dx * dx + dz * dz - au * au - af * af) / (2.0 * au * af)
     ok = np.abs(k) <= 1.0 + slack
-    bend = np.maximum(np.arccos(np.clip(k, -1, 1)), elbow_floor)
-    t3 = _ARM_ELBOW_SIGN * bend - np.angle(u) + np.angle(f)
-    t2 = np.angle(u + f * np.exp(-1j * t3)) - np.angle(d)
-    # Wrist: W = (Rz(t1) Ry(t2 + t3))^T R R_M^T = Rx(t4) Ry(t5) Rx(t6).
+    bend = np.maximum(np.arccos(np.clip(k, -1.0, 1.0)), elbow_floor)
+    t3 = _ARM_ELBOW_SIGN[arms] * bend - pu + pf
+    u, f = geo.upper_arm, geo.forearm
+    c3, s3 = np.cos(t3), np.sin(t3)  # u + f exp(-i t3), its angle less d's
+    t2 = np.arctan2(u.imag + f.imag * c3 - f.real * s3, u.real + f.real * c3 + f.imag * s3) \
+        - np.arctan2(dz, dx)
     c23, s23 = np.cos(t2 + t3), np.sin(t2 + t3)
-    R123 = np.empty((N, 4, 3, 3))
-    R123[..., 0, 0], R123[..., 0, 1], R123[..., 0, 2] = c1 * c23, -s1, c1 * s23
-    R123[..., 1, 0], R123[..., 1, 1], R123[..., 1, 2] = s1 * c23, c1, s1 * s23
-    R123[..., 2, 0], R123[..., 2, 1], R123[..., 2, 2] = -s23, 0.0, c23
-    W = np.swapaxes(R123, -1, -2) @ (R @ R_M.T)[:, None]
-    t456 = _euler_xyx(W.reshape(-1, 3, 3)).reshape(N, 4, 3)
-    theta: Array = np.empty((N, 4, 2, 6))
-    theta[..., :3] = np.stack([t1, t2, t3], axis=-1)[:, :, None]
-    theta[:, :, 0, 3:] = t456
-    theta[:, :, 1, 3:] = t456 * (1.0, -1.0, 1.0) + (np.pi, 0.0, np.pi)  # the wrist flipped
-    theta = theta.reshape(N, 8, 6)
+    m = [[M[:, i, j, None] for j in range(3)] for i in range(3)]
+    # the rows of R123^T are R123's columns: (c1 c23, s1 c23, -s23), (-s1, c1, 0),
+    # (c1 s23, s1 s23, c23)
+    a0, a1, a2 = c1 * c23, s1 * c23, -s23
+    w00 = a0 * m[0][0] + a1 * m[1][0] + a2 * m[2][0]
+    w01 = a0 * m[0][1] + a1 * m[1][1] + a2 * m[2][1]
+    w02 = a0 * m[0][2] + a1 * m[1][2] + a2 * m[2][2]
+    w10 = c1 * m[1][0] - s1 * m[0][0]
+    b0, b1 = c1 * s23, s1 * s23
+    w20 = b0 * m[0][0] + b1 * m[1][0] + c23 * m[2][0]
+    wb = np.arccos(np.clip(w00, -1.0, 1.0))
+    wa, wc6 = np.arctan2(w10, -w20), np.arctan2(w01, w02)
+    lock = np.abs(np.sin(wb)) < _GIMBAL_TOL  # only a +- c defined: c = 0 (scipy's convention
+    if lock.any():  # for intrinsic angles)
+        w11 = c1 * m[1][1] - s1 * m[0][1]
+        w21 = b0 * m[0][1] + b1 * m[1][1] + c23 * m[2][1]
+        w12 = c1 * m[1][2] - s1 * m[0][2]
+        straight = lock & (w00 > 0)  # b = 0: W = Rx(a + c)
+        wa = np.where(straight, np.arctan2(w21, w11), wa)
+        wa = np.where(lock & ~straight, np.arctan2(w12, w11), wa)  # b = pi
+        wc6 = np.where(lock, 0.0, wc6)
+    A = t1.shape[1]
+    theta: Array = np.empty((N, A, 2, 6))
+    theta[:, :, :, 0] = t1[:, :, None]
+    theta[:, :, :, 1] = t2[:, :, None]
+    theta[:, :, :, 2] = t3[:, :, None]
+    theta[:, :, 0, 3], theta[:, :, 0, 4], theta[:, :, 0, 5] = wa, wb, wc6
+    theta[:, :, 1, 3], theta[:, :, 1, 4], theta[:, :, 1, 5] = wa + np.pi, -wb, wc6 + np.pi
     reach = np.repeat(ok, 2, axis=1)
+    theta = theta.reshape(N, 2 * A, 6)
+    if branch is not None:
+        theta, reach = theta[:, branch % 2, None], reach[:, branch % 2, None]
     theta[~reach] = np.nan
     return theta, reach

@@ -101,25 +101,53 @@ def _margins(model: SerialModel, poses: Array, wrist_margin_deg: float
     deg over the k poses, for commanded poses (..., k, 6); -inf where a pose is unreachable or
     too close to the wrist singularity."""
     shape = poses.shape[:-1]
-    sol = _branches(model, transform_from_pose(poses.reshape(-1, 6)))
-    q = sol.q[:, _BRANCH]
-    lim = np.degrees(model.limits)
-    qd = np.degrees(np.nan_to_num(q))
-    margin = np.minimum(qd - lim[:, 0], lim[:, 1] - qd).min(axis=1)
-    bad = np.logical_not(sol.reachable[:, _BRANCH]) | (np.abs(qd[:, 4]) < wrist_margin_deg)
-    margin = np.where(bad, -np.inf, margin)
+    q, margin = _pose_margins(model, poses.reshape(-1, 6), wrist_margin_deg)
     return q.reshape(*shape, 6), margin.reshape(shape).min(axis=-1)
 
 
+def _pose_margins(model: SerialModel, poses: Array, wrist_margin_deg: float
+                  ) -> tuple[Array, Array]:
+    """Per commanded pose (M, 6): the joints (M, 6) rad on the cube's branch and the pose's
+    joint-limit margin (M,) deg, -inf where unreachable or at the wrist singularity."""
+    sol = _branches(model, transform_from_pose(poses))
+    q = sol.q[:, 0]
+    lim = np.degrees(model.limits)
+    qd = np.degrees(np.nan_to_num(q))
+    margin = np.minimum(qd - lim[:, 0], lim[:, 1] - qd).min(axis=1)
+    bad = np.logical_not(sol.reachable[:, 0]) | (np.abs(qd[:, 4]) < wrist_margin_deg)
+    return q, np.where(bad, -np.inf, margin)
+
+
 def _branches(model: SerialModel, T_world: Array) -> IKSolutions:
-    """Every branch of world tool poses: the ABB closed form, else the closed forms of the arms
-    whose joints count the other way (KUKA, FANUC) or whose wrist is offset (UR)."""
+    """The cube's branch of world tool poses (second axis of length 1): the ABB closed form,
+    else the closed forms of the arms whose joints count the other way (KUKA, FANUC) or whose
+    wrist is offset (UR)."""
     try:
-        return closed_form_ik(model, T_world, require_all=False)
+        return closed_form_ik(model, T_world, require_all=False, check=False, branch=_BRANCH)
     except ModelError:
         base_inv, tool_inv = frame_inverses(model)
         T = T_world if base_inv is None else base_inv @ T_world
-        return all_branches(model, T if tool_inv is None else T @ tool_inv)
+        return all_branches(model, T if tool_inv is None else T @ tool_inv, branch=_BRANCH)
+
+
+def _best_margin(model: SerialModel, positions: Array, orientation: Array,
+                 wrist_margin_deg: float, floor_deg: float) -> Array:
+    """The worst margin (C,) over the k positions (C, k, 3) of each candidate cube: its poses
+    solved a position at a time, and a cube whose margin fell below `floor_deg` (it cannot be
+    chosen) dropped from the next positions (its margin then: that of the positions solved;
+    below the floor, as it would be over all of them)."""
+    C, k, _ = positions.shape
+    worst = np.full(C, np.inf)
+    alive = np.arange(C)
+    for j in range(k):  # the corners first (`_offsets`): the cube's extremes, where most fail
+        if alive.size == 0:
+            break
+        poses = np.column_stack([positions[alive, j], np.broadcast_to(orientation,
+                                                                      (alive.size, 3))])
+        worst[alive] = np.minimum(worst[alive],
+                                  _pose_margins(model, poses, wrist_margin_deg)[1])
+        alive = alive[worst[alive] >= floor_deg]
+    return worst
 
 
 def _offsets(edge_mm: float, approach_mm: Array) -> Array:
@@ -168,9 +196,8 @@ def find_test_cube(model: SerialModel, edge_mm: float | None = None, *,
             keep &= (dist <= arm.radius_mm).all(axis=1)
         if not keep.any():
             return None
-        kept = positions[keep]
-        poses = np.concatenate([kept, np.broadcast_to(orientation, kept.shape)], axis=-1)
-        _, margin = _margins(model, poses, wrist_margin_deg)
+        margin = _best_margin(model, positions[keep], orientation, wrist_margin_deg,
+                              margin_deg)
         if margin.max() < margin_deg:
             return None
         return TestCube(centres[keep][int(np.argmax(margin))], edge, orientation, approach)

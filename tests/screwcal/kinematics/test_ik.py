@@ -159,3 +159,45 @@ def test_readings_wrap_into_the_limits_by_whole_turns(rng):
                         np.where((x > hi) & (x - 2 * np.pi >= lo), x - 2 * np.pi, x))
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
         np.testing.assert_array_equal(within, ((want >= lo) & (want <= hi)).all(axis=-1))
+
+
+def test_remainder_of_turns_is_numpys_remainder_bit_for_bit(rng):
+    from screwcal.kinematics.ik_solutions import _remainder_of_turns
+
+    tau = 2 * np.pi
+    x = np.concatenate([rng.uniform(-30, 30, 100_000), rng.normal(0, 1e-18, 100),
+                        np.arange(-10, 11) * tau,
+                        [np.nan, 0.0, -0.0, 1e300, -1e300, -1e-300, np.nextafter(tau, 0),
+                         -np.nextafter(tau, 0), np.nextafter(-0.0, -1.0)]])
+    got, want = _remainder_of_turns(x.copy()), x % tau
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(np.signbit(got), np.signbit(want))  # -0.0 as numpy's
+
+
+@pytest.mark.parametrize("name", ["irb1600", "kr16", "lrmate200id", "ur5e"])
+def test_one_branch_is_that_branch_of_all_eight(rng, name):
+    """`branch=` solves one branch alone (testcube's screening of thousands of candidate
+    cubes): the same joints, masks and residuals as that column of all eight."""
+    from screwcal.kinematics.ik_branches import all_branches
+    from screwcal.kinematics.robots import builtin_model
+
+    model = builtin_model(name)
+    q = random_q(model, rng, 300)
+    q[:20, 4] = 0.0  # the wrist singularity
+    T = forward_kinematics(model.with_frames(np.eye(4), np.eye(4)), q)
+    T[-10:, :3, 3] *= 3.0  # out of reach
+    full = all_branches(model, T)
+    solvers = [lambda b: all_branches(model, T, branch=b)]
+    if name.startswith("irb"):
+        solvers.append(lambda b: closed_form_ik(model, T, require_all=False, branch=b))
+        full_cf = closed_form_ik(model, T, require_all=False)
+    for b in range(8):
+        for k, solve in enumerate(solvers):
+            one = solve(b)
+            ref = full if k == 0 else full_cf
+            assert one.q.shape == (len(T), 1, 6) and one.branches == (BRANCHES[b],)
+            np.testing.assert_array_equal(one.q[:, 0], ref.q[:, b])
+            for mask in ("reachable", "within_limits"):
+                np.testing.assert_array_equal(getattr(one, mask)[:, 0], getattr(ref, mask)[:, b])
+            np.testing.assert_allclose(one.residual_mm[:, 0], ref.residual_mm[:, b], atol=1e-9)
+    assert (~full.reachable).any() and full.reachable.any()
