@@ -118,12 +118,8 @@ class Operator:
             if key in asked:
                 return True
             asked.add(key)
-            where = "" if joints is None else " (joints " + ", ".join(
-                f"{round(float(v), 3) + 0.0:g}" for v in joints) + " deg)"
-            prompt = (f"{note + '. ' if note else ''}robot will move to {key[0]} pose "
-                      f"{key[1]}{where}: go? [y/N] ")
             try:
-                answer = ask(prompt)
+                answer = ask(step_prompt(key[0], key[1], joints, note))
             except EOFError:  # no one to answer: the robot does not move
                 return False
             except KeyboardInterrupt:
@@ -173,6 +169,15 @@ class Operator:
                 elif kind == "end":
                     return event["state"]
         return self.job(job_id)["state"]
+
+
+def step_prompt(phase: str, index: int, joints_deg: list | None, note: str = "") -> str:
+    """The question STEP asks before a move: the list in words, the joints to 3 decimals, no
+    -0 (it showed 15-digit joints and -0.0)."""
+    where = "" if joints_deg is None else " (joints " + ", ".join(
+        f"{round(float(v), 3) + 0.0:g}" for v in joints_deg) + " deg)"
+    return (f"{note + '. ' if note else ''}robot will move to pose {index} of "
+            f"{_phase(phase)}{where}: go? [y/N] ")
 
 
 def event_text(event: dict) -> str:

@@ -34,7 +34,8 @@ async def test_operator_answers_step_prompts_and_reads_the_result(tmp_path, rig)
 
         state = await asyncio.to_thread(op.watch, job["id"], ask, lines.append)
         assert state in ("done", "failed")
-        assert len(prompts) == 12 and prompts[0].startswith("robot will move to cal pose 0")
+        assert len(prompts) == 12
+        assert prompts[0].startswith("robot will move to pose 0 of calibration poses")
         assert any("pose 12 of 12" in line for line in lines)
         table = result_table(await asyncio.to_thread(op.result, job["id"]))
         assert "identified" in table and "J2 " in table  # the full model by default
@@ -56,7 +57,7 @@ def test_demo_runs_the_whole_procedure(tmp_path, capsys):
     assert m and float(m.group(1)) > 10 * float(m.group(2)), out
     # the typical robot by default: what it carries, what was identified of it, and our route
     # beside the geometric-only one on the same robot and the oracle floor
-    assert "realism typical" in out and "(backlash_deg): J1 0.006" in out, out
+    assert "realism typical" in out and "backlash (lost motion): J1 0.006 deg" in out, out
     assert re.search(r"identified: joint compliance J2 [\d.]+ ± [\d.]+", out), out
     ours = re.search(r"ours \(geometry[^)]*\)\s+([\d.]+) mm", out)
     geo = re.search(r"geometric only \(compliance none, lag none\)\s+([\d.]+) mm", out)
@@ -103,7 +104,7 @@ async def test_watch_reattaches_to_a_step_job_at_the_pose_it_waits_for(tmp_path,
 
         state = await asyncio.to_thread(op.watch, job["id"], ask, lambda _: None)
         assert state == "done"
-        assert prompts[0].startswith("robot will move to cal pose 3")
+        assert prompts[0].startswith("robot will move to pose 3 of calibration poses")
         assert len(prompts) == 9  # poses 3..11, each once
 
 
@@ -145,6 +146,6 @@ def test_the_same_seed_prints_the_same_table(tmp_path, capsys):
         assert main(["demo", "--seed", "5", "--cycles", "2", "--poses", "30", "--out",
                      str(tmp_path)]) == 0
         out = capsys.readouterr().out
-        return out[out.index("ISO 9283"):out.index("files in")]
+        return out[out.index("\n  ISO 9283"):out.index("files in")]  # the table, not a phase
 
     assert table() == table()

@@ -371,3 +371,15 @@ def test_a_cube_that_does_not_fit_names_the_option_that_makes_it_smaller(tmp_pat
 
     args = build_parser().parse_args(["job", "start", "--robot", "c", "--cube-edge-mm", "150"])
     assert args.cube_edge_mm == 150.0
+
+
+def test_a_step_prompt_gives_the_joints_as_a_person_reads_them():
+    """Issue 38: STEP prompts showed 15-digit joints and -0.0."""
+    from service.operator import step_prompt
+
+    assert step_prompt("cal", 3, [12.345678901234567, -0.0, -1e-9, 90.0, -45.5, 180.00049],
+                       "ZERO next") == ("ZERO next. robot will move to pose 3 of calibration "
+                                        "poses (joints 12.346, 0, 0, 90, -45.5, 180 deg): go? "
+                                        "[y/N] ")
+    assert step_prompt("perf_before", 0, None) == (
+        "robot will move to pose 0 of performance before (ISO 9283): go? [y/N] ")
