@@ -122,3 +122,13 @@ def test_verbose_prints_the_controllers_event_log(tmp_path):
     proc.send_signal(signal.SIGINT)
     out, _ = proc.communicate(timeout=30)
     assert proc.returncode == 0 and "event log: info: Program stopped" in out
+
+
+def test_a_program_that_does_not_parse_is_named_by_its_file(tmp_path):
+    """Issue 38: a syntax error was placed at `<module>:3:15`, not in the file given."""
+    bad = tmp_path / "Cell.mod"
+    bad.write_text("MODULE Cell\nPROC main()\n  MoveJ p1 v100;;; (\nENDPROC\nENDMODULE\n")
+    r = subprocess.run([*EXE, "irc5", "--port", "0", "--program", str(bad)],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and f"{bad}:3:" in r.stderr and "<module>" not in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr
