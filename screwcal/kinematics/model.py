@@ -41,10 +41,11 @@ def once_per_object(compute: Callable[[_K], _V]) -> Callable[[_K], _V]:
 
     @wraps(compute)
     def cached(obj: _K) -> _V:
-        got = cache.get(obj)
-        if got is None:
+        try:
+            return cache[obj]
+        except KeyError:  # (a None result is kept too: the UR geometry of another arm)
             got = cache[obj] = compute(obj)
-        return got
+            return got
 
     return cached
 
