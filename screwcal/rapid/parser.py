@@ -52,9 +52,12 @@ from screwcal.rapid.scanner import KEYWORDS, RapidEncryptedError, RapidSyntaxErr
 __all__ = ["KEYWORDS", "RapidEncryptedError", "RapidSyntaxError", "parse_expression",
            "parse_module"]
 
+# `CONST robtarget p10 :=` after the storage keyword, on one line: the type and the name.
+_DECL_HEAD = re.compile(r"[ \t]+([A-Za-z]\w*)[ \t]+([A-Za-z]\w*)[ \t]*(:=)[ \t]*")
+_DECL_END = re.compile(r"[ \t]*;")  # after a value of plain numbers, on its line
 # A procedure call whose arguments are all names, on one line (the rest of most statements).
-_DECL_HEAD = re.compile(r"[ \t]+([A-Za-z]\w*)[ \t]+([A-Za-z]\w*)[ \t]*(:=)")
 _PLAIN_CALL = re.compile(r"[ \t]+([A-Za-z]\w*(?:[ \t]*,[ \t]*[A-Za-z]\w*)*)[ \t]*;")
+_WORD = re.compile(r"[A-Za-z]\w*")  # one of those names
 _ENDS = {"PROC": "ENDPROC", "FUNC": "ENDFUNC", "TRAP": "ENDTRAP"}
 _HANDLERS = ("BACKWARD", "ERROR", "UNDO")
 _CLOSERS = frozenset(("ENDPROC", "ENDFUNC", "ENDTRAP", "ENDIF", "ENDWHILE", "ENDFOR", "ENDTEST",
@@ -148,8 +151,17 @@ class _Parser(ExpressionParser):
         dims: tuple[Expr, ...] = ()
         head = _DECL_HEAD.match(self.text, self.end)
         if head and head[1].upper() not in KEYWORDS and head[2].upper() not in KEYWORDS:
-            type_, name = head[1], head[2]  # `CONST robtarget p10 :=` on one line: the
-            self.pos = head.start(3)  # two names read in one match, the scanner at ':='
+            type_, name = head[1], head[2]  # the two names read in one match
+            # a value of plain numbers and its ';' on the line (every robtarget as
+            # controllers write them): read in two more matches, without the scanner
+            numbers = self.number_value(head.end()) if self.text.startswith("[", head.end()) \
+                else None
+            close = _DECL_END.match(self.text, numbers[1]) if numbers else None
+            if numbers and close:
+                self.pos = self.end = close.end()
+                self.advance()
+                return DataDecl(*self.loc(start), storage, scope, type_, name, dims, numbers[0])
+            self.pos = head.start(3)  # else the scanner at ':='
             self.advance()
         else:
             self.advance()
@@ -354,19 +366,16 @@ class _Parser(ExpressionParser):
         return node
 
     def plain_call(self, start: int, name: str, plain: re.Match[str]) -> ProcCall:
+        words = _WORD.findall(self.text, plain.start(1), plain.end(1))  # blanks, no comments
+        if not KEYWORDS.isdisjoint(map(str.upper, words)):  # not a plain call after all
+            self.advance()
+            return ProcCall(*self.loc(start), name, self.arguments(";"))
         line = bisect_right(self.starts, start)
         base = self.starts[line - 1] - 1
         args = []
-        at = plain.start(1)
-        for piece in plain.group(1).split(","):  # names, blanks around them: no comments
-            word = piece.strip()
-            if word.upper() in KEYWORDS:  # not a plain call after all: the general way
-                self.advance()
-                return ProcCall(*self.loc(start), name, self.arguments(";"))
-            a = at + piece.index(word)
-            b, col = a + len(word), a - base
-            args.append(Argument(line, col, a, b, Name(line, col, a, b, word)))
-            at += len(piece) + 1
+        for word in _WORD.finditer(self.text, plain.start(1), plain.end(1)):
+            a, b = word.span()
+            args.append(Argument(line, a - base, a, b, Name(line, a - base, a, b, word[0])))
         self.pos = self.end = plain.end()
         self.advance()
         return ProcCall(line, start - base, start, plain.end(), name, tuple(args))

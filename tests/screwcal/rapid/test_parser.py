@@ -136,6 +136,28 @@ def test_nodes_are_frozen_and_know_their_place():
         value.text = "2"  # type: ignore[misc]
 
 
+def test_every_node_is_built_as_its_dataclass_declares():
+    """The node classes' constructors (slots set directly, for speed) take the dataclass's
+    fields in order with their defaults, and store what they are given."""
+    import dataclasses
+    import inspect
+
+    for cls in [c for c in vars(rapid_ast).values() if isinstance(c, type)
+                and issubclass(c, rapid_ast.Node)]:
+        fields = dataclasses.fields(cls)
+        params = list(inspect.signature(cls.__init__).parameters.values())[1:]
+        assert [(p.name, p.default) for p in params] == [
+            (f.name, inspect.Parameter.empty if f.default is dataclasses.MISSING else f.default)
+            for f in fields], cls
+        given = {f.name: object() for f in fields}
+        node = cls(**given)
+        assert all(getattr(node, name) is value for name, value in given.items()), cls
+    arg = rapid_ast.Argument(1, 2, 3, 4, None)
+    assert (arg.name, arg.optional, arg.conditional) == (None, False, False)
+    assert arg == rapid_ast.Argument(1, 2, 3, 4, None, None, False, False)
+    assert hash(arg) == hash(rapid_ast.Argument(1, 2, 3, 4, None))
+
+
 @pytest.mark.parametrize("text, value", [
     ("1 + 2 * 3", ("+", "1", ("*", "2", "3"))),
     ("a OR b AND c", ("OR", "a", ("AND", "b", "c"))),
@@ -264,6 +286,28 @@ def test_a_declaration_reads_the_same_on_one_line_or_several(head):
     assert (decl.storage, decl.type, decl.name, decl.dims) == ("CONST", "robtarget", "p10", ())
     assert [row.texts for row in decl.value.items] == [
         ("1", "2", "3"), ("1", "0", "0", "0"), ("0", "0", "0", "0"), ("9E+09",) * 6]
+
+
+_NUMBER_FORMS = ["1", ".5", "5.", "-2", "+3", "1E-3", "9E+09", "1.5e+2", "-.25", "0"]
+
+
+def test_numbers_read_in_one_match_read_as_token_by_token():
+    """A value of plain numbers on one line (every robtarget) is read in one match: each form
+    of a RAPID number reads as it does token by token, where the value spans lines."""
+    rows = [_NUMBER_FORMS[:3], _NUMBER_FORMS[3:7], _NUMBER_FORMS[7:]]
+    one_line = "[" + ",".join("[" + ",".join(r) + "]" for r in rows) + "]"
+    spread = "[" + ",\n".join("[" + " , ".join(r) + "]" for r in rows) + "]"
+    fast = parse_module(f"MODULE m\nCONST num a{{3}} := {one_line};\nENDMODULE\n").data[0]
+    slow = parse_module(f"MODULE m\nCONST num a{{3}} := {spread};\nENDMODULE\n").data[0]
+    assert [row.texts for row in fast.value.items] == [row.texts for row in slow.value.items] \
+        == [tuple(r) for r in rows]
+    assert [n.value for n in fast.value.items[2].items] == [150.0, -0.25, 0.0]
+
+
+@pytest.mark.parametrize("value", ["[1e,2]", "[1.2.3]", "[[1,2],[3,,4]]", "[1 2]", "[-,1]"])
+def test_malformed_numbers_are_not_taken_by_the_one_match_reading(value):
+    with pytest.raises(RapidSyntaxError):
+        parse_module(f"MODULE m\nCONST num a{{2}} := {value};\nENDMODULE\n")
 
 
 @pytest.mark.parametrize("text, where", [("VAR num TO := 1;", "the data's name"),
