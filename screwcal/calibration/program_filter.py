@@ -308,12 +308,14 @@ def _replacements(language: str, targets: list[Target], values: Array, q: Array,
     out: list[tuple[str, tuple[int, int], str]] = []
     status, turn = kuka_status_turn(q, branch) if language == "krl" else (None, None)
     configs = fanuc_config(q, branch) if language == "fanuc" else None
-    forms = [f"{{:.{pos}f}}"] * 3 + [f"{{:.{ang}f}}"] * 3
-    digits = [pos] * 3 + [ang] * 3
+    forms = [f".{pos}f"] * 3 + [f".{ang}f"] * 3
     rows = values.tolist()
     for k, t in enumerate(targets):
-        for span, v, form, d in zip(t.spans, rows[k], forms, digits, strict=True):
-            out.append((t.path, span, form.format(round(v, d) + 0.0)))  # + 0.0: no "-0.0"
+        for span, v, form in zip(t.spans, rows[k], forms, strict=True):
+            text = format(v, form)  # correctly rounded, as round(v, d) would
+            if text[0] == "-" and not text.strip("-0."):  # no "-0.0"
+                text = text[1:]
+            out.append((t.path, span, text))
         if status is not None and turn is not None:
             for name, number in (("S", int(status[k])), ("T", int(turn[k]))):
                 if name in t.flags:

@@ -143,13 +143,21 @@ def nearest_chain(sol: IKSolutions, start: Array, fixed: Array | None = None
     out = np.full((N, 6), np.nan)
     found = np.zeros(N, bool)
     prev = np.asarray(start, float)
-    cand = _candidates(sol).reshape(N, -1, 6)
-    for k in range(N):  # sequential: each choice depends on the one before
-        if fixed is not None and np.isfinite(fixed[k]).all():
-            out[k], found[k], prev = fixed[k], True, fixed[k]
-            continue
-        dist = np.nan_to_num(np.linalg.norm(cand[k] - prev, axis=-1), nan=np.inf)
-        j = int(np.argmin(dist))
-        if np.isfinite(dist[j]):
-            out[k], found[k], prev = cand[k, j], True, cand[k, j]
+    carried: Mask = np.zeros(N, bool)
+    if fixed is not None:
+        carried = np.all(np.isfinite(fixed), axis=1)
+        out[carried], found[carried] = fixed[carried], True
+    free = np.flatnonzero(~carried)
+    if free.size == 0:
+        return out, found
+    # NaN (no such solution) as infinity: never nearest, and a target with none stays unfound
+    cand = np.nan_to_num(_candidates(sol)[free].reshape(free.size, -1, 6), nan=np.inf)
+    for i, k in enumerate(free.tolist()):  # sequential: each choice depends on the one before
+        if k > 0 and carried[k - 1]:  # the flagged target just before: carried on from it
+            prev = out[k - 1]
+        d = cand[i] - prev
+        dist = np.sqrt(np.add.reduce(d * d, axis=-1))  # np.linalg.norm's sum, bit for bit
+        j = int(dist.argmin())
+        if dist[j] < np.inf:
+            out[k], found[k], prev = cand[i, j], True, cand[i, j]
     return out, found

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from screwcal.programs.program import Flag, Frame, Note, Program, ProgramSyntaxError, Target
 from screwcal.programs.program import line_of as _line
@@ -53,8 +54,7 @@ _ASSIGN = re.compile(r"^[ \t]*([A-Za-z_]\w*)(?:\[[^\]]*\])?(?:\.[A-Za-z]\w*)?[ \
                      re.M)
 
 
-@dataclass(frozen=True)
-class _Item:
+class _Item(NamedTuple):  # (a tuple: 90,000 of them in a program of 10,000 targets)
     text: str
     span: tuple[int, int]
 
@@ -67,27 +67,28 @@ def _aggregate(path: str, text: str, start: int) -> tuple[dict[str, _Item], int]
     typed = _TYPED.match(text, start + 1)  # {FRAME: X 0.0, ...}: the type named first
     if typed:
         i = item_start = typed.end()
-    while depth:
-        found = _AGGREGATE_CHARS.search(text, i)
-        if found is None:
-            raise ProgramSyntaxError(path, _line(text, start), "an aggregate '{' is never "
-                                     "closed by '}'")
+    skip_to = i  # past a string: its characters are its own
+    for found in _AGGREGATE_CHARS.finditer(text, i):
         i = found.start()
+        if i < skip_to:
+            continue
         c = text[i]
         if c == '"':
-            i = text.find('"', i + 1)
-            if i < 0:
+            skip_to = text.find('"', i + 1) + 1
+            if skip_to == 0:
                 raise ProgramSyntaxError(path, _line(text, start), "a string is never closed")
         elif c == "{":
             depth += 1
-        elif c == "}" or (c == "," and depth == 1):
+        elif c == "}" or depth == 1:  # a '}', or a ',' between two items
             if depth == 1:
                 _item(text, item_start, i, items)
                 item_start = i + 1
             if c == "}":
                 depth -= 1
-        i += 1
-    return items, i
+                if depth == 0:
+                    return items, i + 1
+    raise ProgramSyntaxError(path, _line(text, start), "an aggregate '{' is never closed by "
+                             "'}'")
 
 
 def _item(text: str, a: int, b: int, items: dict[str, _Item]) -> None:

@@ -201,3 +201,36 @@ def test_one_branch_is_that_branch_of_all_eight(rng, name):
                 np.testing.assert_array_equal(getattr(one, mask)[:, 0], getattr(ref, mask)[:, b])
             np.testing.assert_allclose(one.residual_mm[:, 0], ref.residual_mm[:, b], atol=1e-9)
     assert (~full.reachable).any() and full.reachable.any()
+
+
+def test_nearest_chain_takes_each_valid_solution_nearest_the_one_before(rng):
+    """The controller's rule for targets without flags, written out target by target: the
+    flagged ones carried on, one with no valid solution skipped (the next measured from the
+    one before it)."""
+    from screwcal.kinematics.ik_branches import all_branches
+    from screwcal.kinematics.maker_configs import _candidates, nearest_chain
+    from screwcal.kinematics.robots import builtin_model
+
+    model = builtin_model("ur5e")
+    q = random_q(model, rng, 200)
+    T = forward_kinematics(model.with_frames(np.eye(4), np.eye(4)), q)
+    T[::17, :3, 3] *= 5.0  # out of reach
+    sol = all_branches(model, T)
+    fixed = np.where(rng.random((200, 1)) < 0.3, q, np.nan)
+    start = np.radians([10.0, -100.0, 90.0, -80.0, -90.0, 20.0])
+    got, found = nearest_chain(sol, start, fixed)
+    cand = _candidates(sol).reshape(200, -1, 6)
+    prev = start
+    for k in range(200):
+        if np.isfinite(fixed[k]).all():
+            want = fixed[k]
+        else:
+            dist = np.linalg.norm(cand[k] - prev, axis=-1)
+            if np.isnan(dist).all():
+                assert not found[k] and np.isnan(got[k]).all()
+                continue
+            want = cand[k, np.nanargmin(dist)]
+        assert found[k]
+        np.testing.assert_array_equal(got[k], want)
+        prev = want
+    assert (~found).any() and np.isfinite(fixed).all(axis=1).any()
