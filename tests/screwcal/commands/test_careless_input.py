@@ -59,6 +59,7 @@ def _slot(line: str, role: str, fine: str = "", findings: str = "", skip: str = 
                 frozenset(skip.split()), entry)
 
 
+CUBE = "--edge-mm 300 --centre-mm 900 0 700"
 # {m} measurements, {r} model file (a calibrated robot), {j} joints, {t} targets, {p} RAPID,
 # {perf} performance, {line} straight line, {s} sweeps, {e} emulator errors, {o} a fine output
 SLOTS = [
@@ -87,9 +88,10 @@ SLOTS = [
     _slot("evaluate --data {perf} --path {} --out {o}.json", "input"),
     _slot("evaluate --data {perf} --path {line} --path-before {} --out {o}.json", "input"),
     _slot("evaluate --data {perf} --out {o}.json --plots {}", "outdir", "folder missing"),
+    # a cube given (edge and centre): the largest cube's search (4 s) is not what is tested
     _slot("testcube --robot {} --out {o}.csv --cycles 2", "input"),
-    _slot("testcube --robot irb1600 --out {} --cycles 2", "output", "existing"),
-    _slot("testcube --robot irb1600 --out {o}.csv --cycles 2 --plot {}", "output",
+    _slot(f"testcube --robot irb1600 --out {{}} --cycles 2 {CUBE}", "output", "existing"),
+    _slot(f"testcube --robot irb1600 --out {{o}}.csv --cycles 2 {CUBE} --plot {{}}", "output",
           overwrite=False),  # a-file.txt is no PNG: refused
     _slot("study planar --samples 1 --workers 1 --out {}", "outdir", "folder missing"),
     _slot("robot show {}", "input"),
