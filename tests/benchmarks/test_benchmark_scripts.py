@@ -36,10 +36,10 @@ def test_median_not_the_best_run():
 
 
 def test_jobs_repeats_and_reports_the_spread():
-    proc = run("jobs.py", "--robots", "2", "--rounds", "3")
+    proc = run("jobs.py", "--robots", "2", "--rounds", "2")  # 6 jobs: a spread of two runs
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
-    assert len(lines) == 2 and all("3 runs)" in line for line in lines), proc.stdout
+    assert len(lines) == 2 and all("2 runs)" in line for line in lines), proc.stdout
     # the cells run in a process of their own: its CPU is reported beside the service's
     assert "CPU/wall service" in lines[1] and ", cells " in lines[1], proc.stdout
     assert run("jobs.py", "--rounds", "0").returncode != 0
@@ -73,10 +73,12 @@ def test_the_cells_process_answers_and_ends_with_its_input():
 
 
 def test_jobs_beside_cpu_bound_processes_reports_each_pair():
-    proc = run("jobs.py", "--robots", "2", "--rounds", "3", "--hogs", "1")
+    # one round (the repeats are the test above's): a pair of one job alone and one beside
+    # the hog, which burns a core while it runs
+    proc = run("jobs.py", "--robots", "1", "--rounds", "1", "--hogs", "1")
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
-    assert "beside 1 CPU-bound processes" in lines[2] and "3 runs)" in lines[2], proc.stdout
+    assert "beside 1 CPU-bound processes" in lines[2] and "1 runs)" in lines[2], proc.stdout
     assert "beside them / alone, pair by pair" in lines[3] and "CPU/wall" in lines[1]
 
 
