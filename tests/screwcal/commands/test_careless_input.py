@@ -13,6 +13,7 @@ refuse a bad path before it starts serving.
 from __future__ import annotations
 
 import csv
+import importlib
 import os
 import signal
 import sys
@@ -161,11 +162,28 @@ def bad_path(kind: str, role: str, where: Path) -> str:
     return str(path)
 
 
+OURS = ("screwcal.", "service.", "simulators.", "protocol.")
+
+
+def _load(names: list[str]) -> None:
+    """Import here what a fork imported of the project's packages, so that the next fork starts
+    with it (each fork loading the same command modules again was most of a refused run's
+    CPU); a module that does not import here is left to the forks, which import it as before."""
+    for name in names:
+        if name not in sys.modules:
+            try:
+                importlib.import_module(name)
+            except Exception:  # the forks still import it, and say what fails
+                continue
+
+
 def run_forked(call: Callable[[], int], cwd: Path, timeout_s: int) -> tuple[int, str]:
     """Run `call` in a fork of this process in `cwd`, stdout and stderr to files; its exit
     status and what it wrote on stderr. An exception that escapes is printed as Python would,
-    with status 99; a run still going after `timeout_s` is killed by its own alarm."""
+    with status 99; a run still going after `timeout_s` is killed by its own alarm. What the
+    run imported of the project is then imported here too (`_load`)."""
     out, err = cwd / "stdout.txt", cwd / "stderr.txt"
+    loaded, before = cwd / "modules.txt", set(sys.modules)
     sys.stdout.flush()
     sys.stderr.flush()
     pid = os.fork()
@@ -189,6 +207,8 @@ def run_forked(call: Callable[[], int], cwd: Path, timeout_s: int) -> tuple[int,
         finally:
             sys.stdout.flush()
             sys.stderr.flush()
+            loaded.write_text("\n".join(m for m in sys.modules
+                                         if m.startswith(OURS) and m not in before))
             os._exit(code)
     _, status = os.waitpid(pid, 0)
     try:
@@ -196,6 +216,8 @@ def run_forked(call: Callable[[], int], cwd: Path, timeout_s: int) -> tuple[int,
     except ProcessLookupError:
         pass
     code = os.waitstatus_to_exitcode(status)
+    if loaded.exists():
+        _load(loaded.read_text().split())
     return code, err.read_text(errors="replace") if err.exists() else ""
 
 
