@@ -142,6 +142,7 @@ def _mypy() -> list[str]:
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("mypy cache")  # the two runs share .mypy_cache: one after the other
 @pytest.mark.parametrize("strict,targets", [
     (True, ["screwcal/kinematics", "screwcal/rapid", "protocol"]),
     (False, list(PACKAGES)),
