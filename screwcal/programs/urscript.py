@@ -30,6 +30,7 @@ _BLANKED = re.compile(r"#[^\n]*|\"[^\"]*(?:\"|\Z)|'[^']*(?:'|\Z)")
 _NOT_NEWLINE = re.compile(r"[^\n]")
 _BRACKETS = {"()": re.compile(r"[()]"), "[]": re.compile(r"[\[\]]")}
 _SEPARATORS = re.compile(r"[()\[\],]")
+_BRACKET_IN = re.compile(r"[()\[\]]")
 _NUM = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
@@ -64,6 +65,18 @@ def _close(code: str, open_at: int, pair: str = "()") -> int:
 def _split(code: str, a: int, b: int) -> list[tuple[int, int]]:
     """Top-level comma-separated spans of code[a:b], stripped (none after an unclosed
     bracket)."""
+    piece = code[a:b]
+    if not _BRACKET_IN.search(piece):  # no brackets (a pose literal's numbers): its commas
+        out, start = [], a
+        for part in piece.split(","):
+            kept = part.strip()
+            if kept:
+                lead = start + len(part) - len(part.lstrip())
+                out.append((lead, lead + len(kept)))
+            else:
+                out.append((start + len(part), start + len(part)))
+            start += len(part) + 1
+        return out
     out, depth, start = [], 0, a
     for m in _SEPARATORS.finditer(code, a, b):
         c = m.group()
