@@ -10,8 +10,10 @@ broken on the true robot (the tracker finds no reflector, even after searching) 
 counted, never measured; a lost, uninitialised or warming tracker is reconnected, initialised or
 waited for, and the pose measured once.
 
-The procedure: ISO 9283 AP before; calibration; compensation of the performance list; AP after;
-the same with the geometric-only model (no compliance, no read-back lag) on the same data, as the
+The procedure: ISO 9283 AP before; calibration; compensation of the performance list (each
+joint also commanded half the lost motion the calibration found beyond its target, on the side it
+comes from in the list: `lag.commands_for_lost_motion`); AP after; the same with the
+geometric-only model (no compliance, no read-back lag, no lost motion) on the same data, as the
 arm's demo prints it. Positions in the tracker's frame are taken into the robot's base frame
 with the base frame the calibration identified.
 """
@@ -37,6 +39,7 @@ from screwcal.calibration.beam_weighting import BeamLevels, identify_beam_weight
 from screwcal.calibration.correction import compensate
 from screwcal.calibration.flange import frame_from_holes
 from screwcal.calibration.identify import CalibrationResult, identify
+from screwcal.calibration.lag import commands_for_lost_motion
 from screwcal.calibration.line_of_sight import (
     DEFAULT_SMR_MM,
     THREE_SMRS_MM,
@@ -124,12 +127,16 @@ def ap_mean_mm(run: TrackerRun, plans: Sequence[PosePlan], nominal: SerialModel,
     return float(np.mean(aps))
 
 
-def compensated(plans: Sequence[PosePlan], calibrated: SerialModel, nominal: SerialModel
-                ) -> list[list[float]]:
-    """The list's joints that take the calibrated robot's tool0 to the nominal targets."""
+def compensated(plans: Sequence[PosePlan], calibrated: SerialModel, nominal: SerialModel,
+                lost_motion: Array | None = None) -> list[list[float]]:
+    """The list's joints that take the calibrated robot's tool0 to the nominal targets; with
+    the `lost_motion` (n,) the calibration found, each joint commanded half of it beyond, on
+    the side it comes from in the list's order."""
     q = np.radians([p.q_deg for p in plans])
     comp = compensate(calibrated, nominal, flange_kinematics(nominal, q), q, frame="base")
-    return np.round(np.degrees(comp.q_rad), 4).tolist()
+    sent = comp.q_rad if lost_motion is None else \
+        commands_for_lost_motion(comp.q_rad, lost_motion)
+    return np.round(np.degrees(sent), 4).tolist()
 
 
 @contextlib.contextmanager
@@ -192,7 +199,8 @@ async def procedure(host: str, port: int, tracker_url: str, *, poses: int, cycle
             ours = beam.result
             geo = await asyncio.to_thread(identify, nominal, data, kind="full")
             for name, result in (("after", ours), ("geometric", geo)):
-                await cell.visit(compensated(perf, result.model, nominal), targets, runs[name])
+                await cell.visit(compensated(perf, result.model, nominal,
+                                             result.reading_lost_motion), targets, runs[name])
         finally:
             cell.close()
     return TrackerDemo(ap_mean_mm(runs["before"], perf, nominal, ours),
@@ -248,7 +256,9 @@ def summary_lines(done: TrackerDemo, stand_mm: Sequence[float]) -> list[str]:
         f"  conditions: {weather[:, 0].mean():.1f} deg C, {weather[:, 1].mean():.1f} mbar, "
         f"{weather[:, 2].mean():.0f} %RH (the tracker's weather, {len(points)} points)",
         f"  AP mean before {done.ap_before_mm:10.3f} mm",
-        f"  AP mean after  {done.ap_after_mm:10.3f} mm  (full model, compliance and lag auto)",
+        f"  AP mean after  {done.ap_after_mm:10.3f} mm  (full model, compliance and lag auto"
+        + (", the lost motion found taken up on each target's approach side)"
+           if done.calibration.reading_lost_motion is not None else ")"),
         f"  {'geometric only (compliance none, lag none)':<44}{done.ap_after_geometric_mm:8.3f}"
         f" mm  ({ratio:.2f}x ours)",
     ]

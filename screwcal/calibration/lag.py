@@ -103,3 +103,17 @@ def moving_terms(data: MeasurementSet) -> Mask:
     """(2n,) the lags and lost motions the data can show: those of the joints that move."""
     moves = np.any(previous_move(data) != 0.0, axis=0)
     return np.concatenate([moves, moves])
+
+
+def commands_for_lost_motion(q: Array, lost_motion: Array, before: Array | None = None
+                             ) -> Array:
+    """(N, n) the joints to command so that joints which stop half their `lost_motion` (n,)
+    short on the side they came from land on `q` (N, n), visited in this order from `before`
+    (n,; default: the first): each joint commanded half its lost motion beyond its target, on
+    the side its move comes from (for a joint that does not move, the side of its last move)."""
+    q = np.asarray(q, dtype=float)
+    start = q[:1] if before is None else np.asarray(before, dtype=float)[None]
+    sides = np.sign(np.diff(np.vstack([start, q]), axis=0))
+    for k in range(1, len(sides)):
+        sides[k] = np.where(sides[k] == 0.0, sides[k - 1], sides[k])
+    return q + 0.5 * np.asarray(lost_motion, dtype=float) * sides

@@ -10,7 +10,7 @@ from screwcal.calibration.line_of_sight import visible
 from screwcal.instrument import TRACKER_STAND_MM
 from screwcal.kinematics.robots import irb1600
 from service.errors import ServiceError
-from service.tracker_demo import calibration_poses, performance_poses, run_demo
+from service.tracker_demo import calibration_poses, performance_poses, run_demo, summary_lines
 
 
 def test_planned_poses_face_the_tracker():
@@ -35,9 +35,13 @@ def test_the_tracker_procedure_calibrates_the_typical_robot(capsys):
     done = run_demo(seed=None, poses=80, cycles=3, time_scale=0.0, realism="typical")
     assert done.ap_after_mm <= 0.10
     assert done.ap_before_mm > 10 * done.ap_after_mm
-    assert done.ap_after_geometric_mm > done.ap_after_mm
+    # issue 40's target: the geometric-only route 2x worse (the lost motion taken up: 6.5x at
+    # 30 cycles; 1.8x before, when the backlash the floor is made of stayed in both)
+    assert done.ap_after_geometric_mm >= 2.0 * done.ap_after_mm
     assert all(run.skipped == 0 and not run.faults for run in done.runs.values())
-    assert "laser tracker emscon://" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "laser tracker emscon://" in out
+    assert "lost motion" in "\n".join(summary_lines(done, (3000.0, 0.0, 900.0)))
 
 
 @pytest.mark.slow

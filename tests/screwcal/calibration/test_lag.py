@@ -1,10 +1,18 @@
 """Joint readings that lag the motion (issue 11), and the lost motion of the move (issue 40):
 estimated with the fit, corrected."""
 
+from dataclasses import replace
+
 import numpy as np
+import pytest
 
 from screwcal.calibration.identify import identify
-from screwcal.calibration.lag import approach_sides, correct_lag, previous_move
+from screwcal.calibration.lag import (
+    approach_sides,
+    commands_for_lost_motion,
+    correct_lag,
+    previous_move,
+)
 from screwcal.calibration.measurements import MeasurementSet, previous_rows
 from screwcal.calibration.posesets import random_configurations
 from screwcal.kinematics.robots import irb120
@@ -110,3 +118,31 @@ def test_the_lost_motion_is_taken_off_on_the_side_the_joint_came_from():
     told = MeasurementSet(q, np.zeros((3, 3)), q_previous=previous_rows(q),
                           directions=np.array([[1.0, -1.0], [0.0, 0.0], [1.0, 0.0]]))
     assert approach_sides(told).tolist() == [[1, -1], [1, 0], [1, 1]]  # the file's where given
+
+
+def test_a_list_commanded_past_its_lost_motion_lands_on_its_targets():
+    """The emulated robot's joints (simulators/world.py) stop half their backlash short on the
+    side they came from: commanded half of it beyond, on that side, they land on the targets,
+    a joint that does not move keeping the side of its last move."""
+    import asyncio
+
+    from simulators.realism import IDEAL
+    from simulators.truth import make_world
+
+    b = np.array([0.01, 0.02, 0.03, 0.04, 0.05, 0.06])
+    world = make_world(None, 3, realism=replace(IDEAL, name="test", backlash_deg=tuple(b)))
+    targets = np.array([[10.0, 20.0, -10.0, 30.0, 40.0, 50.0],
+                        [15.0, 10.0, -10.0, 35.0, 30.0, 60.0],
+                        [15.0, 25.0, -20.0, 20.0, 45.0, 40.0],
+                        [5.0, 25.0, -5.0, 25.0, 35.0, 45.0]])
+    start = np.zeros(6)
+    commands = np.degrees(commands_for_lost_motion(np.radians(targets), np.radians(b),
+                                                   np.radians(start)))
+    asyncio.run(world.set_joints(start))
+    landed = []
+    for q in commands:
+        asyncio.run(world.set_joints(q))
+        landed.append(world.true_joints_deg)
+    np.testing.assert_allclose(landed, targets, atol=1e-4)
+    # joint 3 of pose 2 does not move: commanded where it was, on its last side (from above)
+    assert commands[1, 2] == commands[0, 2] == pytest.approx(-10.0 - 0.015)
