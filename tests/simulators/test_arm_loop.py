@@ -49,6 +49,29 @@ async def test_holes_give_the_true_flange_within_the_arm_noise(client, emulator,
     reader.close()
 
 
+async def test_the_reader_reads_in_memory_what_pyserial_reads_over_socket():
+    """The same seeded arm asked three times over pyserial's socket:// and over the link in
+    memory: the same lines, so the same holes and SEQs, bit for bit."""
+    from tests.simulators.conftest import make_world
+
+    world = make_world()
+    read = {}
+    for link in ("socket", "memory"):
+        arm = ArmEmulator(world, seed=5)
+        host, port = await arm.start("127.0.0.1", 0)
+        arm.connect = serial_link(arm.serve, asyncio.get_running_loop())
+        reader = await (asyncio.to_thread(ArmReader, f"socket://{host}:{port}")
+                        if link == "socket" else in_memory(arm))
+        read[link] = []
+        for _ in range(3):
+            await asyncio.to_thread(reader.request)
+            read[link].append(await asyncio.to_thread(reader.read_holes, 2.0))
+        await asyncio.to_thread(reader.close)
+        await arm.stop()
+    assert read["socket"] == read["memory"]
+    assert [h.seqs for h in read["memory"]] == [(1, 2, 3), (4, 5, 6), (7, 8, 9)]
+
+
 async def test_one_triple_per_pose_while_a_list_runs(client, emulator, arm):
     emulator.settings.time_scale = 0.05
     reader = await in_memory(arm)
