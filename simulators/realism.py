@@ -138,9 +138,9 @@ class Realism:
         out = []
         if any(self.compliance_deg_per_knm):
             out.append(f"joint compliance under gravity: "
-                       f"{joints(self.compliance_deg_per_knm, ' deg/kNm')} (the robot's own "
-                       f"masses {100 * self.mass_spread:g} % off the nominal table at most, "
-                       f"their centres moved up to {self.centre_shift_mm:g} mm)")
+                       f"{joints(self.compliance_deg_per_knm, ' deg/kNm')} (its own masses up "
+                       f"to {100 * self.mass_spread:g} % off the nominal table, their centres "
+                       f"moved up to {self.centre_shift_mm:g} mm)")
         out.append(f"payload: {self.payload_kg:g} kg, centre of gravity at "
                    f"({', '.join(f'{v:g}' for v in self.payload_cog_mm)}) mm in the flange "
                    "frame")

@@ -199,3 +199,47 @@ def test_docs_render_without_internet(tmp_path):
     assert dom.returncode == 0, dom.stderr[-2000:]
     assert "opblock" in dom.stdout and "/jobs/{job_id}/model" in dom.stdout
     assert "authorize" in dom.stdout.lower()
+
+
+@NEEDS_CHROMIUM
+def test_a_rejected_pose_is_ringed_on_the_residual_chart_at_both_widths(tmp_path):
+    """The residual chart of a calibration whose pose 12 the fit rejected (moved 3 mm): ringed
+    at its place and residual, the legend covering no mark, the chart equal to its table, at
+    1280 and 800 px (tests/service/test_report.py checks the figures themselves)."""
+    import numpy as np
+
+    from screwcal.calibration.posesets import random_configurations
+    from screwcal.commands.main import main
+    from screwcal.kinematics.robots import irb1600
+    from screwcal.studies.simulated_measurements import simulate_measurements
+    from service.document import EstimationSummary
+    from service.report.calibration import REJECTED, residual_pair
+    from service.report.markup import CSS, section
+    from tests.screwcal.calibration.test_identify import BASE, TOOL
+    from tests.screwcal.commands.test_calibrate_cli import _write_measurements
+
+    rng = np.random.default_rng(12)
+    data = simulate_measurements(irb1600().with_frames(BASE, TOOL),
+                                 random_configurations(30, rng), rng, full_pose=False)
+    data.positions_mm[11] += [3.0, 0.0, 0.0]
+    path = _write_measurements(tmp_path / "m.csv", data, full_pose=False)
+    out = tmp_path / "r.json"
+    assert main(["calibrate", "--robot", "irb1600", "--data", str(path), "--out", str(out)]) == 0
+    est = EstimationSummary(parameters=[], rank=1, condition_number=1.0, chi2_reduced=1.0,
+                            converged=True, residual_before_mm=1.0, residual_after_mm=0.1)
+    page = tmp_path / "page.html"
+    page.write_text(
+        "<!doctype html><html lang='en'><head><meta charset='utf-8'><meta name='viewport' "
+        f"content='width=device-width, initial-scale=1'><style>{CSS}</style></head><body>"
+        "<header><h1>residual</h1></header>" + section(
+            "calibration", "What the calibration identified",
+            residual_pair(json.loads(out.read_text()), est)) + "</body></html>")
+    for width in (1280, 800):
+        m = measured(page, tmp_path / "profile", width)
+        assert m["scroll_width"] <= m["width"] and not m["overflowing"], m["overflowing"]
+        (chart,) = m["charts"]
+        assert chart["caption"] and chart["axis_label"].startswith(chart["caption"]), chart
+        assert chart["covered"] == 0 and not chart["text_outside"], chart
+        assert [v for s, _, v in chart["values"] if s == REJECTED] and \
+            [r for r in chart["table"] if r[0] == REJECTED], chart
+        agrees_with_its_table(chart)
