@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from screwcal.calibration.backlash import backlash_from_pairs
+from screwcal.calibration.beam_weighting import BeamFit
 from screwcal.calibration.correction import (
     CorrectionRefusedError,
     after_zero,
@@ -152,10 +153,25 @@ def flange_error_mm(robot: SerialModel, q_sent: Array, target: Array) -> Array:
     return np.linalg.norm(flange_kinematics(robot, q_sent)[:, :3, 3] - target[:, :3, 3], axis=1)
 
 
-def estimation_summary(result: CalibrationResult) -> EstimationSummary:
+def estimation_summary(result: CalibrationResult, beam: BeamFit | None = None
+                       ) -> EstimationSummary:
     """The robot's identified parameters; the measuring frame as the pose it came out as (its
-    parameters are increments from the starting alignment, meaningless alone)."""
+    parameters are increments from the starting alignment, meaningless alone); a tracker's
+    points fitted by their beams (`beam`): the noise along and across the beam beside."""
     x, y, z, rx, ry, rz = (float(v) for v in pose_from_transform(result.model.base))
+    noise = result.noise.to_dict() if result.noise is not None else None
+    if beam is not None:
+        noise = {**(noise or {}), **{
+            name: {"value": level, "unit": "mm", "estimated": True, "std": None,
+                   "measured": True, "excess_mm": excess,
+                   "meaning": f"noise {words} (1 sigma; a first fit's residuals), and what of "
+                              "it the instrument's stated covariances did not explain "
+                              "(added to every point's weight)"}
+            for name, words, level, excess in (
+                ("along_beam", "along the tracker's beam", beam.levels.radial_mm,
+                 beam.excess.radial_mm),
+                ("across_beam", "across the beam, per direction", beam.levels.lateral_mm,
+                 beam.excess.lateral_mm))}}
     return EstimationSummary(
         parameters=[EstimatedParameter(name=p.name, unit=p.unit, value=float(v),
                                        std_error=float(s))
@@ -167,7 +183,7 @@ def estimation_summary(result: CalibrationResult) -> EstimationSummary:
         removed=[RemovedParameter(name=n, reason=why) for n, why in result.removed],
         rank=result.rank, condition_number=result.condition_number,
         chi2_reduced=result.chi2_reduced, converged=result.converged,
-        noise=result.noise.to_dict() if result.noise is not None else None,
+        noise=noise,
         warnings=list(result.warnings),
         residual_before_mm=float(result.residuals_before.mean()),
         residual_after_mm=float(result.residuals_after.mean()),
@@ -331,6 +347,28 @@ def iso_test_conditions(robot: RobotRecord, model: SerialModel,
                                      f"{options.lag}",
         "date (UTC)": time.strftime("%Y-%m-%d %H:%M", time.gmtime(created)) if created else "",
     }
+
+
+def instrument_conditions(rows: Sequence[Mapping[str, Any]]) -> dict[str, str]:
+    """What the instrument stated beside its points, over the job's committed poses: each
+    point's uncertainty (the standard deviation along its worst direction) and the air it
+    measured in; nothing for what it did not state."""
+    out: dict[str, str] = {}
+    cov = [c for r in rows for c in (r.get("covariance_mm2") or [])]
+    if cov:
+        worst = np.sqrt(np.linalg.eigvalsh(np.array(cov, dtype=float))[:, -1]) * 1000.0
+        out["instrument uncertainty"] = (
+            f"per point as it stated it, 1 sigma along the worst direction: median "
+            f"{np.median(worst):.1f} um, {worst.min():.1f}-{worst.max():.1f} um "
+            f"({len(worst)} points)")
+    air = np.array([(c["temperature_c"], c["pressure_mbar"], c["humidity_pct"])
+                    for r in rows if (c := r.get("conditions"))], dtype=float)
+    if len(air):
+        out["air (the instrument's weather)"] = (
+            f"{air[:, 0].mean():.1f} deg C ({air[:, 0].min():.1f}-{air[:, 0].max():.1f}), "
+            f"{air[:, 1].mean():.1f} mbar, {air[:, 2].mean():.0f} %RH (mean of {len(air)} "
+            "poses)")
+    return out
 
 
 def payload_label(options: JobOptions, phase: str) -> str:

@@ -6,7 +6,7 @@
                            (or --tracker HOST[:PORT] [--tracker-stand-mm X Y Z], or --external)
     screwcal job start --robot ID --kind procedure|calibration|performance [--mode STEP]
     screwcal job watch ID        # progress; in STEP mode asks before every move
-    screwcal job measure ID --point X Y Z [--u95-mm U] | --file F.json   # another instrument
+    screwcal job measure ID --point-mm X Y Z [--u95-mm U] | --file F.json   # another instrument
     screwcal job abort ID
     screwcal job result ID       # the before/after table
     screwcal job report ID --out report.html
@@ -117,6 +117,28 @@ def _model_argument(model: str) -> str | dict:
     return model if model in BUILTIN_MODELS else model_document(resolve_model(model))
 
 
+def _robots(op: Operator, args: argparse.Namespace) -> None:
+    """robot-add and robot-list."""
+    if args.action == "robot-add":
+        host, _, port = args.controller.rpartition(":")
+        if not host or not port.isdigit():
+            raise ServiceError(f"--controller is HOST:PORT (e.g. 127.0.0.1:4012), not "
+                               f"{args.controller!r}")
+        robot = op.add_robot(name=args.name, controller_host=host,
+                             controller_port=int(port), instrument=_instrument(args),
+                             model=_model_argument(args.robot), serial=args.serial,
+                             controller_software=args.controller_software,
+                             tool=args.tool, payload_kg=args.payload_kg)
+        print(f"robot {robot['id']}: {robot['name']}")
+        return
+    for r in op.robots():
+        ins = r.get("instrument") or {"kind": "arm", "url": r["arm_url"]}
+        where = ins.get("url") or (f"{ins['host']}:{ins['port']}" if "host" in ins
+                                   else "measurements posted")
+        print(f"{r['id']:>4}  {r['name']:<24} controller {r['controller_host']}:"
+              f"{r['controller_port']}  {ins['kind']} {where}")
+
+
 def _instrument(args: argparse.Namespace) -> dict[str, Any]:
     """The robot's instrument from robot-add's --arm, --tracker or --external."""
     if args.arm is not None:
@@ -190,24 +212,8 @@ def _run_job(op: Operator, args: argparse.Namespace) -> int:
     from service.result_text import result_table
 
     try:
-        if args.action == "robot-add":
-            host, _, port = args.controller.rpartition(":")
-            if not host or not port.isdigit():
-                raise ServiceError(f"--controller is HOST:PORT (e.g. 127.0.0.1:4012), not "
-                                   f"{args.controller!r}")
-            robot = op.add_robot(name=args.name, controller_host=host,
-                                 controller_port=int(port), instrument=_instrument(args),
-                                 model=_model_argument(args.robot), serial=args.serial,
-                                 controller_software=args.controller_software,
-                                 tool=args.tool, payload_kg=args.payload_kg)
-            print(f"robot {robot['id']}: {robot['name']}")
-        elif args.action == "robot-list":
-            for r in op.robots():
-                ins = r.get("instrument") or {"kind": "arm", "url": r["arm_url"]}
-                where = ins.get("url") or (f"{ins['host']}:{ins['port']}" if "host" in ins
-                                           else "measurements posted")
-                print(f"{r['id']:>4}  {r['name']:<24} controller {r['controller_host']}:"
-                      f"{r['controller_port']}  {ins['kind']} {where}")
+        if args.action in ("robot-add", "robot-list"):
+            _robots(op, args)
         elif args.action == "list":
             for j in op.jobs():
                 print(f"{j['id']:>4}  robot {j['robot_id']:<4} {j['kind']:<12} {j['mode']:<5} "
@@ -289,25 +295,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     common.add_argument("--token", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
     actions.add_parser("robot-list", parents=[common], help="the robots the service knows")
     actions.add_parser("list", parents=[common], help="the jobs, newest last")
-    r = actions.add_parser("robot-add", parents=[common], help="register a robot cell")
-    r.add_argument("--name", required=True, help="the cell's name (unique on the service)")
-    r.add_argument("--controller", required=True, help="HOST:PORT of the controller")
-    which = r.add_mutually_exclusive_group(required=True)
-    which.add_argument("--arm", help="pyserial URL of the measuring arm")
-    which.add_argument("--tracker", metavar="HOST[:PORT]",
-                       help="a laser tracker's emScon TPI (port 700 by default), one SMR")
-    which.add_argument("--external", action="store_true", help="another instrument, whose "
-                       "software posts each pose's measurement (screwcal job measure)")
-    add_vector(r, "--tracker-stand-mm", help="where the tracker stands, roughly, in the robot "
-               "base frame (mm; the job's poses are planned for its beam)")
-    add_option(r, "--robot", renamed=["--model"], default="irb1600",
-               help="library robot (screwcal robot list), or a robot or calibrated model file "
-               "read here (relative to this directory) and sent to the service")
-    r.add_argument("--serial", default="", help="the robot's serial number")
-    r.add_argument("--controller-software", default="", help="e.g. 'RobotWare 6.15'")
-    r.add_argument("--tool", default="", help="the tool mounted")
-    r.add_argument("--payload-kg", type=non_negative_float, default=None,
-                   help="the mass the robot usually carries on its flange")
+    _add_robot_parser(actions, common)
     h = actions.add_parser("history", parents=[common], help="a robot's jobs and models with "
                            "their provenance, its accuracy trend and drift alarm (exit 2 when "
                            "the alarm is on)")
@@ -356,6 +344,29 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_measure_parser(actions, common)
     for a in actions.choices.values():
         a.set_defaults(func=run_job)
+
+
+def _add_robot_parser(actions: argparse._SubParsersAction,
+                      common: argparse.ArgumentParser) -> None:
+    r = actions.add_parser("robot-add", parents=[common], help="register a robot cell")
+    r.add_argument("--name", required=True, help="the cell's name (unique on the service)")
+    r.add_argument("--controller", required=True, help="HOST:PORT of the controller")
+    which = r.add_mutually_exclusive_group(required=True)
+    which.add_argument("--arm", help="pyserial URL of the measuring arm")
+    which.add_argument("--tracker", metavar="HOST[:PORT]",
+                       help="a laser tracker's emScon TPI (port 700 by default), one SMR")
+    which.add_argument("--external", action="store_true", help="another instrument, whose "
+                       "software posts each pose's measurement (screwcal job measure)")
+    add_vector(r, "--tracker-stand-mm", help="where the tracker stands, roughly, in the robot "
+               "base frame (mm; the job's poses are planned for its beam)")
+    add_option(r, "--robot", renamed=["--model"], default="irb1600",
+               help="library robot (screwcal robot list), or a robot or calibrated model file "
+               "read here (relative to this directory) and sent to the service")
+    r.add_argument("--serial", default="", help="the robot's serial number")
+    r.add_argument("--controller-software", default="", help="e.g. 'RobotWare 6.15'")
+    r.add_argument("--tool", default="", help="the tool mounted")
+    r.add_argument("--payload-kg", type=non_negative_float, default=None,
+                   help="the mass the robot usually carries on its flange")
 
 
 def _add_serve_arguments(s: argparse.ArgumentParser) -> None:

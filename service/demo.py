@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from screwcal.instrument import STAND_MM
+from screwcal.instrument import STAND_MM, TRACKER_STAND_MM
 from service.errors import ServiceError
 
 if TYPE_CHECKING:
@@ -41,20 +41,41 @@ DEFAULT_POSES_REAL = 80  # ... and of a robot that also bends and lags: complian
 # identified with the geometry need more (40 leave 0.03 mm more after on the typical robot)
 
 
+@dataclass(frozen=True)
+class TrackerStand:
+    """The emulated laser tracker of a demo cell: where it stands (robot frame, mm), turned
+    how far about the vertical, how many SMRs the flange carries, and its injected faults
+    (`emulator irc5 --tracker-faults`)."""
+
+    stand_mm: tuple[float, ...] = TRACKER_STAND_MM
+    yaw_deg: float = 0.0
+    smrs: int = 1
+    faults: str = ""
+
+    def arguments(self) -> list[str]:
+        args = ["--tracker-port", "0", "--stand-mm", *(f"{v:g}" for v in self.stand_mm),
+                "--smrs", str(self.smrs), "--stand-yaw-deg", f"{self.yaw_deg:g}"]
+        return args + (["--tracker-faults", self.faults] if self.faults else [])
+
+
 @contextlib.contextmanager
-def emulators(time_scale: float, seed: int | None, world: Path, realism: str = "ideal"
-              ) -> Iterator[tuple[str, int, str]]:
+def emulators(time_scale: float, seed: int | None, world: Path, realism: str = "ideal",
+              tracker: TrackerStand | None = None) -> Iterator[tuple[str, int, str]]:
+    """The demo's cell, `screwcal emulator irc5` as a process: the controller and its
+    instrument, the measuring arm or (`tracker`) a laser tracker. Yields the controller's host
+    and port and the instrument's address (socket://... or emscon://...)."""
     cmd = [sys.executable, "-m", "screwcal", "emulator", "irc5", "--port", "0",
-           "--time-scale", str(time_scale), "--arm-port", "0", "--world", str(world),
-           "--realism", realism]
+           "--time-scale", str(time_scale), "--world", str(world), "--realism", realism,
+           *(["--arm-port", "0"] if tracker is None else tracker.arguments())]
     if seed is not None:
         cmd += ["--seed", str(seed)]
-    # The arm's noise is seeded too: two runs with the same seed print the same table.
+    # The instrument's noise is seeded too: two runs with the same seed print the same table.
     cmd += ["--noise-seed", str(NOISE_SEED if seed is None else seed)]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         line = proc.stdout.readline() if proc.stdout else ""
-        m = re.match(r"irc5 emulator on ([\d.]+):(\d+); measuring arm on (\S+)", line)
+        m = re.match(r"irc5 emulator on ([\d.]+):(\d+); (?:measuring arm|laser tracker) on "
+                     r"(\S+)", line)
         if not m:
             raise ServiceError(f"the emulators did not start: {line}"
                                f"{proc.stderr.read() if proc.stderr else ''}")
@@ -123,7 +144,8 @@ def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool,
                        args.realism) as (host, port, arm):
             with service(settings) as url, Operator(url, token) as op:
                 robot = op.add_robot(name="ABB IRB 1600 (emulated)", controller_host=host,
-                                     controller_port=port, arm_url=arm, model="irb1600",
+                                     controller_port=port, model="irb1600",
+                                     instrument={"kind": "arm", "url": arm},
                                      emulation=emulation)
                 job = op.start(robot_id=robot["id"], kind="procedure", mode="AUTO",
                                options=options)

@@ -1,7 +1,7 @@
 """`screwcal job measure`: another instrument's measurement of the pose a job waits for, sent
 to the service (POST /jobs/ID/measurement) from a JSON file or from arguments.
 
-    screwcal job measure 12 --point 812.41 -20.07 633.90 --u95-mm 0.03
+    screwcal job measure 12 --point-mm 812.41 -20.07 633.90 --u95-mm 0.03
     screwcal job measure 12 --file pose.json      # {"phase", "index", "points_mm", ...}
 
 Without --phase and --index the pose is the one the job waits for now (its measurement_for);
@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from screwcal.arguments import positive_int
+from screwcal.arguments import add_vector, positive_int
 from service.errors import ServiceError
 
 if TYPE_CHECKING:
@@ -36,8 +36,9 @@ def add_measure_parser(actions: argparse._SubParsersAction,
     m.add_argument("--file", help="a JSON file with the measurement ('-': standard input)")
     m.add_argument("--phase", help="the pose's list (default: the pose the job waits for)")
     m.add_argument("--index", type=int, help="the pose's index (default: as --phase)")
-    m.add_argument("--point", action="append", nargs=3, type=float, metavar=("X", "Y", "Z"),
-                   help="a measured target, mm (once per target, in the record's order)")
+    for k, which in enumerate(("first", "second", "third")):
+        add_vector(m, f"--point{k + 1 if k else ''}-mm", help=f"the {which} target measured, "
+                   "mm (the robot record's targets, in their order)")
     m.add_argument("--u95-mm", action="append", type=float, metavar="U",
                    help="a target's expanded uncertainty at 95 %% (k = 2), mm, once per point")
     m.add_argument("--time-s", type=float, help="when it was measured (Unix s; default now)")
@@ -59,12 +60,14 @@ def measurement_body(args: argparse.Namespace, op: Operator) -> dict[str, Any]:
                 from None
         if not isinstance(body, dict):
             raise ServiceError(f"{args.file}: a JSON object with phase, index, points_mm, ...")
-    if args.point:
-        body["points_mm"] = [list(p) for p in args.point]
+    points = [p for p in (args.point_mm, args.point2_mm, args.point3_mm) if p is not None]
+    if points:
+        body["points_mm"] = [list(p) for p in points]
     if args.u95_mm:
         body["u95_mm"] = list(args.u95_mm)
     if "points_mm" not in body:
-        raise ServiceError("no points: give --point X Y Z (per target) or --file")
+        raise ServiceError("no points: give --point-mm X Y Z (and --point2-mm, --point3-mm for "
+                           "three targets) or --file")
     if args.phase is not None:
         body["phase"] = args.phase
     if args.index is not None:

@@ -40,15 +40,14 @@ import numpy as np
 
 from protocol.errors import ControllerError
 from screwcal.calibration.correction import CorrectionRefusedError, after_zero
-from screwcal.calibration.identify import Frames, identify
+from screwcal.calibration.identify import identify
 from screwcal.calibration.residual_model import residual_from_document
 from screwcal.calibration.residual_stage import learn_residual
 from screwcal.calibration.resultfile import result_document
 from screwcal.errors import ScrewcalError
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.modelfile import model_document, parse_model
-from screwcal.kinematics.se3 import Array
-from service import analysis
+from service import analysis, instrument_fit
 from service.acquisition import LINK_ERRORS, Acquisition, JobAborted, OperatorGate
 from service.document import JobRecord, PhaseRecord, ResultDocument
 from service.drift import (
@@ -294,20 +293,16 @@ class JobRunner:
                                                if phase != calibration_list(suffix)
                                                for r in others])
         nominal = replace(self.model, payload=analysis.list_payload(self.options, "cal"))
-        frames: Frames = "base"
-        if data.rotations is None:  # one point measured (a tracker's SMR): where it sits on
-            # the flange is identified too, from where the record says it is
-            nominal = nominal.with_frames(tool=self.point_frame())
-            frames = "unknown"
-        result = identify(nominal, data, kind=kind, frames=frames,
-                          compliance=self.options.compliance, lag=self.options.lag)
+        result, beam, frames = instrument_fit.fit(  # by what the instrument measured
+            nominal, data, self.robot, kind=kind, compliance=self.options.compliance,
+            lag=self.options.lag)
         doc = self.job.result.with_round(
-            suffix, estimation=analysis.estimation_summary(result),
+            suffix, estimation=analysis.estimation_summary(result, beam),
             calibration=result_document(
                 result, self.model.name, {"model": kind, "frames": frames, "poses": len(data),
                                           "job": self.job_id, "phase": calibration_list(suffix),
                                           "compliance": self.options.compliance,
-                                          "lag": self.options.lag})
+                                                          "lag": self.options.lag})
             | {"residual_model": learn_residual(result, data).to_dict()})  # its stage
         doc.base = result.model.base.tolist()
         if self.options.backlash_poses:
@@ -363,7 +358,7 @@ class JobRunner:
         else:  # a performance job alone: the measuring frame from its own data
             data = analysis.measurement_set(by_phase.get(PERF_PHASES[0], []))
             nominal = self.model if data.rotations is not None else \
-                self.model.with_frames(tool=self.point_frame())
+                self.model.with_frames(tool=instrument_fit.point_frame(self.robot))
             doc.base = identify(nominal, data, kind="frames", frames="base").model.base.tolist()
             doc.frame_note = (
                 "accuracy measured in a robot base frame fitted to this performance data "
@@ -374,7 +369,8 @@ class JobRunner:
                               "frame to measure in")
         base = np.array(doc.base)
         plan = {p.idx: p for p in self.plan("perf")}
-        point = self.measured_point(by_phase)
+        point = None if not any(map(analysis.positions_only, by_phase.values())) else \
+            instrument_fit.measured_point(self.robot, doc.calibration_of(doc.latest_round()))
         doc.performance = {
             phase: analysis.performance_figures(rows, plan, base, point) for phase in PERF_PHASES
             if (rows := by_phase.get(phase))}
@@ -382,29 +378,16 @@ class JobRunner:
         home = analysis.home_check(self.model, last_home, base)
         if home is not None:
             doc.home_check = home
-        doc.test_conditions = analysis.iso_test_conditions(
-            self.robot, self.model, self.options, plan, self.job.created)
+        doc.test_conditions = {
+            **analysis.iso_test_conditions(self.robot, self.model, self.options, plan,
+                                           self.job.created),
+            **analysis.instrument_conditions([r for rows in by_phase.values() for r in rows])}
         doc = self.with_drift(doc, by_phase)
         doc.warnings = analysis.job_warnings(doc) + drift_warnings(doc)
         if self.job.kind == "verify":  # the drift alarm, in the job's own result and report
             doc.warnings += alarm_warnings(self.store, self.job, doc,
                                            self.settings.drift_alarm_mm)
         self.job = self.store.set_result(self.job_id, doc)
-
-    def point_frame(self) -> Array:
-        """tool0 -> the one point the instrument measures, as the robot's record states it."""
-        frame = np.eye(4)
-        frame[:3, 3] = self.robot.targets_mm()[0]
-        return frame
-
-    def measured_point(self, by_phase: dict[str, list[dict]]) -> Array | None:
-        """Of one-point data: the point in tool0 the calibration identified (else the record's);
-        None for poses measured whole."""
-        if not any(analysis.positions_only(rows) for rows in by_phase.values()):
-            return None
-        doc = self.job.result.calibration_of(self.job.result.latest_round())
-        tool = parse_model(doc["model"]).tool if doc else self.point_frame()
-        return np.asarray(tool[:3, 3], dtype=float)
 
     def drift_schedule(self) -> DriftSchedule | None:
         """The job's drift checks (service/drift.py), from its performance list."""

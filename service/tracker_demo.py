@@ -21,13 +21,9 @@ with the base frame the calibration identified.
 from __future__ import annotations
 
 import asyncio
-import contextlib
-import re
-import subprocess
-import sys
 import tempfile
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -54,10 +50,11 @@ from screwcal.kinematics.robots import irb1600
 from screwcal.kinematics.se3 import Array, invert_transform, transform_points
 from screwcal.performance.iso9283 import pose_metrics
 from screwcal.performance.testcube import PosePlan, find_test_cube, performance_pose_list
+from service.demo import NOISE_SEED, TrackerStand, emulators
 from service.errors import ServiceError
+from service.plans import FACING_TRACKER_DEG
 from service.tracker_cell import Cell, Point, TrackerRun
 
-FACING_TRACKER_DEG = (0.0, 90.0, 0.0)  # the cube's orientation: the flange toward +x
 CUBE_EDGE_MM = 300.0
 LOCATE_POSES = 6  # calibration poses whose first SMR locates the tracker (three SMRs)
 SMRS: dict[int, tuple[Point, ...]] = {1: (DEFAULT_SMR_MM,), 3: THREE_SMRS_MM}
@@ -139,25 +136,6 @@ def compensated(plans: Sequence[PosePlan], calibrated: SerialModel, nominal: Ser
     return np.round(np.degrees(sent), 4).tolist()
 
 
-@contextlib.contextmanager
-def emulators(args_: Sequence[str]) -> Iterator[tuple[str, int, str]]:
-    """`screwcal emulator irc5 ... --tracker-port 0` as a process: (host, port, tracker URL)."""
-    cmd = [sys.executable, "-m", "screwcal", "emulator", "irc5", "--port", "0",
-           "--tracker-port", "0", *args_]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        line = proc.stdout.readline() if proc.stdout else ""
-        m = re.match(r"irc5 emulator on ([\d.]+):(\d+); laser tracker on (\S+)", line)
-        if not m:
-            raise ServiceError(f"the emulators did not start: {line}"
-                               f"{proc.stderr.read() if proc.stderr else ''}")
-        yield m.group(1), int(m.group(2)), m.group(3)
-    finally:
-        proc.terminate()
-        with contextlib.suppress(subprocess.TimeoutExpired):
-            proc.communicate(timeout=10)
-
-
 @dataclass
 class TrackerDemo:
     """The figures of one run."""
@@ -216,16 +194,11 @@ def run_demo(*, seed: int | None, poses: int, cycles: int, time_scale: float, re
     `tracker_faults`: the emulated tracker's (`emulator irc5 --tracker-faults`); `smrs`: 1
     (positions) or 3 (full pose)."""
     smrs_mm = SMRS[smrs]
-    noise_seed = 2018 if seed is None else seed
-    args_ = ["--time-scale", str(time_scale), "--realism", realism, "--noise-seed",
-             str(noise_seed), "--stand-mm", *(f"{v:g}" for v in stand_mm), "--smrs",
-             str(smrs), "--stand-yaw-deg", f"{yaw_deg:g}"]
-    if seed is not None:
-        args_ += ["--seed", str(seed)]
-    if tracker_faults:
-        args_ += ["--tracker-faults", tracker_faults]
+    noise_seed = NOISE_SEED if seed is None else seed
+    stand = TrackerStand(tuple(stand_mm), yaw_deg, smrs, tracker_faults)
     with tempfile.TemporaryDirectory() as tmp, \
-            emulators([*args_, "--world", str(Path(tmp) / "world.json")]) as (host, port, url):
+            emulators(time_scale, seed, Path(tmp) / "world.json", realism, stand) as \
+            (host, port, url):
         print(f"screwcal demo: emulated IRB 1600 (realism {realism}) at {host}:{port}, laser "
               f"tracker {url} standing at {list(stand_mm)} mm (robot frame), "
               f"{SMR_WORDS[smrs]}; "

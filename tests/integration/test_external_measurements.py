@@ -145,7 +145,7 @@ async def test_the_measure_command_posts_from_arguments_and_from_a_file(served, 
             xyz = (rig.world.true_tool0() @ flange_point)[:3]
             common = ["job", "--service", served, "--token", TOKEN, "measure", str(job_id)]
             if k % 2 == 0:  # from arguments, the pose the job waits for
-                args = [*common, "--point", *(f"{v:.4f}" for v in xyz), "--u95-mm", "0.02"]
+                args = [*common, "--point-mm", *(f"{v:.4f}" for v in xyz), "--u95-mm", "0.02"]
             else:  # from a file, the pose named in it
                 path = tmp_path / f"pose{k}.json"
                 path.write_text(json.dumps({"phase": pose["phase"], "index": pose["index"],
@@ -161,5 +161,5 @@ async def test_the_measure_command_posts_from_arguments_and_from_a_file(served, 
         assert all(r["flange_pose"] == [] for r in rows)  # one point: positions
         # the job has ended: the command says what the service refused, exit 2 (refused)
         args = ["job", "--service", served, "--token", TOKEN, "measure", str(job_id),
-                "--point", "1", "2", "3"]
+                "--point-mm", "1", "2", "3"]
         assert await asyncio.to_thread(main, args) != 0

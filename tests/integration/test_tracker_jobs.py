@@ -108,7 +108,8 @@ async def test_a_tracker_that_cannot_see_the_list_is_refused_when_the_job_is_pos
 # -- the fault suite, as the arm's ----------------------------------------------------------------
 async def _calibrate_through(service, c: TrackerRig, robot: int, fault=None) -> tuple[dict, set]:
     """A calibration job on the tracker cell (`fault` done to it after a few poses, if any):
-    its end, and the states and reasons it went through."""
+    its end, and the states it went through with their reasons' error names (from the audit
+    trail's state changes: a pause too short for a poll is there too)."""
     job_id = (await service.post("/jobs", headers=AUTH, json={
         "robot_id": robot, "kind": "calibration", "options": CAL})).json()["id"]
     if fault is not None:
@@ -116,12 +117,10 @@ async def _calibrate_through(service, c: TrackerRig, robot: int, fault=None) -> 
             while len((await service.get(f"/jobs/{job_id}/measurements")).json()) < 5:
                 await asyncio.sleep(0.01)
         await fault()
-    seen = set()
-    async with asyncio.timeout(90):
-        while (job := (await service.get(f"/jobs/{job_id}")).json())["state"] not in (
-                "done", "failed", "aborted"):
-            seen.add((job["state"], job["reason"].split(":")[0]))
-            await asyncio.sleep(0.005)
+    job = await wait_state(service, job_id, timeout_s=90)
+    trail = (await service.get("/audit", params={"limit": 1000})).json()
+    seen = {(e["outcome"].split(" -> ")[1], e["detail"].split(":")[0]) for e in trail
+            if e["action"] == "job state" and e["target"] == f"job {job_id}"}
     return job, seen
 
 

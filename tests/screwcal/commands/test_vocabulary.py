@@ -36,7 +36,8 @@ UNIT = re.compile(r"-(mm|deg|rad|kg|s|deg-s|knm)$")
 UNITLESS = {"--seed", "--noise-seed", "--realism-seed", "--poses", "--validation", "--cycles",
             "--warmup-cycles", "--samples", "--workers", "--port", "--arm-port", "--round",
             "--frame-from-job", "--time-scale", "id", "--backlash-poses", "--drift-poses",
-            "--drift-period-poses", "--tracker-port", "--smrs", "token_id", "--after"}
+            "--drift-period-poses", "--tracker-port", "--smrs", "token_id", "--after",
+            "--index"}
 # Options whose value holds a vector inside a larger form (one word per list: LIST=KG:X,Y,Z)
 COMPOUND = {"--list-payload"}
 # The older spellings, each renamed to the option that replaced it (warns for one release)
