@@ -163,3 +163,25 @@ async def test_the_measure_command_posts_from_arguments_and_from_a_file(served, 
         args = ["job", "--service", served, "--token", TOKEN, "measure", str(job_id),
                 "--point-mm", "1", "2", "3"]
         assert await asyncio.to_thread(main, args) != 0
+
+
+async def test_a_job_waiting_for_a_measurement_aborts_and_then_takes_none(served, rig):
+    """Nobody posts: the job waits at its first pose (running, its measurement_for named)
+    until the operator aborts it; a post after that is refused (409), nothing committed."""
+    async with httpx.AsyncClient(base_url=served, headers=AUTH, timeout=30) as http:
+        robot = await external_robot(http, rig)
+        job_id = (await http.post("/jobs", json={"robot_id": robot, "kind": "calibration",
+                                                 "options": OPTIONS})).json()["id"]
+        pose = await wanted(http, job_id)
+        assert pose is not None and (pose["phase"], pose["index"]) == ("cal", 0)
+        await asyncio.sleep(0.5)  # still waiting, still running
+        job = (await http.get(f"/jobs/{job_id}")).json()
+        assert job["state"] == "running" and job["measurement_for"]["index"] == 0
+        assert (await http.post(f"/jobs/{job_id}/abort")).status_code == 204
+        async with asyncio.timeout(20):
+            while (job := (await http.get(f"/jobs/{job_id}")).json())["state"] != "aborted":
+                await asyncio.sleep(0.02)
+        body = measured_by_the_script(rig, np.random.default_rng(0), pose, u95=True)
+        late = await http.post(f"/jobs/{job_id}/measurement", json=body)
+        assert late.status_code == 409, late.text
+        assert (await http.get(f"/jobs/{job_id}/measurements")).json() == []
