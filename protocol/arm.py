@@ -171,8 +171,11 @@ class ArmReader:
                  connect: Callable[[], SerialPort] | None = None):
         self.url = url
         with self._port_errors():
-            self.port: SerialPort = _open_port(url) if connect is None else connect()
-        self.port.timeout = read_timeout_s
+            if connect is None:
+                self.port: SerialPort = _open_port(url, read_timeout_s)
+            else:
+                self.port = connect()
+                self.port.timeout = read_timeout_s
         self.decoder = ArmLineDecoder()
         self.problems: list[ArmProblem] = []
 
@@ -255,8 +258,10 @@ class ArmReader:
                                f"{timeout_s:g} s")
 
 
-def _open_port(url: str) -> SerialPort:
-    opening = serial.serial_for_url(url, do_not_open=True)
+def _open_port(url: str, timeout_s: float) -> SerialPort:
+    """The port at `url`, open, its read time-out set before opening (an rfc2217:// port
+    negotiates its settings again at each change once open)."""
+    opening = serial.serial_for_url(url, timeout=timeout_s, do_not_open=True)
     try:
         opening.open()
     except BaseException:  # pyserial's socket:// open fails after it connected (a reset while
