@@ -23,7 +23,7 @@ import numpy as np
 
 from protocol.client import ControllerClient, Timeouts
 from protocol.codec import MAX_LIST, Lists
-from protocol.errors import LinkError, ProtocolError
+from protocol.errors import BeamBrokenError, LinkError, ProtocolError
 from screwcal.calibration.flange import MeasuringFlange
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.model import SerialModel
@@ -122,6 +122,7 @@ class Acquisition:
         self.instrument = open_instrument(robot, settings, events, model, gate.aborted,
                                           self._reading_of)
         self._open = False
+        self._beam_broken: Counter[tuple[str, int]] = Counter()  # by pose, this runner's
 
     @property
     def discarded(self) -> Counter[str]:
@@ -178,6 +179,7 @@ class Acquisition:
         seen = await self.outage.call(self._seen)
         while True:  # the store read once per chunk
             measured = await self.outage.call(self.store.measured_indices, self.job_id, phase)
+            measured |= await self.outage.call(self._skipped, phase)
             todo = [p for p in plan if p.idx not in measured]
             room = MAX_LIST
             if self.drift is not None:
@@ -232,7 +234,16 @@ class Acquisition:
         async for got in self.client.run(list_name, "STEP", on_wait=gate, count=len(chunk)):
             planned = chunk[got.idx]
             got_at = PoseAt(phase, planned.idx, got.joints_deg)
-            measurement = await self.instrument.measure(got_at, seen)
+            try:
+                measurement = await self.instrument.measure(got_at, seen)
+            except BeamBrokenError as err:
+                self._beam_broken[(phase, planned.idx)] += 1
+                if self._beam_broken[(phase, planned.idx)] < self.settings.beam_attempts:
+                    raise  # the job pauses, reconnects and tries the pose again
+                await self.outage.call(self._skip, phase, planned.idx)
+                await self.events.publish("skipped", phase=phase, index=planned.idx,
+                                          reason=str(err))
+                continue
             points, covariance, conditions, at = measurement.row()
             flange_pose: list[float] = []
             if self.flange is not None:
@@ -297,6 +308,18 @@ class Acquisition:
         flange = self.flange.flange_poses(np.asarray(points_mm, dtype=float))[0]
         nominal = flange_kinematics(self.model, np.radians([joints_deg]))[0]
         return PoseReading(np.asarray(points_mm, dtype=float), flange, nominal)
+
+    def _skipped(self, phase: str) -> set[int]:
+        return set((self.store.job(self.job_id).result.poses_skipped or {}).get(phase, []))
+
+    def _skip(self, phase: str, idx: int) -> None:
+        """A pose whose beam stayed broken: kept in the result as skipped, never measured (the
+        robot moves on; a resumed job does not come back to it)."""
+        result = self.store.job(self.job_id).result
+        skipped = dict(result.poses_skipped or {})
+        skipped[phase] = sorted({*skipped.get(phase, []), idx})
+        result.poses_skipped = skipped  # the estimation's and evaluation's warnings say so
+        self.store.set_result(self.job_id, result)
 
     def _count_discarded(self) -> None:
         """The result says how many arm readings were refused and why (and the arm's lines

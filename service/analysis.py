@@ -383,8 +383,11 @@ def _payload_text(payload: Payload) -> str:
 
 
 def job_warnings(result: ResultDocument) -> list[str]:
-    """What a user must see: a poor fit, an accuracy that did not improve."""
-    out = []
+    """What a user must see: a poor fit, an accuracy that did not improve, poses skipped."""
+    out = [f"{len(skipped)} {phase} pose(s) skipped, never measured: the tracker's beam stayed "
+           f"broken there (poses {', '.join(map(str, skipped))}): the reflector facing away or "
+           "the robot in the line of sight; stand the tracker elsewhere to measure them"
+           for phase, skipped in (result.poses_skipped or {}).items()]
     for suffix in ROUND_SUFFIXES:
         est = result.estimation_of(suffix)
         if est is None:

@@ -17,6 +17,7 @@ stored by another version of the service loses nothing).
     ├── home_check                  HomeCheck           thesis Table 14
     ├── test_conditions             {label: value}      as ISO 9283 asks a report to state
     ├── arm_readings_discarded      DiscardedReadings
+    ├── poses_skipped               {phase: [index]}    a tracker's beam stayed broken there
     ├── backlash                    dict                lost motion per joint (calibration list
     │                                                   with two-direction pairs)
     ├── drift                       DriftSection        reference poses re-measured over the job
@@ -277,6 +278,7 @@ class ResultDocument(Section):
     home_check: HomeCheck | None = None
     test_conditions: dict[str, str | int | float] | None = None
     arm_readings_discarded: DiscardedReadings | None = None
+    poses_skipped: dict[str, list[int]] | None = None  # the beam stayed broken: not measured
     backlash: dict[str, Any] | None = None  # calibration.backlash.BacklashEstimate.to_dict
     drift: DriftSection | None = None
     warnings: list[str] | None = None

@@ -53,6 +53,9 @@ class ServiceSettings(BaseSettings):
                                         "between two ISO 9283 cube poses")
     remeasure_attempts: int = Field(2, ge=0, description="fresh probes asked for a pose whose "
                                     "readings were all refused before the job pauses")
+    beam_attempts: int = Field(3, ge=1, description="a tracker's pose whose beam stays broken "
+                               "(after its search) this many times is skipped and counted, "
+                               "never measured wrong")
     header_timeout_s: float = Field(10.0, gt=0, description="a client that has not sent its "
                                     "request within this is disconnected")
     max_connections: int = Field(200, ge=8, description="open connections beyond which new "

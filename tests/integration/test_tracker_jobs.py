@@ -203,3 +203,22 @@ async def test_a_procedure_with_the_tracker_reports_positions_accuracy(service, 
     after = result["performance"]["perf_after"]["overall"]["ap_mm_mean"]
     assert before > 40 and after < 0.05, (before, after)  # the arm's: > 40 and < 0.1
     assert "laser tracker" in result["test_conditions"]["instrument"]
+
+
+async def test_a_beam_that_stays_broken_skips_its_poses_counted_never_measured(service, cell):
+    """The beam broken for ten attempts from the 9th pose's: each pose is tried three times
+    (the job pausing between), then skipped and counted, the robot moving on; poses 8, 9 and 10
+    are skipped, the 11th is found again; the rest measured once; the result says so."""
+    c = await cell("beam=8,beam_n=10")
+    robot = await add_tracker_robot(service, c)
+    job, seen = await _calibrate_through(service, c, robot)
+    assert job["state"] == "done", job["reason"]
+    assert ("paused", "BeamBrokenError") in seen, seen
+    measured = (await service.get(f"/jobs/{job['id']}/measurements")).json()
+    assert sorted(m["idx"] for m in measured) == [k for k in range(POSES) if k not in (8, 9, 10)]
+    state = c.tracker.state
+    refused = sum(n for why, n in state.refused.items() if not why.startswith("find reflector"))
+    assert state.attempts - refused == POSES - 3  # none measured with the beam broken
+    result = (await service.get(f"/jobs/{job['id']}/result")).json()
+    assert result["poses_skipped"] == {"cal": [8, 9, 10]}
+    assert any("3 cal pose(s) skipped" in w for w in result["warnings"]), result["warnings"]
