@@ -144,8 +144,16 @@ async def test_the_measure_command_posts_from_arguments_and_from_a_file(served, 
             assert pose["points"] == 1
             xyz = (rig.world.true_tool0() @ flange_point)[:3]
             common = ["job", "--service", served, "--token", TOKEN, "measure", str(job_id)]
-            if k % 2 == 0:  # from arguments, the pose the job waits for
+            if k % 3 == 0:  # from arguments, the pose the job waits for
                 args = [*common, "--point-mm", *(f"{v:.4f}" for v in xyz), "--u95-mm", "0.02"]
+            elif k % 3 == 1:  # a SpatialAnalyzer-style export in metres: semicolons, decimal
+                # commas, extra columns, base nests beside the SMR; the SMR chosen by name
+                path = tmp_path / f"pose{k}.txt"
+                m = [f"{v / 1000:.7f}".replace(".", ",") for v in xyz]
+                path.write_text("Collection;Group;Point Name;X;Y;Z;U95;Time\n"
+                                "A;Base;NEST1;1,0005;-0,20025;0,0;0,000011;10:00\n"
+                                f"A;Robot;SMR1;{';'.join(m)};0,00002;10:01\n", encoding="utf-8")
+                args = [*common, "--export", str(path), "--names", "SMR1", "--length-unit", "m"]
             else:  # from a file, the pose named in it
                 path = tmp_path / f"pose{k}.json"
                 path.write_text(json.dumps({"phase": pose["phase"], "index": pose["index"],
@@ -159,6 +167,12 @@ async def test_the_measure_command_posts_from_arguments_and_from_a_file(served, 
         rows = (await http.get(f"/jobs/{job_id}/measurements")).json()
         assert sorted(r["idx"] for r in rows) == list(range(POSES))
         assert all(r["flange_pose"] == [] for r in rows)  # one point: positions
+        for r in rows:  # U95 0.02 mm every way: (U95 / 2)^2 on the diagonal
+            assert np.array(r["covariance_mm2"][0]) == pytest.approx(np.eye(3) * 1e-4)
+        # the export's metres read as mm: every pose fits the robot (a point off by 1000x or a
+        # decimal comma misread would not)
+        result = (await http.get(f"/jobs/{job_id}/result")).json()
+        assert result["estimation"]["residual_after_mm"] < 0.1
         # the job has ended: the command says what the service refused, exit 2 (refused)
         args = ["job", "--service", served, "--token", TOKEN, "measure", str(job_id),
                 "--point-mm", "1", "2", "3"]
