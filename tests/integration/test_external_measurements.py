@@ -191,6 +191,27 @@ async def test_a_job_waiting_for_a_measurement_aborts_and_then_takes_none(served
         await asyncio.sleep(0.5)  # still waiting, still running
         job = (await http.get(f"/jobs/{job_id}")).json()
         assert job["state"] == "running" and job["measurement_for"]["index"] == 0
+        good = measured_by_the_script(rig, np.random.default_rng(1), pose, u95=False)
+        negative = [(np.eye(3) * -1e-4).tolist()] * 3
+        lopsided = [[[1e-4, 1e-5, 0], [0, 1e-4, 0], [0, 0, 1e-4]]] * 3
+        for bad, words in (
+                ({"covariance_mm2": negative}, "not a covariance"),
+                ({"covariance_mm2": lopsided}, "not symmetric"),
+                ({"covariance_mm2": negative[:2]}, "2 covariances for 3 points"),
+                ({"u95_mm": [0.02] * 3}, "not both"),
+                ({"points_mm": [[0, 0, 0]] * 4}, "at most 3"),
+                ({"points_mm": [[1e9, 0, 0]] * 3}, "beyond"),
+                ({"time_s": -1}, "greater than 0"),
+                ({"conditions": {"temperature_c": 20, "pressure_mbar": 5,
+                                 "humidity_pct": 50}}, "pressure_mbar")):
+            r = await http.post(f"/jobs/{job_id}/measurement", json={**good, **bad})
+            assert r.status_code == 422, (bad, r.text)
+            assert words in r.text, (words, r.text)
+        nan = await http.post(f"/jobs/{job_id}/measurement",  # not JSON: refused, not a 500
+                              content=json.dumps({**good, "time_s": float("nan")}),
+                              headers={"Content-Type": "application/json"})
+        assert nan.status_code == 422, nan.text
+        assert (await http.get(f"/jobs/{job_id}")).json()["measurement_for"]["index"] == 0
         assert (await http.post(f"/jobs/{job_id}/abort")).status_code == 204
         async with asyncio.timeout(20):
             while (job := (await http.get(f"/jobs/{job_id}")).json())["state"] != "aborted":
