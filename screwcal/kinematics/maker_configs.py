@@ -78,18 +78,24 @@ def fanuc_config(q: Array, branch: Array) -> list[FanucConfig]:
             for k, (b, t) in enumerate(zip(branch.tolist(), turns, strict=True))]
 
 
-def _candidates(sol: IKSolutions) -> Array:
-    """Every branch's joints moved by -2..2 turns (N, 8, 5, 6), NaN outside the limits."""
-    q = sol.q[:, :, None, :] + _TAU * _TURNS[None, None, :, None]
+def _candidates(sol: IKSolutions, arm: Mask | None = None) -> Array:
+    """Every branch's joints moved by -2..2 turns (N, 8, 5, 6), NaN outside the limits; with
+    `arm` (N, 8), the two branches it allows per target (N, 2, 5, 6), in BRANCHES order."""
+    q, reachable = sol.q, sol.reachable
+    if arm is not None:  # one shoulder and one elbow: the wrist as it is and flipped
+        pair = np.flatnonzero(arm).reshape(len(arm), 2) % len(BRANCHES)
+        rows = np.arange(len(arm))[:, None]
+        q, reachable = q[rows, pair], reachable[rows, pair]
+    q = q[:, :, None, :] + _TAU * _TURNS[None, None, :, None]
     if sol.limits is not None:
         inside = (q >= sol.limits[:, 0]) & (q <= sol.limits[:, 1])
         q = np.where(inside, q, np.nan)
-    return np.where(sol.reachable[:, :, None, None], q, np.nan)
+    return np.where(reachable[:, :, None, None], q, np.nan)
 
 
 def _pick(cand: Array, wanted: Array, branches: Mask) -> tuple[Array, Mask]:
-    """The joints (N, 6) of the first allowed branch (N, 8) where every joint has a turn that
-    `wanted` (N, 8, 5, 6) accepts (the first such turn), and which targets have one."""
+    """The joints (N, 6) of the first allowed branch (N, B) where every joint has a turn that
+    `wanted` (N, B, 5, 6) accepts (the first such turn), and which targets have one."""
     ok_turn = wanted & np.isfinite(cand)
     joint_ok = ok_turn.any(axis=2)  # (N, 8, 6)
     branch_ok = joint_ok.all(axis=-1) & branches
@@ -104,33 +110,35 @@ def _pick(cand: Array, wanted: Array, branches: Mask) -> tuple[Array, Mask]:
 
 def kuka_select(sol: IKSolutions, status: Array, turn: Array) -> tuple[Array, Mask]:
     """The joints (N, 6) the controller takes for targets with Status and Turn (N,), and
-    which targets have them."""
-    cand = _candidates(sol)
+    which targets have them. Status names the shoulder and the elbow: only their two
+    branches are looked at."""
     bits: NDArray[np.int64] = np.asarray(status, dtype=np.int64)
     turns: NDArray[np.int64] = np.asarray(turn, dtype=np.int64)
+    arm = (_BACK[None, :] == (bits[:, None] & 1).astype(bool)) & \
+        (_UP[None, :] == (bits[:, None] & 2).astype(bool))
+    cand = _candidates(sol, arm)
     negative = ((turns[:, None] >> np.arange(6)) & 1).astype(bool)  # (N, 6)
     neg = negative[:, None, None, :]
     wanted = np.where(neg, cand <= _ZERO_RAD, cand >= -_ZERO_RAD)
     a5_negative = (bits & 4).astype(bool)[:, None, None]
     wanted[..., 4] &= np.where(a5_negative, cand[..., 4] <= _ZERO_RAD,
                                cand[..., 4] > -_ZERO_RAD)
-    branches = (_BACK[None, :] == (bits[:, None] & 1).astype(bool)) & \
-        (_UP[None, :] == (bits[:, None] & 2).astype(bool))
-    return _pick(cand, wanted, branches)
+    return _pick(cand, wanted, np.ones(cand.shape[:2], bool))
 
 
 def fanuc_select(sol: IKSolutions, configs: list[FanucConfig]) -> tuple[Array, Mask]:
-    """The joints (N, 6) the controller takes for targets with these configurations."""
-    cand = _candidates(sol)
+    """The joints (N, 6) the controller takes for targets with these configurations (Up
+    and Top name the arm: only its two branches are looked at)."""
+    arm = (_UP[None, :] == np.array([c.up for c in configs], bool)[:, None]) & \
+        (_BACK[None, :] != np.array([c.top for c in configs], bool)[:, None])
+    cand = _candidates(sol, arm)
     flip = np.array([c.flip for c in configs])[:, None, None]
     turns = np.array([c.turns for c in configs])  # (N, 3)
     wanted = np.ones(cand.shape, bool)
     k = np.floor((np.degrees(np.nan_to_num(cand[..., [0, 3, 5]])) + 180.0) / 360.0)
     wanted[..., [0, 3, 5]] = k == turns[:, None, None, :]
     wanted[..., 4] = np.where(flip, cand[..., 4] > -_ZERO_RAD, cand[..., 4] <= _ZERO_RAD)
-    branches = (_UP[None, :] == np.array([c.up for c in configs])[:, None]) & \
-        (_BACK[None, :] != np.array([c.top for c in configs])[:, None])
-    return _pick(cand, wanted, branches)
+    return _pick(cand, wanted, np.ones(cand.shape[:2], bool))
 
 
 def nearest_chain(sol: IKSolutions, start: Array, fixed: Array | None = None
