@@ -220,3 +220,37 @@ async def test_a_job_waiting_for_a_measurement_aborts_and_then_takes_none(served
         late = await http.post(f"/jobs/{job_id}/measurement", json=body)
         assert late.status_code == 409, late.text
         assert (await http.get(f"/jobs/{job_id}/measurements")).json() == []
+
+
+async def test_only_a_role_with_the_measure_grant_posts_measurements(rig, tmp_path):
+    """An instrument's account (role instrument) posts the pose's measurement; a viewer and an
+    operator are refused (403), and the audit trail names each."""
+    from service.app import create_app
+    from service.roles import Role
+
+    app = create_app(ServiceSettings(db_path=tmp_path / "jobs.db", reconnect_interval_s=0.05,
+                                     pose_timeout_s=10.0))
+    async with app.router.lifespan_context(app):
+        people = app.state.people
+        heads = {}
+        for name, role in (("erin", Role.ENGINEER), ("sa", Role.INSTRUMENT),
+                           ("vera", Role.VIEWER), ("otto", Role.OPERATOR)):
+            people.add_user(name, role, "correct horse battery")
+            heads[name] = {"Authorization": f"Bearer {people.add_token(name, 't', 3600)[0]}"}
+        async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
+                                     base_url="http://service", headers=heads["erin"]) as http:
+            robot = await external_robot(http, rig)
+            job_id = (await http.post("/jobs", json={
+                "robot_id": robot, "kind": "calibration", "options": OPTIONS})).json()["id"]
+            pose = await wanted(http, job_id)
+            body = measured_by_the_script(rig, np.random.default_rng(2), pose, u95=True)
+            for who in ("vera", "otto"):
+                r = await http.post(f"/jobs/{job_id}/measurement", json=body, headers=heads[who])
+                assert r.status_code == 403 and "'measure'" in r.json()["detail"], r.text
+            r = await http.post(f"/jobs/{job_id}/measurement", json=body, headers=heads["sa"])
+            assert r.status_code == 202, r.text
+            await http.post(f"/jobs/{job_id}/abort")
+        said = {(e["actor"], e["action"], e["outcome"]) for e in app.state.audit.records(1000)}
+        assert {("vera", "POST /jobs/{job_id}/measurement", "403 refused"),
+                ("otto", "POST /jobs/{job_id}/measurement", "403 refused"),
+                ("sa", "measurement", "taken")} <= said, said
