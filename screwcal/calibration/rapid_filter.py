@@ -51,7 +51,7 @@ TRANS_DECIMALS = 4  # mm
 QUAT_DECIMALS = 9
 Frames = dict[str, "Array | str"]  # by lower-case name: a 4x4 frame, or why it cannot be used
 _LITERALS = re.compile(rf"{NUMBER.pattern}(?:,{NUMBER.pattern})*")  # a target's numbers, joined
-_text = itemgetter(0)  # a Token's text
+_text, _start, _end = itemgetter(0), itemgetter(1), itemgetter(2)  # a Token's parts
 # a target's row of numbers as written back: x y z (mm), q1..q4, cf1 cf4 cf6 cfx
 _ROW = ",".join([f"{{:.{TRANS_DECIMALS}f}}"] * 3 + [f"{{:.{QUAT_DECIMALS}f}}"] * 4 + ["{}"] * 4)
 
@@ -212,11 +212,14 @@ def filter_rapid(module: RapidModule, calibrated: SerialModel, nominal: SerialMo
     default = (tool.lower(), wobj.lower())
     targets: list[_Target] = []
     frames: list[tuple[Array, Array]] = []  # (work object, tool) per target
+    assigned: dict[str, tuple[int, str]] = {}  # where the program writes a datum: this
+    for m in (module, *task):  # module's first, then the task's in order
+        for name, where in m.assigned.items():
+            assigned.setdefault(name, where)
     for d in module.declarations:
         if d.kind not in ("robtarget", "record"):
             continue
-        written = next((m.assigned[d.name.lower()] for m in (module, *task)
-                        if d.name.lower() in m.assigned), None)
+        written = assigned.get(d.name.lower())
         for t in _static_targets(module, d, report):
             if written is not None:
                 report.refused.append(Note(t.line, t.name, f"{written[1]} when the program "
@@ -327,6 +330,12 @@ def _static_targets(module: RapidModule, d: Declaration, report: FilterReport
         report.refused += notes
     else:
         found = _targets(d.name, d.value, module.line_of)
+    if len(found) == 1:  # one target, literal and taught: most declarations
+        tokens = found[0].tokens
+        if _LITERALS.fullmatch(",".join(map(_text, tokens))) and (
+                float(tokens[3].text) or float(tokens[4].text) or float(tokens[5].text)
+                or float(tokens[6].text)):
+            return found
     computed = [t for t in found if not _LITERALS.fullmatch(",".join(map(_text, t.tokens)))]
     report.refused += [Note(t.line, t.name, "a number of its value is an expression, "
                             "computed when the program runs") for t in computed]
@@ -384,7 +393,7 @@ def _compensated_text(text: str, targets: list[_Target], frames: list[tuple[Arra
         return text
     comp = replace(comp, q_rad=comp.q_rad[comp_ok], nominal_tool0=comp.nominal_tool0[comp_ok])
     new_target = invert_transform(W[idx]) @ comp.nominal_tool0 @ Ttool[idx]
-    rows = _target_text(new_target, confdata(nominal, comp.q_rad), numbers[idx, 3:7])
+    values = _target_text(new_target, confdata(nominal, comp.q_rad), numbers[idx, 3:7])
     report.compensated = len(idx)
     report.max_position_change_mm = float(np.linalg.norm(
         new_target[:, :3, 3] - T_target[idx, :3, 3], axis=1).max())
@@ -392,23 +401,22 @@ def _compensated_text(text: str, targets: list[_Target], frames: list[tuple[Arra
         new_target[:, :3, :3], T_target[idx, :3, :3]).max())
     # the text between the replaced numbers, and the numbers (targets are in file order)
     tokens = [tok for k in idx.tolist() for tok in targets[k].tokens]
-    values = [v for row in rows for v in row]
     if len(values) != len(tokens):
         raise AssertionError("a target's new numbers do not match its old ones")
-    ends = [0, *(tok.end for tok in tokens)]
-    starts = [*(tok.start for tok in tokens), len(text)]
+    ends = [0, *map(_end, tokens)]
+    starts = [*map(_start, tokens), len(text)]
     out = [""] * (2 * len(values) + 1)
-    out[::2] = [text[a:b] for a, b in zip(ends, starts, strict=True)]
+    out[::2] = map(text.__getitem__, map(slice, ends, starts))  # the text between them
     out[1::2] = values
     return "".join(out)
 
 
-def _target_text(T: Array, conf: Array, old_quats: Array) -> list[list[str]]:
-    """The numbers of targets T (N, 4, 4) as text, a row per target: x y z (mm), q1..q4 (on
-    the side of the old quaternions), cf1 cf4 cf6 cfx."""
+def _target_text(T: Array, conf: Array, old_quats: Array) -> list[str]:
+    """The numbers of targets T (N, 4, 4) as text, 11 a target one target after the other:
+    x y z (mm), q1..q4 (on the side of the old quaternions), cf1 cf4 cf6 cfx."""
     quats = quaternion_wxyz_from_rotation(T[:, :3, :3])
     quats *= np.where(np.sum(quats * old_quats, axis=1) < 0, -1.0, 1.0)[:, None]
     trans = np.round(T[:, :3, 3], TRANS_DECIMALS) + 0.0  # + 0.0: no "-0.0"
     quats = np.round(quats, QUAT_DECIMALS) + 0.0
-    rows = np.concatenate([trans, quats, conf], axis=1, dtype=object).tolist()
-    return [_ROW.format(*row).split(",") for row in rows]
+    numbers = np.concatenate([trans, quats, conf], axis=1, dtype=object).ravel().tolist()
+    return ",".join([_ROW] * len(T)).format(*numbers).split(",")  # one format for them all

@@ -135,20 +135,26 @@ class _Lines:
         return bisect_right(self.starts, pos)
 
 
+def _row(node: rapid.NumberRow) -> list[Token]:
+    """A row of numbers as tokens (built in C: 110,000 for 10,000 robtargets)."""
+    texts, starts = node.texts, node.starts
+    return list(map(_token, zip(texts, starts, map(add, starts, map(len, texts)), strict=True)))
+
+
 def _value(node: rapid.Expr, text: str) -> Aggregate | Token:
     """A data value as nested lists of tokens: literals as written (strings with their
     quotes), anything else (an expression) as its text."""
-    if type(node) is rapid.NumberRow:  # the common case
-        return list(map(_token, zip(node.texts, node.starts,
-                                    map(add, node.starts, map(len, node.texts)), strict=True)))
-    if type(node) is rapid.Aggregate:
+    if isinstance(node, rapid.Aggregate):
         items = node.items
-        rows = [i for i in items[:3] if isinstance(i, rapid.NumberRow)]
-        if len(items) == 4 and all(type(i) is rapid.NumberRow for i in items) and \
-                [len(i.texts) for i in rows] == [3, 4, 4]:
-            # a robtarget: its external axes are never rewritten, not tokenised
-            return [_value(items[0], text), _value(items[1], text), _value(items[2], text), []]
+        if len(items) == 4:
+            trans, rot, conf, extax = items
+            if type(trans) is type(rot) is type(conf) is type(extax) is rapid.NumberRow and \
+                    len(trans.texts) == 3 and len(rot.texts) == 4 == len(conf.texts):
+                # a robtarget (most values): its external axes are never rewritten
+                return [_row(trans), _row(rot), _row(conf), []]
         return [_value(i, text) for i in items]
+    if isinstance(node, rapid.NumberRow):
+        return _row(node)
     if isinstance(node, (rapid.Num, rapid.Str)):
         return _token((node.text, node.start, node.end))
     return _token((text[node.start:node.end], node.start, node.end))
@@ -176,13 +182,16 @@ def _calls(nodes: tuple) -> list[rapid.ProcCall | rapid.Call]:
     return out
 
 
-def _motion(call: rapid.ProcCall, text: str, line: int) -> Motion:
+def _motion(call: rapid.ProcCall, key: str, text: str, line: int) -> Motion:
+    """The motion instruction `call` (`key`: its lower-case name, a key of MOTIONS)."""
     positional = [text[a.value.start:a.value.end].strip() for a in call.args
                   if not a.optional and a.value is not None]
-    wobj = next((text[a.value.start:a.value.end].strip() for a in call.args
-                 if a.optional and a.name and a.name.lower() == "wobj" and a.value is not None),
-                "wobj0")
-    places, tool_at = MOTIONS[call.key]
+    wobj = "wobj0"
+    for a in call.args:
+        if a.optional and a.name and a.value is not None and a.name.lower() == "wobj":
+            wobj = text[a.value.start:a.value.end].strip()
+            break
+    places, tool_at = MOTIONS[key]
     at = len(positional) - 1 if tool_at is None else tool_at
     tool = positional[at] if max(places) < at < len(positional) else "tool0"
     return Motion(line, call.name, [positional[k] for k in places if k < len(positional)],
@@ -250,21 +259,24 @@ def module_of(parsed: rapid.Module, path: str, text: str,
     for r in parsed.routines:
         for target, node in _assignments(r.body):
             module.assigned.setdefault(target, (node.line, "assigned"))
-    for node, routine in sorted(found, key=lambda f: f[0].start):
-        if type(node) is rapid.ProcCall and node.key in MOTIONS:
-            motion = _motion(node, text, line_of(node.start))
+    found.sort(key=lambda f: f[0].start)
+    for node, routine in found:
+        key = node.key
+        if isinstance(node, rapid.Call):
+            if key in RUNTIME_FUNCTIONS:
+                module.runtime.append((line_of(node.start), node.name))
+        elif key in MOTIONS:
+            motion = _motion(node, key, text, line_of(node.start))
             motion.routine = routine
             module.motions.append(motion)
-            if node.key.startswith("search"):
+            if key.startswith("search"):
                 result = [a.value for a in node.args if not a.optional and a.value is not None]
                 name = _base_name(result[1]) if len(result) > 1 else ""
                 if name:
                     module.assigned.setdefault(name, (node.line, f"{node.name}'s result"))
-        elif type(node) is rapid.Call and node.key in RUNTIME_FUNCTIONS:
-            module.runtime.append((line_of(node.start), node.name))
-        elif type(node) is rapid.ProcCall and node.args:
+        elif node.args:
             module.calls.append(RoutineCall(
-                line_of(node.start), node.key, routine,
+                line_of(node.start), key, routine,
                 tuple(text[a.value.start:a.value.end].strip() for a in node.args
                       if not a.optional and a.value is not None),
                 tuple((a.name.lower(), text[a.value.start:a.value.end].strip())
