@@ -21,6 +21,7 @@ from screwcal.calibration.correction import (
     joint_correction,
 )
 from screwcal.calibration.identify import CalibrationResult
+from screwcal.calibration.lag import commands_for_lost_motion
 from screwcal.calibration.measurements import MeasurementSet
 from screwcal.calibration.residual_model import ResidualModel
 from screwcal.calibration.resultfile import compliance_summary, lost_motion_deg
@@ -147,6 +148,18 @@ def compensate_plan(plan: list[PlannedPose], robot: SerialModel, nominal: Serial
              for k, p in enumerate(plan)], comp.max_change_deg)
 
 
+def taken_up(plan: list[PlannedPose], lost_motion_deg: Sequence[float] | None
+             ) -> list[PlannedPose]:
+    """The plan with each joint commanded half its lost motion beyond its target, on the side
+    it comes from in the plan's order (`lag.commands_for_lost_motion`); as it is without one."""
+    if lost_motion_deg is None or not plan:
+        return plan
+    q = commands_for_lost_motion(np.array([p.joints_deg for p in plan]),
+                                 np.asarray(lost_motion_deg, dtype=float))
+    q = np.round(q, 4)
+    return [replace(p, joints_deg=tuple(float(v) for v in q[k])) for k, p in enumerate(plan)]
+
+
 def flange_error_mm(robot: SerialModel, q_sent: Array, target: Array) -> Array:
     """Per pose: how far `robot`'s flange (its base frame) lands from the target (N, 4, 4) when
     sent the joints q_sent (N, n) rad."""
@@ -214,7 +227,8 @@ class PlannedCorrection:
 
 def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
                     perf_plan: list[PlannedPose], suffix: Round,
-                    payload: Payload | None = None) -> PlannedCorrection:
+                    payload: Payload | None = None, take_up_lost_motion: bool = False
+                    ) -> PlannedCorrection:
     """What the route will do, checked before anything moves: the ZERO targets (refused
     when implausible), the compensated lists (refused when unreachable or implausible), the
     accuracy the model predicts before and after, and what stays in the robot. `payload`:
@@ -244,6 +258,9 @@ def plan_correction(result: CalibrationResult, route: str, nominal: SerialModel,
         after = flange_error_mm(robot, q_sent, target)
         out |= {"compensated_lists": [compensated_list(suffix)], "max_joint_change_deg": change,
                 "left_in_robot": []}
+        if take_up_lost_motion and result.reading_lost_motion is not None:
+            compensated = taken_up(compensated, lost_motion_deg(result))
+            out["lost_motion_taken_up_deg"] = lost_motion_deg(result)
     else:
         after = flange_error_mm(robot, q_nominal, target)
         out["left_in_robot"] = [

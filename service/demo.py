@@ -31,6 +31,7 @@ from service.errors import ServiceError
 
 if TYPE_CHECKING:
     from service.operator import Operator
+    from service.robot_record import TrackerSetup
     from service.schemas import JobResult
     from service.settings import ServiceSettings
 
@@ -56,6 +57,15 @@ class TrackerStand:
         args = ["--tracker-port", "0", "--stand-mm", *(f"{v:g}" for v in self.stand_mm),
                 "--smrs", str(self.smrs), "--stand-yaw-deg", f"{self.yaw_deg:g}"]
         return args + (["--tracker-faults", self.faults] if self.faults else [])
+
+    def setup(self, host: str = "127.0.0.1", port: int = 700) -> TrackerSetup:
+        """The robot record's instrument: this tracker at host:port."""
+        from screwcal.calibration.line_of_sight import DEFAULT_SMR_MM, THREE_SMRS_MM
+        from service.robot_record import TrackerSetup
+
+        smrs = THREE_SMRS_MM if self.smrs == 3 else (DEFAULT_SMR_MM,)
+        return TrackerSetup(host=host, port=port, smrs_mm=[list(p) for p in smrs],
+                            stand_mm=list(self.stand_mm), yaw_deg=self.yaw_deg)
 
 
 @contextlib.contextmanager
@@ -123,11 +133,13 @@ class DemoRun:
 
 
 def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool,
-             emulation: list[str]) -> DemoRun:
+             emulation: list[str], tracker: TrackerStand | None = None) -> DemoRun:
     """The emulators (a process) and the service (a thread), the procedure in AUTO, its report
     in `args.out`; with `geometric_too` the same procedure with a geometric-only model after
     it, on the same robot. `emulation`: what the emulated robot carries, as its robot record
-    (and so the report) states it."""
+    (and so the report) states it. `tracker`: the cell's instrument is an emulated laser
+    tracker (the robot record names it), not the arm; its compensated lists take up the lost
+    motion the calibration finds (`take_up_lost_motion`)."""
     from service.operator import Operator
     from service.settings import ServiceSettings
 
@@ -136,22 +148,25 @@ def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool,
     options = {"cycles": args.cycles, "calibration_poses": poses,
                "arm_position_mm": list(ARM_POSITION_MM), "correction": args.correction,
                "model": args.error_model}
+    if tracker is not None:  # as the tracker demo's own procedure did (c37eeb8)
+        options["take_up_lost_motion"] = True
     with tempfile.TemporaryDirectory() as tmp:
         token = secrets.token_urlsafe(16)
         settings = ServiceSettings(db_path=Path(tmp) / "screwcal.db", token=token,
                                    port=0, reconnect_interval_s=0.2)
         with emulators(args.time_scale, args.seed, Path(tmp) / "world.json",
-                       args.realism) as (host, port, arm):
+                       args.realism, tracker) as (host, port, address):
             with service(settings) as url, Operator(url, token) as op:
                 robot = op.add_robot(name="ABB IRB 1600 (emulated)", controller_host=host,
                                      controller_port=port, model="irb1600",
-                                     instrument={"kind": "arm", "url": arm},
+                                     instrument=_instrument(address, tracker),
                                      emulation=emulation)
                 job = op.start(robot_id=robot["id"], kind="procedure", mode="AUTO",
                                options=options)
+                what = "arm" if tracker is None else "laser tracker"
                 print(f"screwcal demo: emulated IRB 1600 (realism {args.realism}) at "
-                      f"{host}:{port}, arm {arm}, service {url}; job {job['id']}: performance, "
-                      "calibration, correction, performance")
+                      f"{host}:{port}, {what} {address}, service {url}; job {job['id']}: "
+                      "performance, calibration, correction, performance", flush=True)
                 state = op.watch(job["id"], out=_quiet_progress())
                 result = op.result(job["id"])
                 write_outputs(op, job["id"], result, out_dir)
@@ -164,6 +179,15 @@ def run_jobs(args: argparse.Namespace, poses: int, geometric_too: bool,
                     if op.watch(geo["id"], out=lambda _: None) == "done":
                         geometric = op.result(geo["id"])
     return DemoRun(state, result, geometric, options)
+
+
+def _instrument(address: str, tracker: TrackerStand | None) -> dict[str, Any]:
+    """The robot record's instrument: the emulated one at `address`."""
+    if tracker is None:
+        return {"kind": "arm", "url": address}
+    from protocol.tracker import parse_tracker_url
+
+    return tracker.setup(*parse_tracker_url(address)).model_dump()
 
 
 # What the demo writes in its folder, each file with what it is and the command that takes it

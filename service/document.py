@@ -73,6 +73,10 @@ class JobOptions(BaseModel):
     lag: Literal["auto", "none"] = Field(
         "auto", description="joint readings that trail the motion: auto (estimated and "
         "corrected when the diagnostics flag them) or none")
+    take_up_lost_motion: bool = Field(
+        False, description="compensated lists: each joint also commanded half the lost motion "
+        "(backlash) the calibration found beyond its target, on the side it comes from in the "
+        "list (calibration.lag.commands_for_lost_motion); nothing when none was found")
     payload_kg: float = Field(0.0, ge=0.0, le=2000.0, description="mass on the flange during "
                               "the performance lists (and the calibration list unless "
                               "calibration_payload_kg is given), kg")
@@ -193,6 +197,7 @@ class CorrectionPlan(Section):
     procedure: str | None = None
     compensated_lists: list[str] | None = None
     max_joint_change_deg: float | None = None
+    lost_motion_taken_up_deg: list[float] | None = None  # take_up_lost_motion: per joint
     left_in_robot: list[LeftInRobot] | None = None
     predicted_position_error_mm: PredictedError | None = None
     sent: bool | None = None

@@ -148,9 +148,13 @@ class JobRunner:
         if suffix is None or "compensate" not in self.route:
             return plan
         if phase not in self._compensated:
-            self._compensated[phase] = analysis.compensate_plan(
+            compensated = analysis.compensate_plan(
                 plan, self.robot_model(suffix), self.model,
                 residual_from_document(self.job.result.calibration_of(suffix)))[0]
+            est = self.job.result.estimation_of(suffix)
+            lost = (est.reading_lag or {}).get("lost_motion_deg") if est is not None else None
+            self._compensated[phase] = analysis.taken_up(
+                compensated, lost if self.options.take_up_lost_motion else None)
         return self._compensated[phase]
 
     def robot_model(self, suffix: Round) -> SerialModel:
@@ -311,9 +315,9 @@ class JobRunner:
         doc.warnings = analysis.job_warnings(doc) + drift_warnings(doc)
         try:
             perf_plan = self.plan("perf") if self.route != "none" else []
-            planned = analysis.plan_correction(result, self.route, self.model, perf_plan,
-                                               suffix, analysis.list_payload(self.options,
-                                                                             "perf"))
+            planned = analysis.plan_correction(
+                result, self.route, self.model, perf_plan, suffix,
+                analysis.list_payload(self.options, "perf"), self.options.take_up_lost_motion)
             doc = doc.with_round(suffix, correction=planned.section)
             if planned.compensated is not None:
                 self._compensated[compensated_list(suffix)] = planned.compensated

@@ -45,30 +45,23 @@ def run(args: argparse.Namespace) -> int:
     make_output_folder(args.out)  # before the emulators start: a bad --out is refused now
     realism = PRESETS[args.realism]
     poses = args.poses or (DEFAULT_POSES if realism.is_ideal else DEFAULT_POSES_REAL)
-    if args.instrument == "tracker":
-        from screwcal.tables import write_json_atomic
-        from service.tracker_demo import result_json, run_demo, summary_lines
+    tracker = None
+    if args.instrument == "tracker":  # the same job service, the robot measured by a tracker
+        from service.demo import TrackerStand
 
-        done_t = run_demo(seed=args.seed, poses=poses, cycles=args.cycles,
-                          time_scale=args.time_scale, realism=args.realism,
-                          stand_mm=args.stand_mm, smrs=args.smrs,
-                          yaw_deg=args.stand_yaw_deg)
-        for line in summary_lines(done_t, args.stand_mm):
-            print(line)
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        write_json_atomic(out / "result.json", result_json(done_t, args.stand_mm))
-        print(f"  result: {out / 'result.json'} (the instrument, its uncertainty, the "
-              f"conditions) · done in {time.perf_counter() - started:.1f} s")
-        return 0
+        tracker = TrackerStand(tuple(args.stand_mm), args.stand_yaw_deg, args.smrs)
     emulation = ["geometric errors " + ("of the thesis's Table 11" if args.seed is None else
                                         f"drawn from seed {args.seed}")
                  + f"; realism {realism.name}", *realism.describe()]
-    done = run_jobs(args, poses, geometric_too=not realism.is_ideal, emulation=emulation)
+    done = run_jobs(args, poses, geometric_too=not realism.is_ideal, emulation=emulation,
+                    tracker=tracker)
     print(result_table(done.result, times=False))
     geometric = None if done.geometric is None else done.geometric.model_dump(mode="json")
     result = done.result.model_dump(mode="json")
-    floor = oracle_floor(args.seed, args.realism, done.options)
+    for line in instrument_lines(result):
+        print(line)
+    floor = oracle_floor(args.seed, args.realism, done.options,
+                         None if tracker is None else tracker.setup())
     for line in honest_lines(args.seed, args.realism, done.options, result, geometric, floor):
         print(line)
     routes_on_the_report(Path(args.out) / "report.html", _ap_after(result),
@@ -77,6 +70,27 @@ def run(args: argparse.Namespace) -> int:
         print(line)
     print(f"  done in {time.perf_counter() - started:.1f} s")
     return 0 if done.state == "done" else 1
+
+
+def instrument_lines(result: dict) -> list[str]:
+    """The instrument, its uncertainty and the air it measured in, as the job's result states
+    them; a tracker's noise along and across its beam; the lost motion taken up."""
+    conditions = result.get("test_conditions") or {}
+    lines = [f"  {key}: {conditions[key]}" for key in (  # (its address: on the first line)
+        "instrument uncertainty", "air (the instrument's weather)") if key in conditions]
+    noise = (result.get("estimation") or {}).get("noise") or {}
+    if "along_beam" in noise:
+        along, across = noise["along_beam"], noise["across_beam"]
+        lines.append(f"  noise along the beam {along['value'] * 1000:.1f} um, across it "
+                     f"{across['value'] * 1000:.1f} um per direction (the fit's residuals, the "
+                     f"robot's misfit included); beyond the tracker's stated covariances "
+                     f"{along['excess_mm'] * 1000:.1f} um and {across['excess_mm'] * 1000:.1f} "
+                     "um, added to each point's weight")
+    lost = (result.get("correction") or {}).get("lost_motion_taken_up_deg")
+    if lost:
+        lines.append("  lost motion taken up on each target's approach side (half of it, "
+                     "deg): " + ", ".join(f"J{k + 1} {v:.4f}" for k, v in enumerate(lost) if v))
+    return lines
 
 
 def closing_lines(out_dir: Path) -> list[str]:
@@ -172,9 +186,11 @@ def _ap_after(result: dict) -> float | None:
         "overall", {}).get("ap_mm_mean")
 
 
-def oracle_floor(seed: int | None, realism_name: str, options: dict[str, Any]) -> float:
+def oracle_floor(seed: int | None, realism_name: str, options: dict[str, Any],
+                 instrument: Any = None) -> float:
     """AP mean (mm) of the performance list sent compensated by the emulated robot's true model
-    (simulators.oracle), after the lists the procedure runs before it."""
+    (simulators.oracle), after the lists the procedure runs before it (the lists planned for
+    the robot record's `instrument`: a tracker's are those its beam sees)."""
     import numpy as np
 
     from service.analysis import list_payload, performance_figures
@@ -187,8 +203,8 @@ def oracle_floor(seed: int | None, realism_name: str, options: dict[str, Any]) -
 
     job_options = JobOptions(**options)
     world = make_world(None, seed, realism=PRESETS[realism_name])
-    cal = plan_for(world.nominal, "cal", job_options)
-    perf = plan_for(world.nominal, "perf", job_options)
+    cal = plan_for(world.nominal, "cal", job_options, instrument)
+    perf = plan_for(world.nominal, "perf", job_options, instrument)
     home = [(0.0,) * world.nominal.n_joints]
     before = home + [p.joints_deg for p in perf] + [p.joints_deg for p in cal] + home
     attained = oracle_attained(world, before, np.array([p.joints_deg for p in perf]),
@@ -226,11 +242,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--realism", choices=["ideal", "typical", "harsh"], default="typical",
                    help="what the emulated robot has beyond its geometry (default typical)")
     p.add_argument("--instrument", choices=["arm", "tracker"], default="arm",
-                   help="the measuring instrument: the measuring arm through the job service "
-                   "(default), or a laser tracker over emScon (service/tracker_demo.py)")
+                   help="the measuring instrument, through the job service: the measuring arm "
+                   "(default), or a laser tracker over emScon (the robot record's instrument)")
     p.add_argument("--stand-yaw-deg", type=float, default=0.0,
-                   help="the emulated tracker's frame turned about the vertical (default 0); "
-                   "with --smrs 3 the demo first locates it from the first SMR")
+                   help="the emulated tracker's frame turned about the vertical (default 0; "
+                   "the robot record states it, to point the beam at SMRs 2 and 3)")
     p.add_argument("--smrs", type=int, choices=[1, 3], default=1,
                    help="SMRs on the flange with --instrument tracker: 1 (positions, default) "
                    "or 3 (full pose)")
