@@ -344,6 +344,7 @@ def resolve_routine_motions(modules: list[RapidModule]) -> None:
     work object those the call passes (repeated through routines that pass their parameter
     on)."""
     params = {k: v for m in modules for k, v in m.params.items()}
+    names_of = {k: {p for p, _ in v} for k, v in params.items()}  # a routine's parameters
     templates: dict[str, list[Motion]] = {}
     done: set[tuple[str, int, int]] = set()
     pending = True
@@ -351,9 +352,10 @@ def resolve_routine_motions(modules: list[RapidModule]) -> None:
         pending = False
         for m in modules:
             for motion in m.motions:
-                names = {p for p, _ in params.get(motion.routine, [])}
-                if not motion.template and any(w.lower() in names for t in motion.targets
-                                               for w in _WORD.findall(t)):
+                names = names_of.get(motion.routine)  # None: a routine without parameters
+                if names and not motion.template and any(w.lower() in names
+                                                         for t in motion.targets
+                                                         for w in _WORD.findall(t)):
                     motion.template = True
                     templates.setdefault(motion.routine, []).append(motion)
                     pending = True
