@@ -279,6 +279,7 @@ def _has_flags(language: str, t: Target) -> bool:
     return language == "fanuc" and "CONFIG" in t.flags
 
 
+@functools.lru_cache(maxsize=1024)  # a program's S and T take a few values, each many times
 def _kuka_int(text: str) -> int:
     """KRL's S or T: decimal, or a binary literal 'B010'."""
     s = text.strip().strip("'")
@@ -326,6 +327,7 @@ def _replacements(language: str, targets: list[Target], values: Array, q: Array,
     return out
 
 
+@functools.lru_cache(maxsize=1024)
 def _kuka_text(old: str, number: int) -> str:
     """A KRL S or T in the form it was written: decimal, or 'B010' with as many digits."""
     s = old.strip()
@@ -345,7 +347,8 @@ def _spliced(texts: dict[str, str], replaced: list[tuple[str, tuple[int, int], s
     for path, edits in by_path.items():
         text, pieces, at = texts[path], [], 0
         for (a, b), new in sorted(edits):
-            pieces += [text[at:a], new]
+            pieces.append(text[at:a])
+            pieces.append(new)
             at = b
         pieces.append(text[at:])
         out[path] = "".join(pieces)
