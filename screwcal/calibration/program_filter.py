@@ -240,7 +240,9 @@ def _compensate(language: str, targets: list[Target], frames: list[tuple[Array, 
     if idx.size == 0:
         return []
     new_T = invert_transform(W[idx]) @ tool0 @ tool[idx]
-    branch = branch_index(all_branches(nominal, tool0), q)
+    # the flags name the branch (KRL's S, FANUC's configuration); URScript's targets carry none
+    branch = branch_index(all_branches(nominal, tool0), q) if language != "urscript" else \
+        np.full(len(q), -1)
     new_values = program_values(new_T, conv, values[idx])
     report.compensated = len(idx)
     report.max_position_change_mm = float(np.linalg.norm(
