@@ -31,6 +31,7 @@ from screwcal.calibration.rapid_source import (
     NUMBER,
     Aggregate,
     Declaration,
+    NumberTokens,
     RapidModule,
     Token,
 )
@@ -331,10 +332,13 @@ def _static_targets(module: RapidModule, d: Declaration, report: FilterReport
     else:
         found = _targets(d.name, d.value, module.line_of)
     if len(found) == 1:  # one target, literal and taught: most declarations
-        tokens = found[0].tokens
-        if _LITERALS.fullmatch(",".join(map(_text, tokens))) and (
-                float(tokens[3].text) or float(tokens[4].text) or float(tokens[5].text)
-                or float(tokens[6].text)):
+        tokens, value = found[0].tokens, d.value
+        # a robtarget's rows read as numbers by the parser are literals (no check again)
+        literal = (d.kind == "robtarget" and len(value) == 4 and type(value[0]) is
+                   type(value[1]) is type(value[2]) is NumberTokens) or \
+            _LITERALS.fullmatch(",".join(map(_text, tokens)))
+        if literal and (float(tokens[3].text) or float(tokens[4].text)
+                        or float(tokens[5].text) or float(tokens[6].text)):
             return found
     computed = [t for t in found if not _LITERALS.fullmatch(",".join(map(_text, t.tokens)))]
     report.refused += [Note(t.line, t.name, "a number of its value is an expression, "

@@ -109,10 +109,14 @@ def test_a_target_computed_by_an_expression_is_refused_with_its_line():
             "[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
             "  CONST robtarget pOff := Offs(pBase, 0, 0, 10);\n"
             "  CONST robtarget pExpr:=[[X0 + 10,0,900],[0,0,1,0],[0,0,0,0],"
-            "[9E9,9E9,9E9,9E9,9E9,9E9]];\nENDMODULE\n")
+            "[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  CONST robtarget pRot:=[[900,0,900],[0,0,X0 / X0,0],[0,0,0,0],"
+            "[9E9,9E9,9E9,9E9,9E9,9E9]];\n"  # in a row after rows of plain numbers
+            "  CONST robtarget pHex:=[[0x384,0,900],[0,0,1,0],[0,0,0,0],"
+            "[9E9,9E9,9E9,9E9,9E9,9E9]];\nENDMODULE\n")  # a literal, not a decimal one
     out, report = filter_rapid(read_rapid_module("m.mod", text), _table11(), irb1600())
     refused = {(n.line, n.name): n.reason for n in report.refused}
-    assert set(refused) == {(4, "pOff"), (5, "pExpr")}
+    assert set(refused) == {(4, "pOff"), (5, "pExpr"), (6, "pRot"), (7, "pHex")}
     assert all("expression" in why for why in refused.values())
     assert report.compensated == 1 and (4, "Offs") in {(n.line, n.name) for n in
                                                          report.not_static}
