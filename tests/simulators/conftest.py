@@ -30,7 +30,10 @@ async def emulator():
 
 @pytest.fixture
 async def client(emulator):
-    c = ControllerClient(*emulator.address, Timeouts(reply_s=2.0, pose_s=5.0, motion_s=5.0))
+    """A client that waits long enough for a loaded host (the RAPID interpreter runs in a thread
+    of the test's process, beside other tests' processes): its time-outs guard against a hang,
+    and the tests of time-outs make clients of their own."""
+    c = ControllerClient(*emulator.address, Timeouts(reply_s=10.0, pose_s=10.0, motion_s=10.0))
     await c.connect()
     yield c
     await c.close()
