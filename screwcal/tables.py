@@ -177,3 +177,9 @@ def joint_columns(n: int) -> list[str]:
 def direction_columns(n: int) -> list[str]:
     """The measurement file's optional approach directions dir1..dirn (+1, -1 or 0)."""
     return [f"dir{i}" for i in range(1, n + 1)]
+
+
+def counted(n: int, noun: str, plural: str | None = None) -> str:
+    """A count as a person reads it: '1 pose', '0 poses', '3 poses' (never '1 poses');
+    `plural` where adding an s is wrong ('1 axis', '2 axes')."""
+    return f"{n} {noun if n == 1 else plural or noun + 's'}"

@@ -21,7 +21,7 @@ from scipy.special import chdtri, stdtr  # chi-square quantile, Student's t (not
 
 # a tenth of its import time, and this runs with every calibration)
 from screwcal.kinematics.se3 import Array
-from screwcal.words import counted
+from screwcal.tables import counted
 
 OUTLIER_ALPHA = 0.01  # family-wise: each pose tested at alpha / N
 MAX_OUTLIER_FRACTION = 0.1  # never reject more than this share of the poses

@@ -45,7 +45,7 @@ import numpy as np
 from screwcal.calibration.error_parameters import Param
 from screwcal.calibration.plausible import RANGE_SIGMAS, PlausibleRanges
 from screwcal.kinematics.se3 import Array
-from screwcal.words import counted
+from screwcal.tables import counted
 
 SMALL_SET_NUMBERS = 5.0  # measured numbers per identified parameter below which it applies
 ROUNDS = 4  # at most this many refits

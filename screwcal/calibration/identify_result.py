@@ -15,7 +15,7 @@ from screwcal.calibration.error_parameters import Param
 from screwcal.calibration.identifiability import Residual
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array
-from screwcal.words import counted
+from screwcal.tables import counted
 
 
 @dataclass(frozen=True)

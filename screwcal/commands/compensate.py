@@ -73,8 +73,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.errors import DataFileError
     from screwcal.kinematics.modelfile import parse_model, read_model_document
     from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
-    from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
-    from screwcal.words import counted
+    from screwcal.tables import counted, joint_columns, read_numeric_csv, write_csv_atomic
 
     if args.program and is_rapid(args.program):
         args.rapid, args.program = list(args.program), None

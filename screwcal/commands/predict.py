@@ -34,8 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from screwcal.kinematics.modelfile import parse_model, read_model_document, resolve_model
     from screwcal.kinematics.pose import pose_from_transform
     from screwcal.kinematics.readings import serial_from_readings
-    from screwcal.tables import joint_columns, read_numeric_csv, write_csv_atomic
-    from screwcal.words import counted
+    from screwcal.tables import counted, joint_columns, read_numeric_csv, write_csv_atomic
 
     given = args.result or args.robot or args.model
     check_outputs([args.out], [args.joints, given])

@@ -349,7 +349,7 @@ def test_job_watch_says_its_events_in_words():
 
 def test_one_is_said_in_the_singular(tmp_path, capsys):
     """Issue 38: '1 poses'."""
-    from screwcal.words import counted
+    from screwcal.tables import counted
 
     joints = tmp_path / "j.csv"
     joints.write_text("q1,q2,q3,q4,q5,q6\n10,20,30,0,40,0\n")
