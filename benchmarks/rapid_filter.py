@@ -29,8 +29,8 @@ from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_jo
 from screwcal.kinematics.confdata import confdata
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.modelfile import save_model
-from screwcal.kinematics.pose import quaternion_wxyz_from_rotation
 from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import quaternion_wxyz_from_rotation
 
 
 def module_text(n: int, rng: np.random.Generator) -> str:

@@ -39,11 +39,10 @@ from screwcal.errors import DataFileError
 from screwcal.kinematics.confdata import confdata, solution_for_confdata
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import (
-    quaternion_wxyz_from_rotation,
     rotation_angle_deg,
     rotation_from_quaternion_wxyz,
 )
-from screwcal.kinematics.se3 import Array, invert_transform
+from screwcal.kinematics.se3 import Array, invert_transform, quaternion_wxyz_from_rotation
 
 if TYPE_CHECKING:
     from screwcal.calibration.residual_model import ResidualModel

@@ -37,7 +37,7 @@ _EXPORTS = {
     "parse_model": "modelfile",
     "point_jacobian": "forward",
     "pose_from_transform": "pose",
-    "quaternion_wxyz_from_rotation": "pose",
+    "quaternion_wxyz_from_rotation": "se3",
     "resolve_model": "modelfile",
     "rotation_angle_deg": "pose",
     "rotation_from_euler_zyx_deg": "pose",

@@ -10,8 +10,6 @@ at every start of the command line (it brings the k-d tree and scipy.sparse), mo
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -83,67 +81,6 @@ def pose_from_transform(T: ArrayLike) -> Array:
     """Poses (..., 6) = (x, y, z [mm], rx, ry, rz [deg]) from 4x4 transforms (..., 4, 4)."""
     T = np.asarray(T, dtype=float)
     return np.concatenate([T[..., :3, 3], euler_zyx_deg_from_rotation(T[..., :3, :3])], axis=-1)
-
-
-def quaternion_wxyz_from_rotation(R: ArrayLike) -> Array:
-    """Unit quaternions (w, x, y, z), w >= 0 as RAPID's orient, from rotations (..., 3, 3)
-    (Shepperd's method: from the largest of w, x, y, z; w = 0 leaves the first non-zero of
-    x, y, z positive, as scipy's canonical form)."""
-    R = np.asarray(R, dtype=float)
-    if R.shape == (3, 3):  # one rotation: the same formulas on floats (1/30 of the time)
-        return np.array(_quaternion_of_one(R.tolist()))
-    flat = R.reshape(-1, 3, 3)
-    r = {(i, j): flat[:, i, j] for i in range(3) for j in range(3)}
-    trace = r[0, 0] + r[1, 1] + r[2, 2]
-    case = np.argmax(np.stack([trace, r[0, 0], r[1, 1], r[2, 2]], axis=1), axis=1)
-    q = np.empty((len(flat), 4))
-    for c, (big, a, b, d) in enumerate((
-            (1 + trace, r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]),
-            (1 + r[0, 0] - r[1, 1] - r[2, 2], r[2, 1] - r[1, 2], r[0, 1] + r[1, 0],
-             r[0, 2] + r[2, 0]),
-            (1 - r[0, 0] + r[1, 1] - r[2, 2], r[0, 2] - r[2, 0], r[0, 1] + r[1, 0],
-             r[1, 2] + r[2, 1]),
-            (1 - r[0, 0] - r[1, 1] + r[2, 2], r[1, 0] - r[0, 1], r[0, 2] + r[2, 0],
-             r[1, 2] + r[2, 1]))):
-        m = case == c
-        if not m.any():
-            continue
-        s = np.sqrt(np.maximum(big[m], 0.0)) * 2.0  # 4 |component|
-        order = ((0, 1, 2, 3), (1, 0, 2, 3), (2, 0, 1, 3), (3, 0, 1, 2))[c]
-        values = (s / 4.0, a[m] / s, b[m] / s, d[m] / s)
-        for slot, v in zip(order, values, strict=True):
-            q[m, slot] = v
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    first = np.argmax(np.abs(q[:, 1:]) > 1e-15, axis=1) + 1
-    sign = np.where(q[:, 0] != 0.0, np.sign(q[:, 0]),
-                    np.sign(q[np.arange(len(q)), first]))
-    q *= np.where(sign == 0, 1.0, sign)[:, None]
-    return q.reshape((*R.shape[:-2], 4))
-
-
-def _quaternion_of_one(r: list[list[float]]) -> tuple[float, float, float, float]:
-    """`quaternion_wxyz_from_rotation` of one rotation (rows as lists): Shepperd's four cases
-    and the sign rule written on floats (a test holds the two equal)."""
-    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = r
-    trace = r00 + r11 + r22
-    big = max(trace, r00, r11, r22)  # the first largest, as argmax
-    if big == trace:
-        s = math.sqrt(max(1 + trace, 0.0)) * 2.0
-        q = (s / 4.0, (r21 - r12) / s, (r02 - r20) / s, (r10 - r01) / s)
-    elif big == r00:
-        s = math.sqrt(max(1 + r00 - r11 - r22, 0.0)) * 2.0
-        q = ((r21 - r12) / s, s / 4.0, (r01 + r10) / s, (r02 + r20) / s)
-    elif big == r11:
-        s = math.sqrt(max(1 - r00 + r11 - r22, 0.0)) * 2.0
-        q = ((r02 - r20) / s, (r01 + r10) / s, s / 4.0, (r12 + r21) / s)
-    else:
-        s = math.sqrt(max(1 - r00 - r11 + r22, 0.0)) * 2.0
-        q = ((r10 - r01) / s, (r02 + r20) / s, (r12 + r21) / s, s / 4.0)
-    n = math.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2)
-    w, x, y, z = (v / n for v in q)
-    first = next((v for v in (x, y, z) if abs(v) > 1e-15), x)
-    sign = math.copysign(1.0, w) if w != 0.0 else (math.copysign(1.0, first) if first else 1.0)
-    return (w * sign, x * sign, y * sign, z * sign)
 
 
 def rotation_from_quaternion_wxyz(q_wxyz: ArrayLike) -> Array:

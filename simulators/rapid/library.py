@@ -13,10 +13,10 @@ import numpy as np
 
 from screwcal.kinematics.pose import (
     euler_zyx_deg_from_rotation,
-    quaternion_wxyz_from_rotation,
     rotation_from_euler_zyx_deg,
     rotation_from_quaternion_wxyz,
 )
+from screwcal.kinematics.se3 import quaternion_wxyz_from_rotation
 from screwcal.rapid import ast as A  # noqa: N812 - the node classes
 from simulators.rapid.builtins import Lazy, builtin
 from simulators.rapid.control import ExitCycle, Stopped

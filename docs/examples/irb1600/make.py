@@ -26,8 +26,9 @@ import numpy as np
 from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_joints
 from screwcal.kinematics.confdata import confdata
 from screwcal.kinematics.forward import forward_kinematics
-from screwcal.kinematics.pose import pose_from_transform, quaternion_wxyz_from_rotation
+from screwcal.kinematics.pose import pose_from_transform
 from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import quaternion_wxyz_from_rotation
 
 HERE = Path(__file__).parent
 # joints (deg) of the five ISO 9283 points and of the program's three targets

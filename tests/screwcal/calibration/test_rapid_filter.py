@@ -22,8 +22,9 @@ from screwcal.errors import DataFileError
 from screwcal.kinematics.confdata import confdata, solution_for_confdata
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.modelfile import save_model
-from screwcal.kinematics.pose import quaternion_wxyz_from_rotation, rotation_angle_deg
+from screwcal.kinematics.pose import rotation_angle_deg
 from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import quaternion_wxyz_from_rotation
 from screwcal.studies.simulated_measurements import simulate_measurements
 
 DATA = Path(__file__).parent / "data"

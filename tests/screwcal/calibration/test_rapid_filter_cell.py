@@ -18,9 +18,8 @@ from screwcal.calibration.virtual_joints import THESIS_TABLE11, apply_virtual_jo
 from screwcal.kinematics.confdata import confdata, solution_for_confdata
 from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.modelfile import save_model
-from screwcal.kinematics.pose import quaternion_wxyz_from_rotation
 from screwcal.kinematics.robots import irb1600
-from screwcal.kinematics.se3 import invert_transform
+from screwcal.kinematics.se3 import invert_transform, quaternion_wxyz_from_rotation
 
 HEADER = "%%%\r\n  VERSION:1\r\n  LANGUAGE:ENGLISH\r\n%%%\r\n\r\n"
 TOOLS = {"tGun": "[TRUE,[[10,-5,180],[0.991444861,0,0.130526192,0]],[2,[0,0,80],[1,0,0,0],0,0,0]]",

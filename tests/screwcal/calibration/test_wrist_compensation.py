@@ -1,4 +1,4 @@
-"""Compensation near the wrist singularity (correction._wrist_solutions)."""
+"""Compensation near the wrist singularity (singular_fit.wrist_solutions)."""
 
 import numpy as np
 import pytest

@@ -12,8 +12,9 @@ from screwcal.calibration.posesets import WORKING_REGION_DEG, random_configurati
 from screwcal.commands.main import main
 from screwcal.kinematics.confdata import confdata
 from screwcal.kinematics.forward import flange_kinematics, forward_kinematics
-from screwcal.kinematics.pose import pose_from_transform, quaternion_wxyz_from_rotation
+from screwcal.kinematics.pose import pose_from_transform
 from screwcal.kinematics.robots import irb1600
+from screwcal.kinematics.se3 import quaternion_wxyz_from_rotation
 from screwcal.studies.simulated_measurements import simulate_measurements
 from tests.screwcal.calibration.test_identify import BASE, TOOL, full_truth
 from tests.screwcal.commands.test_calibrate_cli import _write_measurements

@@ -9,9 +9,9 @@ from screwcal.kinematics.forward import (
     point_jacobian,
     spatial_jacobian,
 )
-from screwcal.kinematics.pose import pose_from_transform, quaternion_wxyz_from_rotation
+from screwcal.kinematics.pose import pose_from_transform
 from screwcal.kinematics.robots import irb120, irb1600
-from screwcal.kinematics.se3 import twist_from_transform_difference
+from screwcal.kinematics.se3 import quaternion_wxyz_from_rotation, twist_from_transform_difference
 from tests.conftest import random_model, random_q
 
 # Thesis Figure 37 (section 4.4): nominal joint space -> nominal task space, configurations 37-40.

@@ -4,11 +4,11 @@ from hypothesis import strategies as st
 
 from screwcal.kinematics.pose import (
     pose_from_transform,
-    quaternion_wxyz_from_rotation,
     rotation_from_euler_zyx_deg,
     rotation_from_quaternion_wxyz,
     transform_from_pose,
 )
+from screwcal.kinematics.se3 import quaternion_wxyz_from_rotation
 
 
 def _rx(a):
@@ -117,11 +117,11 @@ def test_conversions_agree_with_scipy_everywhere():
 
     from screwcal.kinematics.pose import (
         euler_zyx_deg_from_rotation,
-        quaternion_wxyz_from_rotation,
         rotation_angle_deg,
         rotation_from_euler_zyx_deg,
         rotation_from_quaternion_wxyz,
     )
+    from screwcal.kinematics.se3 import quaternion_wxyz_from_rotation
 
     special = [np.eye(3), np.diag([1.0, -1, -1]), np.diag([-1.0, 1, -1]), np.diag([-1.0, -1, 1]),
                *(Rotation.from_euler("ZYX", [30, s * 90, 0], degrees=True).as_matrix()
@@ -148,7 +148,7 @@ def test_one_rotation_takes_the_float_path_and_agrees_with_the_batch():
     cases and w = 0 (half turns, where the sign rule decides)."""
     from scipy.spatial.transform import Rotation
 
-    from screwcal.kinematics.pose import quaternion_wxyz_from_rotation
+    from screwcal.kinematics.se3 import quaternion_wxyz_from_rotation
 
     half = [Rotation.from_rotvec(np.pi * np.array(a) / np.linalg.norm(a)).as_matrix()
             for a in ([1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [0, -1, 1], [-1, 0, 0])]

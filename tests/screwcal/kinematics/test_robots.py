@@ -230,13 +230,13 @@ def _reachable_near(truth, T, ref, bound_deg=10.0, starts=24, seed=0):
     """Whether Levenberg-Marquardt from any of `starts` random joint sets within +-bound_deg of
     the reference puts the calibrated arm on the target (the singular tolerances) within the
     bound: an independent check that a refused target has no plausible solution."""
-    from screwcal.calibration.correction import _fit_poses, _meets, _turned_toward
+    from screwcal.calibration.singular_fit import fit_poses, meets, turned_toward
 
     rng = np.random.default_rng(seed)
     seeds = ref + np.radians(rng.uniform(-bound_deg, bound_deg, (starts, 6)))
     seeds[0] = ref
-    q = _turned_toward(_fit_poses(truth, np.repeat(T[None], starts, axis=0), seeds)[0], ref)
-    ok = _meets(np.repeat(T[None], starts, axis=0), truth, q) & \
+    q = turned_toward(fit_poses(truth, np.repeat(T[None], starts, axis=0), seeds)[0], ref)
+    ok = meets(np.repeat(T[None], starts, axis=0), truth, q) & \
         (np.degrees(np.abs(q - ref)).max(axis=1) <= bound_deg)
     return bool(ok.any())
 
