@@ -376,7 +376,7 @@ def _slot_setting_init(cls: type[Node]) -> None:
     exec(source, env)  # the source is built from the class's own field names
     init = env["__init__"]
     init.__qualname__, init.__module__ = f"{cls.__qualname__}.__init__", cls.__module__
-    cls.__init__ = init  # type: ignore[method-assign]
+    cls.__init__ = init  # type: ignore[method-assign]  # an __init__ built from its fields
 
 
 for _cls in [c for c in tuple(globals().values()) if isinstance(c, type) and issubclass(c, Node)]:
