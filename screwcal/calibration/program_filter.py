@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from screwcal.calibration.correction import compensate
-from screwcal.kinematics.ik_branches import all_branches
+from screwcal.kinematics.ik_branches import all_branches, branch_of
 from screwcal.kinematics.ik_solutions import IKSolutions
 from screwcal.kinematics.maker_configs import (
     FanucConfig,
@@ -241,8 +241,8 @@ def _compensate(language: str, targets: list[Target], frames: list[tuple[Array, 
         return []
     new_T = invert_transform(W[idx]) @ tool0 @ tool[idx]
     # the flags name the branch (KRL's S, FANUC's configuration); URScript's targets carry none
-    branch = branch_index(all_branches(nominal, tool0), q) if language != "urscript" else \
-        np.full(len(q), -1)
+    branch = branch_of(nominal, tool0, q, branch_index(sol, q_nominal)[idx]) \
+        if language != "urscript" else np.full(len(q), -1)
     new_values = program_values(new_T, conv, values[idx])
     report.compensated = len(idx)
     report.max_position_change_mm = float(np.linalg.norm(

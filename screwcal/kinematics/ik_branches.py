@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+from numpy.typing import NDArray
 
 from screwcal.errors import ModelError
 from screwcal.kinematics.forward import flange_kinematics
@@ -32,12 +33,13 @@ from screwcal.kinematics.ik_solutions import (
     controller_readings,
     solutions_of,
 )
+from screwcal.kinematics.maker_configs import branch_index
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, Mask
 from screwcal.kinematics.ur_closed_form import URGeometry, ur_closed_form
 from screwcal.kinematics.wrist_partitioned import WristPartitionedGeometry, closed_form_theta
 
-__all__ = ["EXACT_MM", "all_branches"]
+__all__ = ["EXACT_MM", "all_branches", "branch_of"]
 
 EXACT_MM = 1e-6  # a branch's flange this far from its target at most: a closed form is exact
 
@@ -56,6 +58,35 @@ def all_branches(nominal: SerialModel, T_flange: Array, branch: int | None = Non
     if branch is not None:
         out = replace(out, branches=(BRANCHES[branch],))
     return _checked(nominal, out, T)
+
+
+def branch_of(nominal: SerialModel, T_flange: Array, q: Array, hint: Array) -> Array:
+    """`maker_configs.branch_index(all_branches(nominal, T_flange), q)`: the first branch (N,)
+    whose joints equal q (N, 6) rad modulo whole turns, -1 where none does, solving on a
+    wrist-partitioned arm only the branch `hint` (N,) names (q's branch before a small move)
+    and its elbow partner. Two branches with other shoulders differ by half a turn of axis 1,
+    two with other wrists by half a turn of axis 4: only elbow partners can both equal q (the
+    arm stretched). A target on neither, and every target of another arm, is solved on all
+    eight."""
+    T = np.asarray(T_flange, float)
+    hints: NDArray[np.int64] = np.asarray(hint, dtype=np.int64)
+    out = np.full(len(q), -1)
+    pending = hints >= 0
+    if URGeometry.of(nominal) is None and pending.any():
+        lo, hi = np.minimum(hints, hints ^ 2), np.maximum(hints, hints ^ 2)  # BRANCHES order
+        for first in (lo, hi):  # the first of the two that equals q, as branch_index takes it
+            for b in np.unique(first[pending]).tolist():
+                rows = np.flatnonzero(pending & (first == b))
+                theta = _theta(nominal, T[rows], b)  # joints alone: no check by FK needed
+                q_b, within = controller_readings(nominal, theta)
+                sol = solutions_of(nominal, q_b, np.all(np.isfinite(theta), axis=-1), within,
+                                   T[rows], check=False)
+                hit = branch_index(sol, q[rows]) == 0
+                out[rows[hit]], pending[rows[hit]] = b, False
+    rest = np.flatnonzero(out < 0)
+    if rest.size:
+        out[rest] = branch_index(all_branches(nominal, T[rest]), q[rest])
+    return out
 
 
 def _theta(nominal: SerialModel, T: Array, branch: int | None = None) -> Array:

@@ -234,3 +234,37 @@ def test_nearest_chain_takes_each_valid_solution_nearest_the_one_before(rng):
         np.testing.assert_array_equal(got[k], want)
         prev = want
     assert (~found).any() and np.isfinite(fixed).all(axis=1).any()
+
+
+@pytest.mark.parametrize("name", ["irb1600", "kr16", "lrmate200id", "ur5e"])
+def test_branch_of_is_branch_index_of_all_eight(rng, name):
+    """`branch_of` (the compensated program's flags) solves a target's hinted branch and its
+    elbow partner only: the branch `branch_index` finds among all eight, wherever the hint is
+    right, wrong or missing, on the stretched arm (elbow up and down coincide: the first wins),
+    at the wrist singularity, a whole turn off, and for joints on no branch."""
+    from screwcal.kinematics.ik_branches import all_branches, branch_of
+    from screwcal.kinematics.maker_configs import branch_index
+    from screwcal.kinematics.robots import builtin_model
+
+    model = builtin_model(name)
+    flange = model.with_frames(np.eye(4), np.eye(4))
+    q = random_q(model, rng, 400)
+    sol = all_branches(model, forward_kinematics(flange, q))
+    k = int(np.flatnonzero(sol.reachable[:, 0] & sol.reachable[:, 2])[0])
+    up, down = sol.q[k, 0, 2], sol.q[k, 2, 2]
+    q[:100, 2] = up + (np.mod(down - up + np.pi, 2 * np.pi) - np.pi) / 2  # arm stretched
+    q[100:120, 4] = 0.0  # the wrist singularity
+    T = forward_kinematics(flange, q)
+    full = all_branches(model, T)
+    b = np.array([rng.choice(np.flatnonzero(r)) if r.any() else 0 for r in full.reachable])
+    joints = np.nan_to_num(full.q[np.arange(len(q)), b])
+    joints[::7, 5] += 2 * np.pi  # a whole turn off
+    joints[::11, 1] += 1e-3  # on no branch
+    hint = b.copy()
+    hint[::5] = rng.integers(0, 8, hint[::5].size)  # a wrong hint
+    hint[::13] = -1
+    want = branch_index(full, joints)
+    np.testing.assert_array_equal(branch_of(model, T, joints, hint), want)
+    if not name.startswith("ur"):  # the stretched arm's elbow-down joints are the up branch's
+        assert ((b[:100] % 4 >= 2) & (want[:100] >= 0) & (want[:100] % 4 < 2)).any()
+    assert (want == -1).any() and (want >= 0).any()
