@@ -15,6 +15,7 @@ from screwcal.kinematics.robots import irb120
 from screwcal.studies.tracker_dataset import locate_dataset, read_tracker_dataset
 from screwcal.studies.tracker_noise import tracker_noise_study
 from screwcal.studies.tracker_study import position_errors, split_half
+from tests.conftest import TRACKER_DATA
 
 
 def test_weighting_reaches_the_bound_and_beats_one_isotropic_level():
@@ -65,10 +66,10 @@ def test_on_the_real_tracker_data_the_beam_route_is_not_fooled_by_the_reported_w
     dwarfs the tracker's noise, and the reported covariances alone (5 um along the beam) make
     the held-out error worse; the beam route finds the misfit along and across the beam and
     predicts as well as one isotropic level."""
-    try:
-        folder = locate_dataset(None)
+    try:  # $SCREWCAL_DATA_DIR, else the shared folder beside the checkout, as the others
+        folder = locate_dataset(TRACKER_DATA)
     except DataFileError:
-        pytest.skip("the IRB 120 laser-tracker data set is not here (SCREWCAL_DATA_DIR)")
+        pytest.skip(f"the IRB 120 laser-tracker data set is not at {TRACKER_DATA}")
     data = read_tracker_dataset(folder, joints="commanded").measurements(full_pose=False)
     cal_i, val_i = split_half(len(data), 0)
     options = {"kind": "full", "compliance": "auto", "lag": "auto"}
