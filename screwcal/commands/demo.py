@@ -65,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
     for line in honest_lines(args.seed, args.realism, done.options, result, geometric, floor):
         print(line)
     routes_on_the_report(Path(args.out) / "report.html", _ap_after(result),
-                         None if geometric is None else _ap_after(geometric), floor)
+                         None if geometric is None else _ap_after(geometric), floor,
+                         bool(done.options.get("take_up_lost_motion")))
     for line in closing_lines(Path(args.out)):
         print(line)
     print(f"  done in {time.perf_counter() - started:.1f} s")
@@ -149,18 +150,23 @@ def honest_lines(seed: int | None, realism_name: str, options: dict, result: dic
                      + (f"   {geo / ours:.1f}x ours" if ours else ""))
     lines.append(f"    {'oracle floor':<44}{floor:>8.3f} mm"
                  + (f"   ours {ours / floor:.2f}x the floor" if ours else ""))
-    lines.append("    (the oracle floor: the true geometry and compliance compensated exactly; "
-                 "what no model removes stays: backlash, drift, repeatability, arm noise)")
+    lines.append(f"    (the oracle {floor_note(bool(options.get('take_up_lost_motion')))})")
     return lines
 
 
-FLOOR_NOTE = ("the floor: the true geometry and compliance compensated exactly (the demo "
-              "knows the emulated robot's truth); what no model removes stays: backlash, "
-              "drift, repeatability, the arm's noise")
+def floor_note(lost_motion_taken_up: bool) -> str:
+    """What the oracle floor is (the demo knows the emulated robot's truth): the true robot as
+    it is when the performance list runs (warm) compensated exactly, and the true backlash
+    taken up too when our route takes up the lost motion it found (the tracker demo)."""
+    taken_up = ", the true backlash taken up as ours takes up the lost motion it found"
+    return ("floor: the true geometry (as warm as the robot then is) and compliance compensated "
+            f"exactly{taken_up if lost_motion_taken_up else ''}; what no model removes stays: "
+            f"{'' if lost_motion_taken_up else 'backlash, '}the drift during the test, "
+            "repeatability, the arm's noise")
 
 
 def routes_on_the_report(page: Path, ours: float | None, geometric: float | None,
-                         floor: float) -> None:
+                         floor: float, lost_motion_taken_up: bool = False) -> None:
     """Put on the report's first screen, under its verdict, what only the demo knows: our
     route's AP mean after beside the geometric-only route's on the same robot and the floor."""
     from service.report.markup import esc, table
@@ -174,7 +180,7 @@ def routes_on_the_report(page: Path, ours: float | None, geometric: float | None
     rows.append(["the floor: no model does better", floor, floor / ours])
     block = table(["route", "AP mean after (mm)", "x ours"], rows, digits=3,
                   caption="On the same emulated robot, after correction") + \
-        f"<p>{esc(FLOOR_NOTE[0].upper() + FLOOR_NOTE[1:])}.</p>"
+        f"<p>The {esc(floor_note(lost_motion_taken_up))}.</p>"
     html = page.read_text(encoding="utf-8")
     mark = html.find("<p class='verdict'>")
     at = html.find("</p>", mark) + 4 if mark >= 0 else html.find("</header>") + 9
@@ -209,7 +215,9 @@ def oracle_floor(seed: int | None, realism_name: str, options: dict[str, Any],
     before = home + [p.joints_deg for p in perf] + [p.joints_deg for p in cal] + home
     attained = oracle_attained(world, before, np.array([p.joints_deg for p in perf]),
                                list_payload(job_options, "perf"),
-                               NOISE_SEED if seed is None else seed)
+                               NOISE_SEED if seed is None else seed,
+                               PRESETS[realism_name].backlash_deg
+                               if job_options.take_up_lost_motion else None)
     from screwcal.kinematics.pose import pose_from_transform
 
     rows = [{"idx": p.idx, "flange_pose": pose.tolist()}

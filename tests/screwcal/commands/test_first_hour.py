@@ -304,6 +304,9 @@ def test_the_demos_report_shows_our_route_beside_geometric_only_and_the_floor(tm
     at = html.index("On the same emulated robot")
     assert html.index("It worked") < at < html.index("<table class='summary'>")
     assert "0.354" in html and "5.057" in html and "0.045" in html and "the floor" in html
+    assert "backlash, the drift" in html  # what stays in the floor when ours leaves it too
+    routes_on_the_report(page, 0.011, 0.084, 0.006, lost_motion_taken_up=True)
+    assert "the true backlash taken up as ours takes up the lost motion" in page.read_text()
 
 
 def test_robot_list_is_a_small_command():
