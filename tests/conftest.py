@@ -109,3 +109,11 @@ def store_off_the_loop(request, monkeypatch):
     seen = guard_store(monkeypatch)
     yield
     assert not seen, "store calls on the event loop's thread:\n" + "\n".join(sorted(set(seen)))
+
+
+@pytest.hookimpl(trylast=True)  # after any reordering plugin: the slow ones still go first
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The tests marked `slow` first (a stable sort: otherwise in collection order), so that
+    under `-n` the workers start the long ones early and end together rather than one waiting
+    on the other's last long test. An xdist_group stays whole: the scheduler groups by name."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)

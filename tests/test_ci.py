@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -25,6 +27,7 @@ def test_ci_runs_the_readme_test_command_on_every_core():
     assert re.search(r"(^| )-n auto( |$)", command), command  # the suite is CPU-bound
 
 
+@pytest.mark.slow
 def test_a_parallel_run_that_collects_no_test_exits_5(tmp_path):
     """`set -e` in .ci/run fails on pytest's 5 for 'no tests ran': the workers keep it."""
     (tmp_path / "pytest.ini").write_text("[pytest]\n")

@@ -83,6 +83,7 @@ def _ports_free(*ports: int) -> bool:
     return True
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("block", [b for b in SHELL if b.not_run is None], ids=lambda b: b.name)
 def test_a_shell_block_runs_as_written(block, tmp_path):
     fixed = [int(p) for p in re.findall(r"--port (\d+)|--arm-port (\d+)", block.text)

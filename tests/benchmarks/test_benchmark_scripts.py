@@ -35,6 +35,7 @@ def test_median_not_the_best_run():
         timing().median_of(1, lambda: None)
 
 
+@pytest.mark.slow
 def test_jobs_repeats_and_reports_the_spread():
     proc = run("jobs.py", "--robots", "2", "--rounds", "2")  # 6 jobs: a spread of two runs
     assert proc.returncode == 0, proc.stderr
@@ -82,6 +83,7 @@ def test_jobs_beside_cpu_bound_processes_reports_each_pair():
     assert "beside them / alone, pair by pair" in lines[3] and "CPU/wall" in lines[1]
 
 
+@pytest.mark.slow
 def test_calibration_reports_medians_and_the_commands_defaults():
     proc = run("calibration.py", "--repeat", "3", "--poses", "60", "--no-de")
     assert proc.returncode == 0, proc.stderr

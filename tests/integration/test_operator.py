@@ -4,6 +4,8 @@ one-command demo."""
 import asyncio
 import re
 
+import pytest
+
 from screwcal.commands.main import main
 from service.demo import service
 from service.operator import Operator
@@ -141,6 +143,7 @@ async def test_events_carry_ids_and_resume_after_the_last_one(service, rig):
     assert [i for i, _ in resumed if i is not None] == ids[len(ids) // 2 + 1:]
 
 
+@pytest.mark.slow
 def test_the_same_seed_prints_the_same_table(tmp_path, capsys):
     def table() -> str:
         assert main(["demo", "--seed", "5", "--cycles", "2", "--poses", "30", "--out",

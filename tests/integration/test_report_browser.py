@@ -144,6 +144,7 @@ async def typical_job_report(service, tmp_path: Path) -> Path:
     return page
 
 
+@pytest.mark.slow
 @NEEDS_CHROMIUM
 async def test_report_of_a_typical_job_reads_right_in_chromium(tmp_path, service):
     page = await typical_job_report(service, tmp_path)

@@ -55,6 +55,7 @@ def _true_holes_mm(rig: _Rig, joints_deg: list[float]) -> np.ndarray:
         world.q_deg = saved
 
 
+@pytest.mark.slow
 async def test_duplicated_late_and_stale_triples_never_land_on_the_wrong_pose(service):
     faults = ArmFaults(duplicate=0.3, late=0.2, stale=0.3)
     dirty = await _cell(faults, seed=11)
@@ -112,6 +113,7 @@ async def test_the_emulator_really_sends_a_copy_of_the_triple():
     assert first.points_mm == copy.points_mm and first.seqs != copy.seqs
 
 
+@pytest.mark.slow
 async def test_a_pose_whose_every_reading_is_refused_pauses_saying_why(tmp_path, rig):
     """A check set tighter than the robot's own errors must not look like a dead arm."""
     import httpx

@@ -6,7 +6,10 @@ import signal
 import subprocess
 import sys
 
+import pytest
 
+
+@pytest.mark.slow
 def test_no_world_folder_is_left_after_20_emulators_stopped_by_signals(tmp_path):
     env = {**os.environ, "TMPDIR": str(tmp_path)}
     runs = []

@@ -102,6 +102,7 @@ def test_poorly_spread_poses_are_reported_degenerate(rng):
     assert r.degenerate and r.rank < 30
 
 
+@pytest.mark.slow
 def test_de_agrees_with_lm_on_the_thesis_model(rng):
     truth = apply_virtual_joints(irb1600(), THESIS_TABLE11)
     data = simulate_measurements(truth, random_configurations(40, rng), rng)

@@ -53,6 +53,7 @@ def test_every_table_has_its_rows_and_both_columns():
         assert "ours, no joint error" in text and "why they differ" in text
 
 
+@pytest.mark.slow
 def test_solvers_give_tables_10_and_11_rows_and_de_alone_differs_from_de_then_lm():
     rows = sample_solvers(3)
     cases = [r["case"] for r in rows]

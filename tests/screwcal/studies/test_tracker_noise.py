@@ -60,6 +60,7 @@ def test_a_covariance_that_is_none_is_refused():
     assert rotated.transformed(T).position_cov_mm2[1] == pytest.approx(2 * np.eye(3))
 
 
+@pytest.mark.slow
 def test_on_the_real_tracker_data_the_beam_route_is_not_fooled_by_the_reported_weights():
     """IRB 120, SMR 1's positions (the public laser-tracker data set), full model with
     compliance and lag, calibrated on a random half: the robot's misfit (~0.05 mm every way)
