@@ -17,7 +17,7 @@ from itertools import pairwise
 
 import numpy as np
 
-from screwcal.kinematics.ik_solutions import IKSolutions
+from screwcal.kinematics.ik_solutions import BRANCHES, IKSolutions
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.se3 import Array, Mask
 
@@ -77,10 +77,11 @@ def nominal_solutions(nominal: SerialModel, T_flange: Array) -> tuple[IKSolution
         try:
             parts.append(numerical_ik(robot, T_flange[k:k + 1]))
         except UnreachableError:
-            parts.append(IKSolutions(q=np.full((1, 8, robot.n_joints), np.nan),
-                                     reachable=np.zeros((1, 8), bool),
-                                     within_limits=np.zeros((1, 8), bool),
-                                     residual_mm=np.full((1, 8), np.nan), limits=robot.limits))
+            none = (1, len(BRANCHES))  # numerical_ik's columns, sampled or seeded
+            parts.append(IKSolutions(q=np.full((*none, robot.n_joints), np.nan),
+                                     reachable=np.zeros(none, bool),
+                                     within_limits=np.zeros(none, bool),
+                                     residual_mm=np.full(none, np.nan), limits=robot.limits))
     return IKSolutions(q=np.concatenate([p.q for p in parts]),
                        reachable=np.concatenate([p.reachable for p in parts]),
                        within_limits=np.concatenate([p.within_limits for p in parts]),
