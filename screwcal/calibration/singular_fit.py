@@ -16,6 +16,9 @@ from screwcal.kinematics.se3 import Array, Mask
 # cannot both be (the wrist singularity)
 POSE_SCALE = np.r_[np.ones(3), np.full(3, 10.0)]
 LM_ITERATIONS = 200  # at most; a batch of wrist-singular targets stops when all settled
+_COST_FLOOR = 0.5 * 1e-9**2  # the pose met to 1e-9 mm (scaled): nothing left to fit
+_RELATIVE_GAIN = 1e-12  # a step lowering the cost by less has converged
+_STEP_FLOOR_RAD = 1e-11  # no joint moved by more: converged (1e-8 mm at a 1 m reach)
 
 WRIST_SINGULAR_DEG = 10.0  # axes 4 and 6 this close to parallel: the wrist singularity's band
 # At a calibrated wrist's singularity: the position met to this, the orientation to this
@@ -106,15 +109,16 @@ def near_singular_solutions(robot: SerialModel, T: Array, ref: Array
 
 
 def fit_poses(robot: SerialModel, T: Array, q0: Array) -> tuple[Array, Array]:
-    """Levenberg-Marquardt (Marquardt's diagonal scaling) from the joints q0 (M, 6) toward the
-    flange poses T (M, 4, 4), every target at once: least squares of the pose error scaled by
-    POSE_SCALE, with the analytic Jacobian. Each target stops when a step no longer lowers its
-    cost. Returns the joints and their costs (half the squared scaled error) (M,)."""
+    """Levenberg-Marquardt (Marquardt's diagonal scaling, Nielsen's damping update) from the
+    joints q0 (M, 6) toward the flange poses T (M, 4, 4), every target at once: least squares of
+    the pose error scaled by POSE_SCALE, with the analytic Jacobian. Each target stops when its
+    cost no longer falls by more than rounding, or is met to rounding. Returns the joints and
+    their costs (half the squared scaled error) (M,)."""
     q = q0.copy()
     r = pose_error(T, forward_kinematics(robot, q)) * POSE_SCALE
     cost = 0.5 * np.einsum("ij,ij->i", r, r)
-    lam = np.full(len(q), 1e-3)
-    active = np.ones(len(q), bool)
+    lam, nu = np.full(len(q), 1e-3), np.full(len(q), 2.0)
+    active = cost > _COST_FLOOR
     for _ in range(LM_ITERATIONS):
         idx = np.flatnonzero(active)
         if idx.size == 0:
@@ -125,18 +129,24 @@ def fit_poses(robot: SerialModel, T: Array, q0: Array) -> tuple[Array, Array]:
         A = JT @ J
         g = (JT @ r[idx][:, :, None])[:, :, 0]
         D = np.maximum(np.diagonal(A, axis1=1, axis2=2), 1e-12)
-        step = np.linalg.solve(A + (lam[idx, None] * D)[:, :, None] * np.eye(6), g[:, :, None])
-        trial = q[idx] + step[:, :, 0]
+        damping = lam[idx, None] * D
+        step = np.linalg.solve(A + damping[:, :, None] * np.eye(6), g[:, :, None])[:, :, 0]
+        trial = q[idx] + step
         r_trial = pose_error(T[idx], forward_kinematics(robot, trial)) * POSE_SCALE
         c_trial = 0.5 * np.einsum("ij,ij->i", r_trial, r_trial)
         better = c_trial < cost[idx]
         gain = cost[idx] - c_trial
-        up = idx[better]
+        # the gain against the linear model's: the damping falls as far as the model holds
+        predicted = 0.5 * np.einsum("ij,ij->i", step, damping * step + g)
+        rho = gain / np.maximum(predicted, 1e-300)
+        up, down = idx[better], idx[~better]
         q[up], r[up], cost[up] = trial[better], r_trial[better], c_trial[better]
-        lam[up] /= 3.0
-        lam[idx[~better]] *= 4.0
-        # done: no lower cost within reach of the damping, or a negligible gain
-        settled = (better & (gain <= 1e-15 * np.maximum(c_trial, 1e-300))) | (lam[idx] > 1e12)
+        lam[up] *= np.maximum(1 / 3, 1 - (2 * rho[better] - 1) ** 3)
+        nu[up] = 2.0
+        lam[down] *= nu[down]
+        nu[down] *= 2.0
+        settled = (better & (gain <= _RELATIVE_GAIN * c_trial)) | (cost[idx] <= _COST_FLOOR) | \
+            (np.abs(step).max(axis=1) < _STEP_FLOOR_RAD) | (lam[idx] > 1e12)
         active[idx[settled]] = False
     return q, cost
 
