@@ -308,24 +308,22 @@ def _unreachable(t: Target, sol: IKSolutions, k: int) -> str:
 def _replacements(language: str, targets: list[Target], values: Array, q: Array,
                   branch: Array, conv: Convention) -> list[tuple[str, tuple[int, int], str]]:
     pos, ang = conv.decimals
+    row = ",".join([f"{{:.{pos}f}}"] * 3 + [f"{{:.{ang}f}}"] * 3)
+    # one format for them all, correctly rounded as round(v, d) would; no "-0.0"
+    numbers = [t[1:] if t[0] == "-" and not t.strip("-0.") else t for t in
+               ",".join([row] * len(targets)).format(*values.ravel().tolist()).split(",")]
     out: list[tuple[str, tuple[int, int], str]] = []
-    status, turn = kuka_status_turn(q, branch) if language == "krl" else (None, None)
-    configs = fanuc_config(q, branch) if language == "fanuc" else None
-    forms = [f".{pos}f"] * 3 + [f".{ang}f"] * 3
-    rows = values.tolist()
     for k, t in enumerate(targets):
-        for span, v, form in zip(t.spans, rows[k], forms, strict=True):
-            text = format(v, form)  # correctly rounded, as round(v, d) would
-            if text[0] == "-" and not text.strip("-0."):  # no "-0.0"
-                text = text[1:]
-            out.append((t.path, span, text))
-        if status is not None and turn is not None:
-            for name, number in (("S", int(status[k])), ("T", int(turn[k]))):
-                if name in t.flags:
-                    f = t.flags[name]
-                    out.append((t.path, f.span, _kuka_text(f.text, number)))
-        if configs is not None and "CONFIG" in t.flags:
-            out.append((t.path, t.flags["CONFIG"].span, configs[k].text()))
+        out += zip((t.path,) * 6, t.spans, numbers[6 * k:6 * k + 6], strict=True)
+    if language == "krl":
+        status, turn = (a.tolist() for a in kuka_status_turn(q, branch))
+        out += [(t.path, t.flags[name].span, _kuka_text(t.flags[name].text, number[k]))
+                for k, t in enumerate(targets) for name, number in (("S", status), ("T", turn))
+                if name in t.flags]
+    elif language == "fanuc":
+        configs = fanuc_config(q, branch)
+        out += [(t.path, t.flags["CONFIG"].span, configs[k].text())
+                for k, t in enumerate(targets) if "CONFIG" in t.flags]
     return out
 
 
@@ -347,11 +345,16 @@ def _spliced(texts: dict[str, str], replaced: list[tuple[str, tuple[int, int], s
         by_path.setdefault(path, []).append((span, text))
     out = dict(texts)
     for path, edits in by_path.items():
-        text, pieces, at = texts[path], [], 0
-        for (a, b), new in sorted(edits):
-            pieces.append(text[at:a])
-            pieces.append(new)
+        edits.sort(key=_start)
+        text, at = texts[path], 0
+        pieces: list[str] = []
+        for (a, b), new in edits:
+            pieces += (text[at:a], new)
             at = b
         pieces.append(text[at:])
         out[path] = "".join(pieces)
     return out
+
+
+def _start(edit: tuple[tuple[int, int], str]) -> int:
+    return edit[0][0]

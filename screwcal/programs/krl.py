@@ -50,6 +50,12 @@ _AXES = re.compile(r"[{,:][ \t]*A[1-6][ \t]", re.I)
 _CARTESIAN = re.compile(r"[{,:][ \t]*X[ \t]", re.I)
 _AGGREGATE_CHARS = re.compile(r'["{},]')
 _ITEM = re.compile(r"\s*([$A-Za-z_]\w*(?:\[\])?)\s+")
+# The form a controller writes, {X 1000.0,Y 0.0,Z 1200.0,A 0.0,B 90.0,C 0.0,S 2,T 35,E1 0.0}:
+# read in one match (the general scan reads every other form the same way)
+_VALUE = r"\s+([^\s,{}\"]+)\s*"
+_CANONICAL = re.compile(r"\{\s*" + r",\s*".join(k + _VALUE for k in POSE_KEYS) +
+                        r"(?:,\s*S" + _VALUE + r",\s*T" + _VALUE + r")?"
+                        r"(?:,\s*E[1-6]\s+[^\s,{}\"]+\s*)*\}", re.I)
 _ASSIGN = re.compile(r"^[ \t]*([A-Za-z_]\w*)(?:\[[^\]]*\])?(?:\.[A-Za-z]\w*)?[ \t]*=(?!=)",
                      re.M)
 
@@ -67,6 +73,14 @@ def _aggregate(path: str, text: str, start: int) -> tuple[dict[str, _Item], int]
     typed = _TYPED.match(text, start + 1)  # {FRAME: X 0.0, ...}: the type named first
     if typed:
         i = item_start = typed.end()
+    close = text.find("}", i)
+    if close >= 0:
+        body = text[i:close]
+        if "{" not in body and '"' not in body:  # flat, as most are: its commas split it
+            for piece in body.split(","):
+                _item(piece, 0, len(piece), items, i)
+                i += len(piece) + 1
+            return items, close + 1
     skip_to = i  # past a string: its characters are its own
     for found in _AGGREGATE_CHARS.finditer(text, i):
         i = found.start()
@@ -91,12 +105,14 @@ def _aggregate(path: str, text: str, start: int) -> tuple[dict[str, _Item], int]
                              "'}'")
 
 
-def _item(text: str, a: int, b: int, items: dict[str, _Item]) -> None:
+def _item(text: str, a: int, b: int, items: dict[str, _Item], offset: int = 0) -> None:
+    """The item in text[a:b] ('X 1000.0'), its value's span `offset` on in the file."""
     m = _ITEM.match(text, a, b)
     if not m:
         return
     value_start = m.end()
     value = text[value_start:b].rstrip()
+    value_start += offset
     items[m.group(1).upper()] = _Item(value, (value_start, value_start + len(value)))
 
 
@@ -125,12 +141,22 @@ def read_config(path: str, text: str, program: Program) -> None:
         (program.tools if name == "TOOL_DATA" else program.frames)[key] = _frame_of(items)
 
 
-def _target(path: str, text: str, name: str, brace: int, kind: str
-            ) -> tuple[Target, dict[str, _Item]]:
+def _target(path: str, text: str, name: str, brace: int, kind: str) -> Target:
+    canonical = _CANONICAL.match(text, brace)
+    if canonical:
+        try:
+            values = tuple(float(v) for v in canonical.group(1, 2, 3, 4, 5, 6))
+        except ValueError:
+            pass  # an expression: the general reading says so
+        else:
+            flags = {} if canonical.group(7) is None else {
+                k: Flag(k, canonical.group(g), canonical.span(g)) for k, g in (("S", 7), ("T", 8))}
+            return Target(path, _line(text, brace), name, values,
+                          tuple(canonical.span(g) for g in range(1, 7)), flags=flags)
     items, _ = _aggregate(path, text, brace)
     line = _line(text, brace)
     missing = [k for k in POSE_KEYS if k not in items]
-    values: tuple[float, ...] = ()
+    values = ()
     problem = ""
     if missing:
         problem = (f"a partial {kind} (no {', '.join(missing)}): the missing components come "
@@ -140,10 +166,9 @@ def _target(path: str, text: str, name: str, brace: int, kind: str
             values = tuple(float(items[k].text) for k in POSE_KEYS)
         except ValueError:
             problem = "a component is an expression, computed when the program runs"
-    flags: dict[str, Flag] = {k: Flag(k, items[k].text, items[k].span) for k in ("S", "T")
-                              if k in items}
+    flags = {k: Flag(k, items[k].text, items[k].span) for k in ("S", "T") if k in items}
     spans = tuple(items[k].span for k in POSE_KEYS) if not missing else ()
-    return Target(path, line, name, values, spans, flags=flags, problem=problem), items
+    return Target(path, line, name, values, spans, flags=flags, problem=problem)
 
 
 def read_krl(files: dict[str, str], program: Program) -> None:
@@ -171,7 +196,7 @@ def _declarations(path: str, text: str, program: Program, declared: dict[str, Ta
         elif kind in _POSE_TYPES:
             if m.group(3):
                 arrays.add(name)
-            t, _ = _target(path, text, m.group(2), m.end() - 1, kind)
+            t = _target(path, text, m.group(2), m.end() - 1, kind)
             declared[name] = t
             program.targets.append(t)
     arrays.update(m.group(2).upper() for m in _ARRAY.finditer(text))
@@ -180,7 +205,7 @@ def _declarations(path: str, text: str, program: Program, declared: dict[str, Ta
         if name not in arrays:
             continue
         index = ",".join(p.strip() for p in m.group(2).split(","))
-        t, _ = _target(path, text, f"{m.group(1)}[{index}]", m.end() - 1, "E6POS")
+        t = _target(path, text, f"{m.group(1)}[{index}]", m.end() - 1, "E6POS")
         declared[f"{name}[{index}]"] = t
         program.targets.append(t)
 
@@ -286,7 +311,7 @@ def _motion(path: str, text: str, line: int, m: re.Match[str],
         if arg.startswith("{") and _AXES.search(arg) and not _CARTESIAN.search(arg):
             program.joint_targets += 1  # {A1 0, A2 -90, ...}: joints, as the controller's
         elif arg.startswith("{"):
-            t, _ = _target(path, text, f"{verb} inline", start, "inline target")
+            t = _target(path, text, f"{verb} inline", start, "inline target")
             t.tool, t.frame = binding
             program.targets.append(t)
         elif ":" in arg:

@@ -53,6 +53,28 @@ def test_krl_aggregate_with_strings_nested_braces_and_names_in_several_motions()
     assert "several tools" in t1.problem
 
 
+def test_krl_the_controller_form_and_every_other_form_of_a_target_read_alike():
+    forms = ["{X 1.5,Y -2,Z 3,A 4,B 5,C 6,S 2,T 35,E1 0.0,E2 0.0}",  # as a controller writes it
+             "{x 1.5 , y -2,  z 3,\n A 4,B 5,C 6,S 2,T 35}",  # other case and spacing
+             "{E6POS: X 1.5,Y -2,Z 3,A 4,B 5,C 6,S 2,T 35}",  # the type named first
+             "{Y -2,X 1.5,Z 3,A 4,B 5,C 6,T 35,S 2}",  # another order
+             "{X 1.5,Y -2,Z 3,A 4,B 5,C 6,S 2,T 35,E1 {0}}"]  # a nested aggregate
+    for form in forms:
+        dat = f"DEFDAT d\nDECL E6POS XP1={form}\nENDDAT\n"
+        (t,) = _one({"d.dat": dat, "d.src": "DEF d()\nPTP XP1\nEND\n"}).targets
+        assert (t.line, t.values, t.problem) == (2, (1.5, -2.0, 3.0, 4.0, 5.0, 6.0), ""), form
+        assert [dat[a:b] for a, b in t.spans] == ["1.5", "-2", "3", "4", "5", "6"], form
+        assert {k: dat[slice(*f.span)] for k, f in t.flags.items()} == {"S": "2", "T": "35"}
+
+
+def test_krl_an_expression_in_the_controller_form_is_listed_not_read():
+    dat = ("DEFDAT d\nDECL E6POS XP1={X 10+2,Y 0,Z 0,A 0,B 0,C 0,S 'B010',T 3}\n"
+           "DECL POS XP2={X 1,Y 2,Z 3,A 0,B 0,C 0}\nENDDAT\n")
+    t1, t2 = _one({"d.dat": dat, "d.src": "DEF d()\nPTP XP1\nLIN XP2\nEND\n"}).targets
+    assert "expression" in t1.problem and t1.flags["S"].text == "'B010'"
+    assert t2.values == (1.0, 2.0, 3.0, 0.0, 0.0, 0.0) and not t2.flags
+
+
 def test_fanuc_fields_are_whole_words_of_any_case():
     ls = ("/PROG  T\n/MN\n   1:J P[1] 100% FINE    ;\n/POS\n"
           "P[1]{\n   GP1:\n\tuf : 0, UT : 0,\tconfig : 'N U T, 0, 0, 0',\n"
