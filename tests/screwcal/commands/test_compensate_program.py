@@ -5,6 +5,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from screwcal.kinematics.modelfile import save_model
 from tests.screwcal.calibration.program_cells import true_robot
@@ -104,3 +105,35 @@ def test_several_rapid_modules_go_to_the_rapid_filter_together(tmp_path):
                tmp_path / "Data.sys", tmp_path / "Main.mod", "--out", tmp_path / "out")
     assert run.returncode == 0, run.stderr + run.stdout
     assert (tmp_path / "out" / "Data.sys").is_file() and (tmp_path / "out" / "Main.mod").is_file()
+
+
+def test_the_collector_rests_while_the_program_is_read_and_filtered(tmp_path, rng, monkeypatch):
+    """The program's tree (10,000 targets: some hundred thousand objects, no cycle) is read and
+    filtered with the cyclic collector off, as the RAPID filter's is (its passes over the tree
+    took ~70 ms of a 2 s run); the collector is back on after, a refused program too."""
+    import gc
+
+    from screwcal.calibration import program_filter
+    from screwcal.commands.main import build_parser
+    from screwcal.errors import DataFileError
+
+    nominal, model, paths, _ = _cell(tmp_path, rng, krl_cell)
+    (tmp_path / "config.dat").write_text(CONFIG)
+    seen = []
+    real = program_filter.filter_program
+
+    def watched(*args, **kwargs):
+        seen.append(gc.isenabled())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(program_filter, "filter_program", watched)
+    argv = ["compensate", "--result", str(model), "--robot", nominal.name, "--config",
+            str(tmp_path / "config.dat"), "--out", str(tmp_path / "out"), "--program"]
+    args = build_parser("compensate").parse_args([*argv, *map(str, paths)])
+    assert gc.isenabled() and args.func(args) == 0
+    assert seen == [False] and gc.isenabled()
+    (tmp_path / "broken.dat").write_text("DEFDAT broken\nDECL E6POS XP1={X 1.0,Y 2.0\n")
+    args = build_parser("compensate").parse_args([*argv, str(tmp_path / "broken.dat")])
+    with pytest.raises(DataFileError, match=r"broken\.dat: line 2: an aggregate"):
+        args.func(args)
+    assert gc.isenabled()
