@@ -145,14 +145,15 @@ def _target(path: str, text: str, name: str, brace: int, kind: str) -> Target:
     canonical = _CANONICAL.match(text, brace)
     if canonical:
         try:
-            values = tuple(float(v) for v in canonical.group(1, 2, 3, 4, 5, 6))
+            values = tuple(map(float, canonical.group(1, 2, 3, 4, 5, 6)))
         except ValueError:
             pass  # an expression: the general reading says so
         else:
-            flags = {} if canonical.group(7) is None else {
-                k: Flag(k, canonical.group(g), canonical.span(g)) for k, g in (("S", 7), ("T", 8))}
+            flags = {} if canonical.start(7) < 0 else {
+                "S": Flag("S", canonical[7], canonical.span(7)),
+                "T": Flag("T", canonical[8], canonical.span(8))}
             return Target(path, _line(text, brace), name, values,
-                          tuple(canonical.span(g) for g in range(1, 7)), flags=flags)
+                          tuple(map(canonical.span, range(1, 7))), flags=flags)
     items, _ = _aggregate(path, text, brace)
     line = _line(text, brace)
     missing = [k for k in POSE_KEYS if k not in items]

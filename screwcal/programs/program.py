@@ -6,7 +6,7 @@ from __future__ import annotations
 import bisect
 import functools
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, NamedTuple
 
 Language = Literal["krl", "fanuc", "urscript"]
 Span = tuple[int, int]  # [start, end) character offsets into the file's text
@@ -44,8 +44,7 @@ class Frame:
     problem: str = ""
 
 
-@dataclass(frozen=True)
-class Flag:
+class Flag(NamedTuple):  # (a tuple: one or two a target, thousands in a program)
     """A configuration flag as written: its name ("S", "T", "CONFIG"), text and span."""
 
     name: str
