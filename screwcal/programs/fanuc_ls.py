@@ -33,6 +33,21 @@ _WORD_CHAR = re.compile(r"\w")
 _MOTION = re.compile(r"^[ \t]*\d+:[ \t]*([JLCA])[ \t]+([^;]*);", re.M)
 _REF = re.compile(r"\b(P|PR)\[(\d+)(?::[^\]]*)?\]", re.I)
 _OFFSETS = re.compile(r"\b(Offset|Tool_Offset|VOFFSET|INC)\b", re.I)
+# What makes a motion worth a closer look: a position register or an offset (most name a P[n]).
+_NOTABLE = re.compile(r"\bPR\[|\b(?:Offset|Tool_Offset|VOFFSET|INC)\b", re.I)
+# The usual position, read in one match: GP1 first, its UF, UT, CONFIG, X, Y, Z (mm), W, P, R
+# (deg) once each in that order, extended axes (E1 = ... mm) after, then `};` or the other
+# groups. No '}' before the `};` (the first closes it) and no ':' in CONFIG (no group starts
+# inside): what it matches, the field scan (`_fields`) reads the same; the rest is left to it.
+_SP, _NL = r"[ \t]*", r"[ \t\r\n]*"
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_USUAL = re.compile(
+    rf"{_NL}GP1{_SP}:{_NL}UF{_SP}:{_SP}(\d+){_SP},{_NL}UT{_SP}:{_SP}(\d+){_SP},{_NL}"
+    rf"CONFIG{_SP}:{_SP}'([^'\n:}}]*)'{_SP}," +
+    "".join(rf"{_NL}{k}{_SP}={_SP}({_NUMBER}){_SP}{unit}{_SP}" + ("," if k != "R" else "")
+            for k, unit in (("X", "mm"), ("Y", "mm"), ("Z", "mm"), ("W", "deg"), ("P", "deg"),
+                            ("R", "deg"))) +
+    rf"(?:,{_NL}E\d+{_SP}={_SP}{_NUMBER}{_SP}(?:mm|deg){_SP})*{_NL}(?:GP\d+{_SP}:[^{{}}]*)?\}};")
 _POSE = ("X", "Y", "Z", "W", "P", "R")
 
 
@@ -60,21 +75,29 @@ def read_ls(path: str, text: str, program: Program) -> None:
     """The positions and motions of one LS file into `program`."""
     pos_at = text.upper().find("/POS")
     positions: dict[int, Target] = {}
+    line, counted = 1, 0  # the line of offset `counted`, counted on as the positions come
     for m in _POS.finditer(text, max(pos_at, 0)) if pos_at >= 0 else ():
         end = text.find("};", m.end())
         if end < 0:
             raise ProgramSyntaxError(path, _line(text, m.start()), "a position's '{' is never "
                                      "closed by '};'")
-        target = _position(path, text, int(m.group(1)), m.end(), end, program)
+        line += text.count("\n", counted, m.end())
+        counted = m.end()
+        target = _position(path, text, int(m.group(1)), m.end(), end, line, program)
         if target is not None:
             positions[int(m.group(1))] = target
             program.targets.append(target)
     used_inc: set[int] = set()
-    for m in _MOTION.finditer(text):
+    # The motions start before /POS; the last may end at the first ';' after it: the search
+    # stops there, not at the end of the positions.
+    last_end = text.find(";", pos_at) + 1 if pos_at >= 0 else 0
+    for m in _MOTION.finditer(text, 0, last_end or len(text)):
         if pos_at >= 0 and m.start() > pos_at:
             break
-        line = _line(text, m.start())
         body = m.group(2)
+        if _NOTABLE.search(body) is None:  # to a P[n] as it is: nothing to note
+            continue
+        line = _line(text, m.start())
         offset = _OFFSETS.search(body)
         inc = offset is not None and offset.group(1).upper() == "INC"
         for ref in _REF.finditer(body):
@@ -111,9 +134,18 @@ def _fields(text: str, a: int, b: int) -> dict[str, re.Match[str]]:
             at = start + 1
 
 
-def _position(path: str, text: str, number: int, start: int, end: int, program: Program
-              ) -> Target | None:
-    """The GP1 Cartesian position between start and end, or None for joints."""
+def _position(path: str, text: str, number: int, start: int, end: int, line: int,
+              program: Program) -> Target | None:
+    """The GP1 Cartesian position between start and end (on `line`), or None for joints."""
+    usual = _USUAL.match(text, start, end + 2)
+    if usual is not None:
+        config = Flag("CONFIG", usual.group(3), usual.span(3))
+        target = Target(path, line, f"P[{number}]",
+                        tuple(map(float, usual.group(4, 5, 6, 7, 8, 9))),
+                        (usual.span(4), usual.span(5), usual.span(6), usual.span(7),
+                         usual.span(8), usual.span(9)), flags={"CONFIG": config})
+        _frames(target, usual.group(1), usual.group(2), program)
+        return target
     body_start = start
     groups = list(_GROUP.finditer(text, start, end))
     if groups:
@@ -124,7 +156,6 @@ def _position(path: str, text: str, number: int, start: int, end: int, program: 
         later = [g.start() for g in groups if g.start() > body_start]
         end = min(later) if later else end
     fields = _fields(text, body_start, end)
-    line = _line(text, start)
     if "J1" in fields:
         program.joint_targets += 1
         return None
@@ -143,9 +174,16 @@ def _position(path: str, text: str, number: int, start: int, end: int, program: 
         c = fields["CONFIG"]
         flags["CONFIG"] = Flag("CONFIG", c.group(2)[1:-1], (c.start(2) + 1, c.end(2) - 1))
     target = Target(path, line, name, values, spans, flags=flags)
-    for key, store, kind in (("UF", program.frames, "user frame"),
-                             ("UT", program.tools, "tool frame")):
-        raw = fields[key].group(2) if key in fields else "0"
+    _frames(target, fields["UF"].group(2) if "UF" in fields else "0",
+            fields["UT"].group(2) if "UT" in fields else "0", program)
+    return target
+
+
+def _frames(target: Target, uf: str, ut: str, program: Program) -> None:
+    """The user frame and the tool frame a position names (as written), into the target and,
+    when not yet there, the program's frames and tools."""
+    for key, raw, store, kind in (("UF", uf, program.frames, "user frame"),
+                                  ("UT", ut, program.tools, "tool frame")):
         if not raw.isdigit():
             target.problem = f"its {kind} is {raw!r}: not a frame number"
         elif int(raw):
@@ -156,4 +194,3 @@ def _position(path: str, text: str, number: int, start: int, end: int, program: 
                 target.frame = k
             else:
                 target.tool = k
-    return target

@@ -20,9 +20,10 @@ import re
 from screwcal.programs.program import Frame, Note, Program, Target
 from screwcal.programs.program import line_of as _line
 
-_LITERAL = re.compile(r"\bp\[")
-_MOTION = re.compile(r"\b(movel|movej|movep|movec)[ \t]*\(")
-_TCP = re.compile(r"\bset_tcp[ \t]*\(")
+# A motion or a TCP (a word of its own: `_WORD` not before it, checked after the match, as a
+# leading \b would keep the search from skipping to the words' first letters).
+_EVENT = re.compile(r"(movel|movej|movep|movec|set_tcp)[ \t]*\(")
+_WORD = re.compile(r"\w")
 _VAR = re.compile(r"^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*=(?!=)[ \t]*",
                   re.M)
 _NAME = re.compile(r"[A-Za-z_]\w*")
@@ -32,6 +33,12 @@ _BRACKETS = {"()": re.compile(r"[()]"), "[]": re.compile(r"[\[\]]")}
 _SEPARATORS = re.compile(r"[()\[\],]")
 _BRACKET_IN = re.compile(r"[()\[\]]")
 _NUM = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+# The usual pose literal, read in one match: six numbers on its line, nothing else in it (what
+# `_close` and `_split` read the same); anything else is left to them.
+_POSE = re.compile(r"p\[[ \t]*" + r"[ \t]*,[ \t]*".join([f"({_NUM.pattern})"] * 6) + r"[ \t]*\]")
+# A motion's first argument when it is a literal without brackets inside, followed by the next
+# argument or ')' (what `_close` and `_split` find the same).
+_FIRST_LITERAL = re.compile(r"[ \t]*(p\[[^\[\]()]*\])[ \t]*[,)]")
 
 
 def _code(text: str) -> str:
@@ -104,6 +111,11 @@ def _stripped(code: str, s: int, e: int) -> tuple[int, int]:
 
 def _literal(path: str, text: str, code: str, at: int, name: str) -> Target:
     """The pose literal whose 'p[' starts at `at`."""
+    usual = _POSE.match(code, at)
+    if usual is not None:
+        return Target(path, _line(text, at), name, tuple(map(float, usual.groups())),
+                      (usual.span(1), usual.span(2), usual.span(3), usual.span(4),
+                       usual.span(5), usual.span(6)))
     open_at = at + 1
     close = _close(code, open_at, "[]")
     parts = _split(code, open_at + 1, close)
@@ -129,19 +141,21 @@ def read_urscript(path: str, text: str, program: Program) -> None:
     for name, count in assigned.items():
         if count > 1 and name in variables:
             variables[name].problem = f"assigned {count} times: its value depends on the run"
-    events = sorted([(m.start(), "tcp", m) for m in _TCP.finditer(code)] +
-                    [(m.start(), "move", m) for m in _MOTION.finditer(code)], key=lambda e: e[0])
     tool: str | None = None
     uses: dict[str, set[tuple[str | None, str | None]]] = {}
-    for offset, kind, m in events:
-        close = _close(code, m.end() - 1)
-        args = _split(code, m.end(), close)
-        line = _line(text, offset)
-        if kind == "tcp":
-            tool = _tcp(path, text, code, line, args, variables, program)
+    for m in _EVENT.finditer(code):
+        if m.start() and _WORD.match(code, m.start() - 1):
             continue
-        for s, e in args[:2 if m.group(1) == "movec" else 1]:
-            _pose_argument(path, text, code, s, e, m.group(1), tool, variables, program, uses)
+        verb = m.group(1)
+        # one argument read (the pose; set_tcp's TCP) unless movec's two
+        first = _FIRST_LITERAL.match(code, m.end()) if verb != "movec" else None
+        args = [first.span(1)] if first is not None else \
+            _split(code, m.end(), _close(code, m.end() - 1))
+        if verb == "set_tcp":
+            tool = _tcp(path, text, code, _line(text, m.start()), args, variables, program)
+            continue
+        for s, e in args[:2 if verb == "movec" else 1]:
+            _pose_argument(path, text, code, s, e, verb, tool, variables, program, uses)
     for name, combos in uses.items():
         t = variables[name]
         if len(combos) > 1:
@@ -172,7 +186,6 @@ def _pose_argument(path: str, text: str, code: str, s: int, e: int, verb: str,
                    tool: str | None, variables: dict[str, Target], program: Program,
                    uses: dict[str, set[tuple[str | None, str | None]]]) -> None:
     arg = code[s:e]
-    line = _line(text, s)
     if arg.startswith("["):
         program.joint_targets += 1
     elif arg.startswith("p["):
@@ -188,7 +201,8 @@ def _pose_argument(path: str, text: str, code: str, s: int, e: int, verb: str,
     elif arg.startswith("pose_trans("):
         _feature_target(path, text, code, s, verb, tool, variables, program, uses)
     else:
-        program.notes.append(Note(path, line, arg[:40], "computed when the program runs"))
+        program.notes.append(Note(path, _line(text, s), arg[:40], "computed when the program "
+                                  "runs"))
 
 
 def _feature_target(path: str, text: str, code: str, s: int, verb: str, tool: str | None,

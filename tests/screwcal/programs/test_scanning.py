@@ -87,3 +87,59 @@ def test_fanuc_fields_are_whole_words_of_any_case():
     assert t.flags["CONFIG"].text == "N U T, 0, 0, 0"
     joints = ls.replace("X = 1.0  mm", "J1 = 1.0 deg")
     assert _one({"t.ls": joints}).joint_targets == 1
+
+
+USUAL_LS = ("/PROG  T\n/MN\n   1:L P[1] 100mm/sec FINE    ;\n/POS\nP[1]{\n   GP1:\n"
+            "\tUF : 1, UT : 2,\t\tCONFIG : 'N U T, 0, 0, 0',\n"
+            "\tX =   400.000  mm,\tY =    -.384  mm,\tZ =   300.000  mm,\n"
+            "\tW =   180.000 deg,\tP =      .881 deg,\tR =     0.000 deg\n};\n/END\n")
+
+
+def test_fanuc_a_position_reads_the_same_in_the_controllers_layout_and_in_others():
+    """The controller's own layout and the same fields laid out otherwise: the values, their
+    spans, the CONFIG flag, the frame and the tool are the same."""
+    layouts = {
+        "controller": USUAL_LS,
+        "CR LF": USUAL_LS.replace("\n", "\r\n"),
+        "on one line": USUAL_LS.replace(",\n\t", ", ").replace(":\n\t", ": "),
+        "other order": USUAL_LS.replace("UF : 1, UT : 2", "UT : 2, UF : 1"),
+        "':' for '='": USUAL_LS.replace("X =", "X :"),
+        "lower case": USUAL_LS.replace("UF :", "uf :").replace("GP1:", "gp1:"),
+        "extended axis": USUAL_LS.replace("0.000 deg\n};", "0.000 deg,\n\tE1=  12.500  mm\n};"),
+        "other group": USUAL_LS.replace("0.000 deg\n};", "0.000 deg\n   GP2:\n\tUF : 0, UT : 0,\t"
+                                        "\n\tJ1=   200.000  mm,\tJ2=   1.000 deg\n};"),
+        "other group first": USUAL_LS.replace("   GP1:", "   GP2:\n\tUF : 0, UT : 0,\n\tJ1= 2 mm"
+                                              "\n   GP1:"),
+    }
+    for layout, ls in layouts.items():
+        (t,) = _one({"t.ls": ls}).targets
+        assert t.values == (400.0, -0.384, 300.0, 180.0, 0.881, 0.0), layout
+        assert [ls[a:b] for a, b in t.spans] == [
+            "400.000", "-.384", "300.000", "180.000", ".881", "0.000"], layout
+        config = t.flags["CONFIG"]
+        assert (config.text, ls[config.span[0]:config.span[1]]) == ("N U T, 0, 0, 0",) * 2
+        assert (t.line, t.frame, t.tool, t.problem) == (5, "UF[1]", "UT[2]", ""), layout
+
+
+def test_fanuc_a_motion_missing_its_semicolon_before_pos_still_counts():
+    """A motion runs to the first ';', even past /POS: its position register is noted."""
+    ls = USUAL_LS.replace("FINE    ;\n/POS", "FINE    ;\n   2:L PR[3] 100mm/sec FINE\n/POS")
+    (note,) = _one({"t.ls": ls}).notes
+    assert (note.line, note.name) == (4, "PR[3]")
+
+
+def test_urscript_motion_names_inside_longer_names_are_not_motions():
+    text = ("def prog():\n"
+            "  my_movel(p[9, 9, 9, 0, 0, 0])\n"
+            "  xset_tcp(p[0, 0, 0.5, 0, 0, 0])\n"
+            "  movel\t(p[0.4, -0.1, 0.3, 0.0, 3.14, 0.0]\t, a=1.2)\n"
+            "  movec(p[0.5, 0.1, 0.3, 0, 3.14, 0], p[0.6, 0.2, 0.3, 0, 3.14, 0], r=0)\n"
+            "  movej(p[0.4, 0.1,\n          0.3, 0, 3.14, 0])\n"
+            "end\n")
+    program = _one({"a.script": text})
+    assert [(t.line, t.name, t.values[:3], t.tool) for t in program.targets] == [
+        (4, "movel pose", (0.4, -0.1, 0.3), None), (5, "movec pose", (0.5, 0.1, 0.3), None),
+        (5, "movec pose", (0.6, 0.2, 0.3), None), (6, "movej pose", (0.4, 0.1, 0.3), None)]
+    assert [text[a:b] for a, b in program.targets[-1].spans] == [
+        "0.4", "0.1", "0.3", "0", "3.14", "0"]
+    assert not program.tools and not program.notes
