@@ -96,12 +96,17 @@ def db_target(request, tmp_path):
     return request.getfixturevalue("postgres_server").new_database()
 
 
+def _of_the_service(request: pytest.FixtureRequest) -> bool:
+    """Whether the test is one of the service's (tests/service, tests/integration)."""
+    here = Path(__file__).parent
+    return str(request.path).startswith((str(here / "integration"), str(here / "service")))
+
+
 @pytest.fixture(autouse=True)
 def store_off_the_loop(request, monkeypatch):
     """Every test of the service: no store call of the service's code on the event loop's
     thread (tests/loop_guard.py)."""
-    if not str(request.path).startswith(str(Path(__file__).parent / "integration")) and \
-            not str(request.path).startswith(str(Path(__file__).parent / "service")):
+    if not _of_the_service(request):
         yield
         return
     from tests.loop_guard import guard_store
@@ -109,6 +114,36 @@ def store_off_the_loop(request, monkeypatch):
     seen = guard_store(monkeypatch)
     yield
     assert not seen, "store calls on the event loop's thread:\n" + "\n".join(sorted(set(seen)))
+
+
+_ARGON2_HASHES: dict[str, str] = {}
+_ARGON2_VERDICTS: dict[tuple[str, str], bool] = {}
+
+
+@pytest.fixture(autouse=True)
+def argon2_once_per_password(request, monkeypatch):
+    """Every test of the service: a password is hashed once per test process, and a password
+    checked once against a stored hash, each by the real argon2id at the library's parameters
+    (service/credentials.py; about 0.25 s a call, and a test's users, one per role, share one
+    password). Users of one password share its salt here: tests/service/test_credentials.py
+    holds hash_password itself to a fresh salt per call."""
+    if not _of_the_service(request):
+        return
+    import service.people as people
+    from service.credentials import hash_password, password_matches
+
+    def hashed(password: str) -> str:
+        if password not in _ARGON2_HASHES:
+            _ARGON2_HASHES[password] = hash_password(password)
+        return _ARGON2_HASHES[password]
+
+    def matches(stored: str, password: str) -> bool:
+        if (stored, password) not in _ARGON2_VERDICTS:
+            _ARGON2_VERDICTS[stored, password] = password_matches(stored, password)
+        return _ARGON2_VERDICTS[stored, password]
+
+    monkeypatch.setattr(people, "hash_password", hashed)
+    monkeypatch.setattr(people, "password_matches", matches)
 
 
 @pytest.hookimpl(trylast=True)  # after any reordering plugin: the slow ones still go first

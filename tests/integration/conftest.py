@@ -71,15 +71,23 @@ async def rig():
     await stop_rig(cell)
 
 
-@pytest.fixture
-async def service(tmp_path):
-    app = create_app(ServiceSettings(db_path=tmp_path / "jobs.db", token=TOKEN,
-                                     reconnect_interval_s=0.05, arm_timeout_s=3.0,
-                                     pose_timeout_s=10.0))
+@contextlib.asynccontextmanager
+async def serving(db_path, **settings):
+    """The service on a database, its client through ASGI; `settings`: other values than the
+    tests' (a 3 s wait for the arm's holes, 10 s for a pose)."""
+    app = create_app(ServiceSettings(**{"db_path": db_path, "token": TOKEN,
+                                        "reconnect_interval_s": 0.05, "arm_timeout_s": 3.0,
+                                        "pose_timeout_s": 10.0, **settings}))
     async with app.router.lifespan_context(app):
         async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app),
                                      base_url="http://service", headers=AUTH) as http:
             yield http
+
+
+@pytest.fixture
+async def service(tmp_path):
+    async with serving(tmp_path / "jobs.db") as http:
+        yield http
 
 
 async def finished(http, job_id: int, timeout_s: float = 300.0) -> dict:

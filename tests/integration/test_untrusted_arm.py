@@ -8,7 +8,7 @@ import pytest
 from simulators.arm import ArmEmulator, ArmFaults
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
 from simulators.truth import make_world
-from tests.integration.conftest import AUTH, FAST
+from tests.integration.conftest import AUTH, FAST, serving
 from tests.integration.test_jobs import wait_state
 
 
@@ -53,6 +53,15 @@ def _true_holes_mm(rig: _Rig, joints_deg: list[float]) -> np.ndarray:
         return world.true_holes_mm()
     finally:
         world.q_deg = saved
+
+
+@pytest.fixture
+async def service(tmp_path):
+    """The service waiting 1 s for a pose's holes (the suite's 3 s): a triple late by 0.4 s
+    or stale by up to 0.6 s still comes within it, and each of the few poses whose every
+    triple was discarded is probed again after 1 s, not 3."""
+    async with serving(tmp_path / "jobs.db", arm_timeout_s=1.0) as http:
+        yield http
 
 
 @pytest.mark.slow
