@@ -20,7 +20,6 @@ import re
 from screwcal.programs.program import Flag, Frame, Note, Program, ProgramSyntaxError, Target
 from screwcal.programs.program import line_of as _line
 
-_POS = re.compile(r"^[ \t]*P\[(\d+)(?::[^\]]*)?\][ \t]*\{", re.M)
 _GROUP = re.compile(r"GP(\d+)[ \t]*:", re.I)
 # A field: \b(UF|UT|CONFIG|X|Y|Z|W|P|R|J\d)[ \t]*[:=][ \t]*(value). Searched as a word whose
 # first letter may start a field's name (a character set the search skips to), the name and
@@ -35,19 +34,23 @@ _REF = re.compile(r"\b(P|PR)\[(\d+)(?::[^\]]*)?\]", re.I)
 _OFFSETS = re.compile(r"\b(Offset|Tool_Offset|VOFFSET|INC)\b", re.I)
 # What makes a motion worth a closer look: a position register or an offset (most name a P[n]).
 _NOTABLE = re.compile(r"\bPR\[|\b(?:Offset|Tool_Offset|VOFFSET|INC)\b", re.I)
-# The usual position, read in one match: GP1 first, its UF, UT, CONFIG, X, Y, Z (mm), W, P, R
-# (deg) once each in that order, extended axes (E1 = ... mm) after, then `};` or the other
-# groups. No '}' before the `};` (the first closes it) and no ':' in CONFIG (no group starts
-# inside): what it matches, the field scan (`_fields`) reads the same; the rest is left to it.
+# A position, `P[n]{` (a comment may follow n), and its body when in the usual form, read in
+# the same match: GP1 first, its UF, UT, CONFIG, X, Y, Z (mm), W, P, R (deg) once each in that
+# order, extended axes (E1 = ... mm) after, then `};` or the other groups. No '}' before the
+# `};` (the first closes it), no '{' (no position starts inside) and no ':' in CONFIG (no group
+# starts inside): what it reads, the field scan (`_fields`) reads the same; other bodies are
+# left to that scan.
 _SP, _NL = r"[ \t]*", r"[ \t\r\n]*"
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
-_USUAL = re.compile(
-    rf"{_NL}GP1{_SP}:{_NL}UF{_SP}:{_SP}(\d+){_SP},{_NL}UT{_SP}:{_SP}(\d+){_SP},{_NL}"
-    rf"CONFIG{_SP}:{_SP}'([^'\n:}}]*)'{_SP}," +
-    "".join(rf"{_NL}{k}{_SP}={_SP}({_NUMBER}){_SP}{unit}{_SP}" + ("," if k != "R" else "")
+_POS = re.compile(
+    r"^[ \t]*P\[(?P<n>\d+)(?::[^\]]*)?\][ \t]*\{(?P<body>)(?:"
+    rf"{_NL}GP1{_SP}:{_NL}UF{_SP}:{_SP}(?P<UF>\d+){_SP},{_NL}UT{_SP}:{_SP}(?P<UT>\d+){_SP},"
+    rf"{_NL}CONFIG{_SP}:{_SP}'(?P<CONFIG>[^'\n:{{}}]*)'{_SP}," +
+    "".join(rf"{_NL}{k}{_SP}={_SP}(?P<{k}>{_NUMBER}){_SP}{unit}{_SP}" + ("," if k != "R" else "")
             for k, unit in (("X", "mm"), ("Y", "mm"), ("Z", "mm"), ("W", "deg"), ("P", "deg"),
                             ("R", "deg"))) +
-    rf"(?:,{_NL}E\d+{_SP}={_SP}{_NUMBER}{_SP}(?:mm|deg){_SP})*{_NL}(?:GP\d+{_SP}:[^{{}}]*)?\}};")
+    rf"(?:,{_NL}E\d+{_SP}={_SP}{_NUMBER}{_SP}(?:mm|deg){_SP})*{_NL}(?:GP\d+{_SP}:[^{{}}]*)?\}};"
+    r")?", re.M)
 _POSE = ("X", "Y", "Z", "W", "P", "R")
 
 
@@ -77,15 +80,16 @@ def read_ls(path: str, text: str, program: Program) -> None:
     positions: dict[int, Target] = {}
     line, counted = 1, 0  # the line of offset `counted`, counted on as the positions come
     for m in _POS.finditer(text, max(pos_at, 0)) if pos_at >= 0 else ():
-        end = text.find("};", m.end())
+        start = m.end("body")
+        end = m.end() - 2 if m["X"] is not None else text.find("};", start)
         if end < 0:
             raise ProgramSyntaxError(path, _line(text, m.start()), "a position's '{' is never "
                                      "closed by '};'")
-        line += text.count("\n", counted, m.end())
-        counted = m.end()
-        target = _position(path, text, int(m.group(1)), m.end(), end, line, program)
+        line += text.count("\n", counted, start)
+        counted = start
+        target = _position(path, text, m, end, line, program)
         if target is not None:
-            positions[int(m.group(1))] = target
+            positions[int(m["n"])] = target
             program.targets.append(target)
     used_inc: set[int] = set()
     # The motions start before /POS; the last may end at the first ';' after it: the search
@@ -134,19 +138,19 @@ def _fields(text: str, a: int, b: int) -> dict[str, re.Match[str]]:
             at = start + 1
 
 
-def _position(path: str, text: str, number: int, start: int, end: int, line: int,
-              program: Program) -> Target | None:
-    """The GP1 Cartesian position between start and end (on `line`), or None for joints."""
-    usual = _USUAL.match(text, start, end + 2)
-    if usual is not None:
-        config = Flag("CONFIG", usual.group(3), usual.span(3))
-        target = Target(path, line, f"P[{number}]",
-                        tuple(map(float, usual.group(4, 5, 6, 7, 8, 9))),
-                        (usual.span(4), usual.span(5), usual.span(6), usual.span(7),
-                         usual.span(8), usual.span(9)), flags={"CONFIG": config})
-        _frames(target, usual.group(1), usual.group(2), program)
+def _position(path: str, text: str, m: re.Match[str], end: int, line: int, program: Program
+              ) -> Target | None:
+    """The GP1 Cartesian position `m` (`_POS`) found, its body up to `end` (on `line`), or
+    None for joints."""
+    name = f"P[{int(m['n'])}]"
+    if m["X"] is not None:  # the usual form, read whole
+        target = Target(path, line, name, tuple(map(float, m.group(*_POSE))),
+                        (m.span("X"), m.span("Y"), m.span("Z"), m.span("W"), m.span("P"),
+                         m.span("R")), flags={"CONFIG": Flag("CONFIG", m["CONFIG"],
+                                                             m.span("CONFIG"))})
+        _frames(target, m["UF"], m["UT"], program)
         return target
-    body_start = start
+    start = body_start = m.end("body")
     groups = list(_GROUP.finditer(text, start, end))
     if groups:
         gp1 = [g for g in groups if g.group(1) == "1"]
@@ -159,7 +163,6 @@ def _position(path: str, text: str, number: int, start: int, end: int, line: int
     if "J1" in fields:
         program.joint_targets += 1
         return None
-    name = f"P[{number}]"
     missing = [k for k in _POSE if k not in fields]
     if missing:
         found = sorted(set(re.findall(r"\b([A-Z]{1,3})[ \t]*=", text[body_start:end])))
@@ -182,6 +185,8 @@ def _position(path: str, text: str, number: int, start: int, end: int, line: int
 def _frames(target: Target, uf: str, ut: str, program: Program) -> None:
     """The user frame and the tool frame a position names (as written), into the target and,
     when not yet there, the program's frames and tools."""
+    if uf == ut == "0":  # the world and the faceplate
+        return
     for key, raw, store, kind in (("UF", uf, program.frames, "user frame"),
                                   ("UT", ut, program.tools, "tool frame")):
         if not raw.isdigit():

@@ -110,9 +110,11 @@ def test_fanuc_a_position_reads_the_same_in_the_controllers_layout_and_in_others
                                         "\n\tJ1=   200.000  mm,\tJ2=   1.000 deg\n};"),
         "other group first": USUAL_LS.replace("   GP1:", "   GP2:\n\tUF : 0, UT : 0,\n\tJ1= 2 mm"
                                               "\n   GP1:"),
+        "number with zeros, comment": USUAL_LS.replace("P[1]{", 'P[001:"approach"]{'),
     }
     for layout, ls in layouts.items():
         (t,) = _one({"t.ls": ls}).targets
+        assert t.name == "P[1]", layout
         assert t.values == (400.0, -0.384, 300.0, 180.0, 0.881, 0.0), layout
         assert [ls[a:b] for a, b in t.spans] == [
             "400.000", "-.384", "300.000", "180.000", ".881", "0.000"], layout
