@@ -20,6 +20,8 @@ import re
 from screwcal.programs.program import Flag, Frame, Note, Program, ProgramSyntaxError, Target
 from screwcal.programs.program import line_of as _line
 
+_SECTION_POS = re.compile(r"/POS", re.I)  # found in the text itself: an upper-cased copy
+# is longer where a letter's capital is two ('ß': 'SS'), its offsets past it not the text's
 _GROUP = re.compile(r"GP(\d+)[ \t]*:", re.I)
 # A field: \b(UF|UT|CONFIG|X|Y|Z|W|P|R|J\d)[ \t]*[:=][ \t]*(value). Searched as a word whose
 # first letter may start a field's name (a character set the search skips to), the name and
@@ -76,7 +78,8 @@ def read_frames(path: str, text: str, program: Program) -> None:
 
 def read_ls(path: str, text: str, program: Program) -> None:
     """The positions and motions of one LS file into `program`."""
-    pos_at = text.upper().find("/POS")
+    section = _SECTION_POS.search(text)
+    pos_at = section.start() if section is not None else -1
     positions: dict[int, Target] = {}
     line, counted = 1, 0  # the line of offset `counted`, counted on as the positions come
     for m in _POS.finditer(text, max(pos_at, 0)) if pos_at >= 0 else ():

@@ -145,3 +145,12 @@ def test_urscript_motion_names_inside_longer_names_are_not_motions():
     assert [text[a:b] for a, b in program.targets[-1].spans] == [
         "0.4", "0.1", "0.3", "0", "3.14", "0"]
     assert not program.tools and not program.notes
+
+
+def test_fanuc_letters_whose_capital_is_two_letters_do_not_move_the_positions():
+    """A German comment before /POS ('Schweißen'; 'ß' upper-cased is 'SS'): the positions
+    are still found where they start, none left out."""
+    comments = "".join(f"  {k + 1:2d}:  ! Schweißen, Schweißen, Schweißen ;\n" for k in range(3))
+    ls = USUAL_LS.replace("/MN\n", "/MN\n" + comments)
+    (t,) = _one({"t.ls": ls}).targets
+    assert (t.name, t.line) == ("P[1]", 8)
