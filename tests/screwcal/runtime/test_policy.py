@@ -5,6 +5,7 @@ after; the doors (the command line, a worker) set theirs."""
 
 from __future__ import annotations
 
+import functools
 import gc
 import json
 import os
@@ -84,6 +85,7 @@ def robtargets_module(n: int) -> str:
     return "\n".join(lines) + "\n"
 
 
+@functools.cache  # one process per mode for the three tests below (their xdist_group)
 def _plain_caller(mode: str) -> dict:
     env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_") and k not in
            ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")}
@@ -95,8 +97,10 @@ def _plain_caller(mode: str) -> dict:
 
 glibc = pytest.mark.skipif(platform.system() != "Linux" or platform.libc_ver()[0] != "glibc",
                            reason="glibc's malloc thresholds")
+plain_callers = pytest.mark.xdist_group("policy: what a plain caller's process sees")
 
 
+@plain_callers
 def test_a_plain_caller_finds_the_process_as_it_left_it():
     seen = _plain_caller("plain")
     assert seen["after"] == seen["before"]
@@ -105,12 +109,14 @@ def test_a_plain_caller_finds_the_process_as_it_left_it():
         assert all(n > 1 for _, n in seen["after"]["blas"]), seen
 
 
+@plain_callers
 @glibc
 def test_the_heap_thresholds_are_the_doors_not_the_identifications():
     assert _plain_caller("plain")["mapped"] is True  # glibc's default: untouched
     assert _plain_caller("door")["mapped"] is False  # the worker's door kept it
 
 
+@plain_callers
 def test_a_worker_door_runs_one_blas_thread_and_leaves_the_collector():
     seen = _plain_caller("door")
     assert {n for _, n in seen["before"]["blas"]} == {1}
