@@ -11,6 +11,9 @@ is left as it is; groups other than GP1 (positioners) too.
 Not compensated, listed with the line: a position a motion uses with `INC` (an increment, not a
 pose); motions to position registers (`PR[n]`: their values live in the controller); offsets
 (`Offset,PR[n]`, `Tool_Offset`, `VOFFSET`) applied in the nominal frame, noted.
+
+A controller set to German writes `KONFIG` for CONFIG and `WKZ_Offset` for Tool_Offset: read as
+those (the rest of an LS file's words that matter here are the same in every language).
 """
 
 from __future__ import annotations
@@ -27,15 +30,15 @@ _GROUP = re.compile(r"GP(\d+)[ \t]*:", re.I)
 # first letter may start a field's name (a character set the search skips to), the name and
 # the word boundary checked after (`_fields`): a third of the time of the alternation.
 # (Both cases spelt out, not re.I: a case-blind pattern loses the skip.)
-_FIELD_WORD = re.compile(r"([UCXYZWPRJucxyzwprj]\w*)[ \t]*[:=][ \t]*"
+_FIELD_WORD = re.compile(r"([UCKXYZWPRJuckxyzwprj]\w*)[ \t]*[:=][ \t]*"
                          r"('[^']*'|[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|\*+|[Ff])")
-_FIELD_NAMES = frozenset(("UF", "UT", "CONFIG", "X", "Y", "Z", "W", "P", "R"))
+_FIELD_NAMES = frozenset(("UF", "UT", "CONFIG", "KONFIG", "X", "Y", "Z", "W", "P", "R"))
 _WORD_CHAR = re.compile(r"\w")
 _MOTION = re.compile(r"^[ \t]*\d+:[ \t]*([JLCA])[ \t]+([^;]*);", re.M)
 _REF = re.compile(r"\b(P|PR)\[(\d+)(?::[^\]]*)?\]", re.I)
-_OFFSETS = re.compile(r"\b(Offset|Tool_Offset|VOFFSET|INC)\b", re.I)
+_OFFSETS = re.compile(r"\b(Offset|Tool_Offset|WKZ_Offset|VOFFSET|INC)\b", re.I)
 # What makes a motion worth a closer look: a position register or an offset (most name a P[n]).
-_NOTABLE = re.compile(r"\bPR\[|\b(?:Offset|Tool_Offset|VOFFSET|INC)\b", re.I)
+_NOTABLE = re.compile(r"\bPR\[|\b(?:Offset|Tool_Offset|WKZ_Offset|VOFFSET|INC)\b", re.I)
 # A position, `P[n]{` (a comment may follow n), and its body when in the usual form, read in
 # the same match: GP1 first, its UF, UT, CONFIG, X, Y, Z (mm), W, P, R (deg) once each in that
 # order, extended axes (E1 = ... mm) after, then `};` or the other groups. No '}' before the
@@ -47,7 +50,7 @@ _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _POS = re.compile(
     r"^[ \t]*P\[(?P<n>\d+)(?::[^\]]*)?\][ \t]*\{(?P<body>)(?:"
     rf"{_NL}GP1{_SP}:{_NL}UF{_SP}:{_SP}(?P<UF>\d+){_SP},{_NL}UT{_SP}:{_SP}(?P<UT>\d+){_SP},"
-    rf"{_NL}CONFIG{_SP}:{_SP}'(?P<CONFIG>[^'\n:{{}}]*)'{_SP}," +
+    rf"{_NL}(?:CONFIG|KONFIG){_SP}:{_SP}'(?P<CONFIG>[^'\n:{{}}]*)'{_SP}," +
     "".join(rf"{_NL}{k}{_SP}={_SP}(?P<{k}>{_NUMBER}){_SP}{unit}{_SP}" + ("," if k != "R" else "")
             for k, unit in (("X", "mm"), ("Y", "mm"), ("Z", "mm"), ("W", "deg"), ("P", "deg"),
                             ("R", "deg"))) +
@@ -176,8 +179,8 @@ def _position(path: str, text: str, m: re.Match[str], end: int, line: int, progr
     values = tuple(float(fields[k].group(2)) for k in _POSE)
     spans = tuple(fields[k].span(2) for k in _POSE)
     flags = {}
-    if "CONFIG" in fields:
-        c = fields["CONFIG"]
+    c = fields.get("CONFIG", fields.get("KONFIG"))
+    if c is not None:
         flags["CONFIG"] = Flag("CONFIG", c.group(2)[1:-1], (c.start(2) + 1, c.end(2) - 1))
     target = Target(path, line, name, values, spans, flags=flags)
     _frames(target, fields["UF"].group(2) if "UF" in fields else "0",

@@ -6,6 +6,7 @@ read and filtered without a crash."""
 
 import collections
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -116,3 +117,31 @@ def test_krl_typed_aggregates_and_inline_joints():
     assert target.values == (900.0, 1000.0, 606.35, -180.0, 0.0, -180.0)
     assert program.frames[target.frame].values == (0.0, -1000.0, 0.0, 0.0, 0.0, 0.0)
     assert program.tools[target.tool].values == (166.604, -4.165, 109.636, -0.0, 90.0, 0.0)
+
+
+def test_a_german_controllers_konfig_and_tool_offset_read_as_config_and_tool_offset():
+    # A controller set to German writes KONFIG and WKZ_Offset (public VW backups): the same
+    # program in English compensates to the same numbers and flags, and the offset is noted
+    german = {"MOTN010.LS": (
+        "/PROG  MOTN010\n/ATTR\nKOMMENTAR\t= \"Schweißen\";\n/MN\n"
+        "   1:J P[1] 100% CNT100 ACC100    ;\n"
+        "   2:J P[2] 100% CNT100 ACC100 WKZ_Offset,PR[52]    ;\n/POS\n" +
+        "".join(_position(k, CARTESIAN.replace("CONFIG : 'N U T", f"KONFIG : '{c}").replace(
+            "400.000", x)) for k, c, x in ((1, "F U T", "400.000"), (2, "N U T", "380.000"))) +
+        "/END\n")}
+    english = {name: text.replace("KONFIG", "CONFIG").replace("WKZ_Offset", "Tool_Offset")
+               for name, text in german.items()}
+    nominal = builtin_model("lrmate200id")
+    calibrated = replace(nominal, axis_points_mm=nominal.axis_points_mm + 0.3)
+    outs, reports = [], []
+    for files in (german, english):
+        program = read_program(files)
+        configs = [t.flags["CONFIG"].text for t in program.targets]
+        assert configs == ["F U T, 0, 0, 0", "N U T, 0, 0, 0"]
+        out, report = filter_program(program, calibrated, nominal)
+        outs.append(out["MOTN010.LS"])
+        reports.append(report)
+    assert outs[0] != german["MOTN010.LS"] and reports[0].compensated == 2
+    assert outs[0].replace("KONFIG", "CONFIG").replace("WKZ_Offset", "Tool_Offset") == outs[1]
+    assert "KONFIG : 'F U T, 0, 0, 0'" in outs[0]
+    assert [(n.line, n.name) for n in reports[0].not_static] == [(6, "WKZ_Offset")]
