@@ -67,13 +67,8 @@ reach in joint space gets no correction), and --rapid says the corrections' size
 
 
 def run_compensate(args: argparse.Namespace) -> int:
-    from screwcal.calibration.residual_model import residual_from_document
     from screwcal.commands.compensate_program import is_rapid, run_program
-    from screwcal.commands.target_branches import branch_note, choose_branches
-    from screwcal.errors import DataFileError
     from screwcal.kinematics.modelfile import parse_model, read_model_document
-    from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
-    from screwcal.tables import counted, joint_columns, read_numeric_csv, write_csv_atomic
 
     if args.program and is_rapid(args.program):
         args.rapid, args.program = list(args.program), None
@@ -88,11 +83,16 @@ def run_compensate(args: argparse.Namespace) -> int:
     # the result's
     nominal = nominal_of(document, args.result, args.robot) or calibrated
     _refuse_position_only(document, args.result)
-    residual = residual_from_document(document, args.result)
+    residual = _residual_of(document, args.result)
     if args.rapid:
         return _compensate_rapid(args, calibrated, nominal, residual)
     if args.program:
         return run_program(args, calibrated, nominal, residual)
+    from screwcal.commands.target_branches import branch_note, choose_branches
+    from screwcal.errors import DataFileError
+    from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
+    from screwcal.tables import counted, joint_columns, read_numeric_csv, write_csv_atomic
+
     frame: Literal["base", "measuring"] = "base" if args.targets else "measuring"
     table = read_numeric_csv(source, ["x", "y", "z", "rx", "ry", "rz"])
     check_target_units(table, nominal, frame)
@@ -234,6 +234,16 @@ def compensate_on(calibrated: SerialModel, nominal: SerialModel, T: Array,
     bad = [k for k, _ in refused]
     q[bad], tool0[bad], change[bad] = 0.0, np.eye(4), 0.0
     return Compensation(q, tool0, change, tuple(sorted(refused)), seen)
+
+
+def _residual_of(document: object, path: str) -> ResidualModel | None:
+    """The residual model the result carries and uses (`residual_from_document`); its module
+    (and the Gaussian process's) loaded only for a result with a `residual_model` member."""
+    if not (isinstance(document, dict) and isinstance(document.get("residual_model"), dict)):
+        return None  # as residual_from_document says of it
+    from screwcal.calibration.residual_model import residual_from_document
+
+    return residual_from_document(document, path)
 
 
 def _refuse_position_only(document: object, path: str) -> None:

@@ -137,3 +137,24 @@ def test_the_collector_rests_while_the_program_is_read_and_filtered(tmp_path, rn
     with pytest.raises(DataFileError, match=r"broken\.dat: line 2: an aggregate"):
         args.func(args)
     assert gc.isenabled()
+
+
+def test_a_program_compensated_without_a_residual_model_loads_only_what_it_needs(tmp_path, rng):
+    """Every run pays the start-up (a quarter of the 2 s 10,000 targets may take, issue 42): a
+    result without a residual model loads neither its module nor the Gaussian process's, a
+    program neither the pose files' branch choice nor the RAPID parser, and nothing loads scipy
+    or the service."""
+    nominal, model, paths, _ = _cell(tmp_path, rng, krl_cell)
+    (tmp_path / "config.dat").write_text(CONFIG)
+    argv = ["compensate", "--result", str(model), "--robot", nominal.name, "--program",
+            *map(str, paths), "--config", str(tmp_path / "config.dat"), "--out", "out"]
+    code = ("import sys\nfrom screwcal.commands.main import main\n"
+            f"assert main({argv!r}) == 0\nprint(sorted(sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    loaded = set(eval(out.stdout.strip().splitlines()[-1]))
+    assert "screwcal.calibration.program_filter" in loaded
+    assert not loaded & {"screwcal.calibration.residual_model", "screwcal.calibration.residual_gp",
+                         "screwcal.commands.target_branches", "screwcal.rapid", "scipy",
+                         "service", "simulators"}
