@@ -208,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
 
     from screwcal.rapid import RapidSyntaxError
     from simulators.irc5 import ProgramStoppedError
-    from simulators.rapid.errors import LoadError
+    from simulators.rapid.errors import LoadError, SettingError
 
     # A signal before the servers' own handlers are in place ends the run as Ctrl-C does, so
     # that the private folder is removed whenever the run ends (stop_on_signals after)
@@ -220,6 +220,10 @@ def run(args: argparse.Namespace) -> int:
             asyncio.run(serve[args.which](args))
     except KeyboardInterrupt:
         pass
+    except SettingError as err:  # known at load only (the datum's type): as argparse says it
+        print(f"screwcal emulator {args.which}: error: argument --set: {err.item!r}: "
+              f"{err.reason}", file=sys.stderr)
+        return 2
     except (LoadError, RapidSyntaxError, ProgramStoppedError) as err:
         print(f"screwcal emulator {args.which}: the RAPID program: {err}", file=sys.stderr)
         return 2
@@ -336,12 +340,13 @@ def _tracker_faults(text: str) -> object:
 
 
 def _assignment(text: str) -> str:
+    from simulators.rapid.errors import SettingError
     from simulators.rapid.program import assignments
 
     try:
         assignments([text])
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
+    except SettingError as err:
+        raise argparse.ArgumentTypeError(f"{err.item!r}: {err.reason}") from None
     return text
 
 

@@ -86,3 +86,13 @@ class LoadError(ValueError):
     def __init__(self, path: str, line: int, reason: str):
         self.path, self.line, self.reason = path, line, reason
         super().__init__(f"{path}:{line}: {reason}")
+
+
+class SettingError(LoadError):
+    """A `--set NAME=VALUE` the program cannot take: the item as given and why. A
+    command-line option has no file nor line: the message names the option and the item."""
+
+    def __init__(self, item: str, reason: str):
+        super().__init__("--set", 0, reason)
+        self.item = item
+        self.args = (f"--set {item!r}: {reason}",)

@@ -41,7 +41,7 @@ from simulators.rapid.control import (
     at_label,
     label_index,
 )
-from simulators.rapid.errors import LONG_JMP_ALL_ERR, LoadError, RapidError
+from simulators.rapid.errors import LONG_JMP_ALL_ERR, LoadError, RapidError, SettingError
 from simulators.rapid.evaluation import Evaluator
 from simulators.rapid.frame import Frame
 from simulators.rapid.loading import (
@@ -110,9 +110,11 @@ class Task(Evaluator):
                 if len(CHECKED) >= 64:
                     CHECKED.clear()
                 CHECKED.add((t, p))
-        unknown = set(self.overrides) - set(self.declared)
+        unknown = sorted(set(self.overrides) - set(self.declared))
         if unknown:
-            raise LoadError(path, 1, f"no data named {', '.join(sorted(unknown))} to set")
+            given = self.overrides[unknown[0]]
+            raise SettingError(f"{unknown[0]}={given}" if isinstance(given, str) else unknown[0],
+                               f"no data named {', '.join(unknown)} to set in {path}")
         self._exec: dict[type, Callable[[Any, Frame], None]] = {
             A.Assign: self._assign, A.ProcCall: self._proc_call, A.If: self._if,
             A.While: self._while, A.For: self._for, A.Test: self._test,
@@ -172,9 +174,12 @@ class Task(Evaluator):
             e = parse_expression(text, "--set")
             self._kept.append(e)  # evaluation keeps closures by node: the node lives on
             return self.eval(e, frame)
-        except (RapidSyntaxError, RapidError) as err:
-            raise LoadError("--set", 0, f"{d.name}={text}: not a {d.type} value ({err})") \
-                from None
+        except RapidSyntaxError as err:
+            why = f"{err.reason} at character {err.col}"
+        except RapidError as err:
+            why = err.detail
+        raise SettingError(f"{d.name}={self.overrides[d.key]}",
+                           f"not a {d.type} value ({why})") from None
 
     # ------------------------------------------------------------------ running
     def run(self, routine: str = "main") -> None:

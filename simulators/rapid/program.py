@@ -11,7 +11,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from screwcal.rapid.tasks import tasks_in
-from simulators.rapid.errors import LoadError
+from simulators.rapid.errors import LoadError, SettingError
 
 
 def module_files(paths: Iterable[Path]) -> list[Path]:
@@ -42,13 +42,13 @@ class RapidText(str):
 
 
 def assignments(items: Iterable[str]) -> dict[str, str]:
-    """`NAME=VALUE` items by lower-case name; a malformed item is a ValueError naming it."""
+    """`NAME=VALUE` items by lower-case name; a malformed item is a SettingError naming it."""
     out: dict[str, str] = {}
     for item in items:
         name, sep, value = item.partition("=")
         name = name.strip()
         if not sep or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name) or not value.strip():
-            raise ValueError(f"--set {item!r}: expected NAME=VALUE, a datum of the program "
-                             "and its RAPID value (e.g. serverPort=5000)")
+            raise SettingError(item, "expected NAME=VALUE, a datum of the program and its "
+                               "RAPID value (e.g. serverPort=5000)")
         out[name.lower()] = value.strip()
     return out

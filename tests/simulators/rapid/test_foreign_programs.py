@@ -18,7 +18,7 @@ from screwcal.kinematics.forward import flange_kinematics
 from screwcal.kinematics.pose import rotation_from_quaternion_wxyz
 from simulators.faults import FaultPlan
 from simulators.irc5 import EmulatorSettings, IRC5Emulator
-from simulators.rapid.errors import ERRNUMS, LoadError
+from simulators.rapid.errors import ERRNUMS, LoadError, SettingError
 from simulators.rapid.interpreter import Task
 from simulators.rapid.motion import Motion
 from simulators.rapid.program import module_files
@@ -204,11 +204,17 @@ def test_set_gives_data_their_value_in_rapid_and_refuses_what_does_not_fit():
              overrides={k: RapidText(v) for k, v in given.items()})
     assert value(t, "linkPort") == 6001 and value(t, "linkAddress") == "0.0.0.0"
     assert xyz(value(t, "linkTool").f["tframe"]) == pytest.approx([0, 0, 50])
-    with pytest.raises(LoadError, match="linkPort=five: not a num value"):
+    # a command-line option has no line: the error names the option and the item as given
+    with pytest.raises(SettingError, match=r"^--set 'linkPort=five': not a num value "
+                                           r"\(no data named five\)$"):
         Task(LINK.read_text(), "CellLink.mod", overrides={"linkPort": RapidText("five")})
-    with pytest.raises(LoadError, match="no data named nothere to set"):
+    with pytest.raises(SettingError, match=r"^--set 'linkPort=\[1,': not a num value \(expected "
+                                           r"a value, found the end of the file at character 4\)$"):
+        Task(LINK.read_text(), "CellLink.mod", overrides={"linkPort": RapidText("[1,")})
+    with pytest.raises(SettingError, match=r"^--set 'nothere=1': no data named nothere to set "
+                                           r"in CellLink\.mod$"):
         Task(LINK.read_text(), "CellLink.mod", overrides={"nothere": RapidText("1")})
-    with pytest.raises(ValueError, match="expected NAME=VALUE"):
+    with pytest.raises(SettingError, match=r"^--set 'linkPort': expected NAME=VALUE"):
         assignments(["linkPort"])
 
 
@@ -555,6 +561,18 @@ def test_the_command_runs_a_foreign_program_where_its_data_say(tmp_path):
     assert "note: --port 0 is ScrewcalServer's" in err
     bad = subprocess_run(["irc5", "--port", "0", "--program", str(LINK), "--set", "linkPort"])
     assert bad.returncode == 2 and "expected NAME=VALUE" in bad.stderr
+
+
+def test_the_command_names_the_option_and_the_value_a_program_cannot_take():
+    """A value is checked against its datum's type at load, after the arguments: its error
+    reads as the arguments' own (the option and the item), not as a file's line."""
+    for item, why in (("linkPort=five", "not a num value (no data named five)"),
+                      ("nothere=1", f"no data named nothere to set in {LINK}")):
+        bad = subprocess_run(["irc5", "--port", "0", "--time-scale", "0",
+                              "--program", str(LINK), "--set", item])
+        assert bad.returncode == 2, bad.stderr
+        assert bad.stderr.strip() == \
+            f"screwcal emulator irc5: error: argument --set: {item!r}: {why}", bad.stderr
 
 
 def subprocess_run(args: list[str]):
