@@ -170,6 +170,13 @@ LENGTH_UNITS_MM = {"mm": 1.0, "m": 1000.0, "in": 25.4}
 RADIAN_LOOKING_DEG = 3.2
 
 
+def fixed_texts(values: Iterable[float], places: int) -> list[str]:
+    """Numbers as a file writes them, `places` decimals (rounded as round(v, places) would):
+    a value that rounds to zero is written "0.0000", never "-0.0000"."""
+    texts = [f"{v:.{places}f}" for v in values]
+    return [t[1:] if t[0] == "-" and not t.strip("-0.") else t for t in texts]
+
+
 def joint_columns(n: int) -> list[str]:
     return [f"q{i}" for i in range(1, n + 1)]
 

@@ -91,7 +91,13 @@ def run_compensate(args: argparse.Namespace) -> int:
     from screwcal.commands.target_branches import branch_note, choose_branches
     from screwcal.errors import DataFileError
     from screwcal.kinematics.pose import pose_from_transform, transform_from_pose
-    from screwcal.tables import counted, joint_columns, read_numeric_csv, write_csv_atomic
+    from screwcal.tables import (
+        counted,
+        fixed_texts,
+        joint_columns,
+        read_numeric_csv,
+        write_csv_atomic,
+    )
 
     frame: Literal["base", "measuring"] = "base" if args.targets else "measuring"
     table = read_numeric_csv(source, ["x", "y", "z", "rx", "ry", "rz"])
@@ -112,7 +118,7 @@ def run_compensate(args: argparse.Namespace) -> int:
     q_deg = readings_from_serial(calibrated.joints_to_deg(comp.q_rad), convention)
     poses = pose_from_transform(comp.nominal_tool0)
     header = ["id", *joint_columns(calibrated.n_joints), "x", "y", "z", "rx", "ry", "rz"]
-    rows = [[i, *(f"{v:.4f}" for v in q), *(f"{v:.4f}" for v in p)]
+    rows = [[i, *fixed_texts(q, 4), *fixed_texts(p, 4)]
             for i, q, p in zip(table.ids, q_deg, poses, strict=True)]
     seen = comp.residual
     if seen is not None:
@@ -120,7 +126,7 @@ def run_compensate(args: argparse.Namespace) -> int:
             seen.correction_mm @ calibrated.base[:3, :3]
         header += ["dx", "dy", "dz", "std_mm", "note"]
         for k, row in enumerate(rows):
-            row += [*(f"{v:.4f}" for v in shift[k]), f"{seen.std_mm[k]:.4f}", seen.note(k)]
+            row += [*fixed_texts([*shift[k], seen.std_mm[k]], 4), seen.note(k)]
     write_csv_atomic(args.out, header, (row for row, good in zip(rows, ok, strict=True)
                                         if good))
     where = "tool0 in the robot base frame" if frame == "base" else \

@@ -34,7 +34,13 @@ def run(args: argparse.Namespace) -> int:
     from screwcal.kinematics.modelfile import parse_model, read_model_document, resolve_model
     from screwcal.kinematics.pose import pose_from_transform
     from screwcal.kinematics.readings import serial_from_readings
-    from screwcal.tables import counted, joint_columns, read_numeric_csv, write_csv_atomic
+    from screwcal.tables import (
+        counted,
+        fixed_texts,
+        joint_columns,
+        read_numeric_csv,
+        write_csv_atomic,
+    )
 
     given = args.result or args.robot or args.model
     check_outputs([args.out], [args.joints, given])
@@ -56,8 +62,7 @@ def run(args: argparse.Namespace) -> int:
         else None
     if residual is None:
         write_csv_atomic(args.out, OUTPUT_COLUMNS, (
-            [pid] + [f"{v:.6f}" for v in pose] for pid, pose in zip(table.ids, poses,
-                                                                  strict=True)))
+            [pid, *fixed_texts(pose, 6)] for pid, pose in zip(table.ids, poses, strict=True)))
         print(f"predicted {counted(len(poses), 'pose')} with model '{model.name}' -> {args.out}")
         return 0
     seen = residual.predict(q_rad)
@@ -65,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     for k in np.flatnonzero(~seen.within_reach)[:5]:
         print(f"note: {table.path}, line {table.lines[k]}: {seen.note(int(k))}", file=sys.stderr)
     write_csv_atomic(args.out, OUTPUT_COLUMNS + RESIDUAL_COLUMNS, (
-        [pid, *(f"{v:.6f}" for v in pose), *(f"{v:.6f}" for v in d), f"{s:.6f}", seen.note(k)]
+        [pid, *fixed_texts([*pose, *d, s], 6), seen.note(k)]
         for k, (pid, pose, d, s) in enumerate(zip(table.ids, poses, seen.correction_mm,
                                                   seen.std_mm, strict=True))))
     print(f"predicted {counted(len(poses), 'pose')} with model '{model.name}' and its "

@@ -241,3 +241,29 @@ def test_a_long_tool_is_not_taken_for_another_unit(tmp_path, rng):
     data = simulate_measurements(truth, q, rng, full_pose=False)
     path = _write_measurements(tmp_path / "m.csv", data, full_pose=False)
     assert len(read_measurements_csv(path, irb1600())) == 30
+
+
+def test_written_numbers_that_round_to_zero_carry_no_minus(tmp_path):
+    """Joints, poses and positions a hair below zero are written 0.0000 (compensate) and
+    0.000000 (predict), as the program filter writes them: never "-0.0000"."""
+    model = tmp_path / "nominal.json"
+    save_model(irb1600(), model)
+    q = np.radians([[-1e-7, 10, 10, -1e-7, 40, -1e-7], [0, 0, 0, 0, -1e-7, 0]])
+    poses = pose_from_transform(flange_kinematics(irb1600(), q))
+    targets = tmp_path / "t.csv"
+    targets.write_text("id,x,y,z,rx,ry,rz\n" + "".join(
+        f"t{k}," + ",".join(repr(float(v)) for v in p) + "\n" for k, p in enumerate(poses)))
+    out = tmp_path / "c.csv"
+    assert main(["compensate", "--result", str(model), "--targets", str(targets),
+                 "--out", str(out)]) == 0
+    text = out.read_text()
+    assert re.search(r"(^|,)0\.0000(,|$)", text, re.M) and not re.search(r"-0\.0+(,|$)", text,
+                                                                        re.M), text
+    joints = tmp_path / "j.csv"
+    joints.write_text("q1,q2,q3,q4,q5,q6\n-1e-9,0,0,-1e-9,30,0\n")
+    predicted = tmp_path / "p.csv"
+    assert main(["predict", "--result", str(model), "--joints", str(joints),
+                 "--out", str(predicted)]) == 0
+    text = predicted.read_text()
+    assert re.search(r",0\.000000(,|$)", text, re.M) and not re.search(r"-0\.0+(,|$)", text,
+                                                                       re.M), text
