@@ -43,6 +43,15 @@ TRANSITIONS: dict[JobState, frozenset[JobState]] = {
 }
 
 
+def state_said(state: JobState | str, reason: str | None) -> str:
+    """A job's state and why, as a person reads it: 'failed: the arm stopped answering',
+    'done'; a reason that says its state itself ('aborted by the operator') alone."""
+    reason = (reason or "").strip()
+    if reason.startswith(str(state)):
+        return reason
+    return f"{state}: {reason}" if reason else str(state)
+
+
 class JobStateError(ConflictError):
     """A change of state the table does not allow (a stale runner's, most often)."""
 

@@ -9,6 +9,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from service.errors import ServiceError
+from service.job_state import state_said
 
 if TYPE_CHECKING:  # imported where used: `screwcal --help` pays for neither
     import httpx
@@ -144,10 +145,7 @@ class Operator:
                 event = json.loads(line[len("data: "):])
                 kind = event["kind"]
                 if kind == "state":  # where the job stands when we attach
-                    reason = event.get("reason") or ""
-                    said = reason if reason.startswith(event["state"]) else \
-                        f"{event['state']} {reason}".rstrip()
-                    out(f"job {job_id}: {said}")
+                    out(f"job {job_id}: {state_said(event['state'], event.get('reason'))}")
                     waiting = event.get("waiting_for")
                     if waiting and not ask_for(waiting, None):
                         out(f"not moving; job {job_id} waits (screwcal job abort {job_id})")

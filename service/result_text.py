@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections import Counter
 
 from service.document import CorrectionPlan, EstimationSummary, ResultDocument
+from service.job_state import state_said
 from service.phases import PERF_PHASE_NAMES, ROUND_SUFFIXES
 from service.schemas import JobResult
 from service.summary import before_after
@@ -17,10 +18,7 @@ FRAME_WORDS = {"base": "the robot base frame", "tool": "the tool (the measured p
 
 def result_table(result: JobResult, times: bool = True) -> str:
     """The before/after table a person reads (`times`: the seconds each phase took)."""
-    reason = result.reason or ""  # "aborted by the operator" says its state itself
-    said = reason if reason.startswith(str(result.state)) else \
-        f"{result.state} {reason}".rstrip()
-    lines = [f"job {result.id}: {said}"]
+    lines = [f"job {result.id}: {state_said(result.state, result.reason)}"]
     phases, rows = before_after(result.performance or {})
     if rows:
         lines.append(f"  {'ISO 9283':<36}" + "".join(f"{PERF_PHASE_NAMES[p]:>12}" for p in phases)

@@ -52,6 +52,24 @@ async def test_operator_answers_step_prompts_and_reads_the_result(tmp_path, rig)
         await asyncio.to_thread(op.abort, job2["id"])
 
 
+def test_watch_says_a_failed_jobs_state_and_reason_as_a_sentence(tmp_path):
+    """`job watch` of a job that failed said 'job 1: failed cannot run: ...' (no colon)."""
+    from service.store import Store
+
+    db = tmp_path / "jobs.db"
+    store = Store(db)
+    robot = store.add_robot("old", "127.0.0.1", 4012, "socket://127.0.0.1:1",
+                            {"name": "x"}, [[0, 0, 0], [0, 0, 0], [1, 0, 0]])
+    job = store.add_job(robot.id, "calibration", "AUTO", {})  # refused when the service starts
+    store.close()
+    lines: list[str] = []
+    with service(ServiceSettings(db_path=db, token=TOKEN, port=0)) as url, \
+            Operator(url, TOKEN) as op:
+        assert op.watch(job.id, lambda _: "n", lines.append) == "failed"
+    assert lines and lines[0].startswith(f"job {job.id}: failed: cannot run: robot {robot.id}: "
+                                         "invalid model file"), lines
+
+
 def test_demo_runs_the_whole_procedure(tmp_path, capsys):
     assert main(["demo", "--cycles", "2", "--out", str(tmp_path)]) == 0  # 80 poses
     out = capsys.readouterr().out

@@ -333,7 +333,11 @@ def test_a_jobs_state_is_said_once():
     aborted = JobResult(id=3, state="aborted", reason="aborted by the operator", phases={})
     assert result_table(aborted).splitlines()[0] == "job 3: aborted by the operator"
     failed = JobResult(id=4, state="failed", reason="the arm stopped answering", phases={})
-    assert result_table(failed).splitlines()[0] == "job 4: failed the arm stopped answering"
+    assert result_table(failed).splitlines()[0] == "job 4: failed: the arm stopped answering"
+    done = JobResult(id=5, state="done", reason="", phases={})
+    assert result_table(done).splitlines()[0] == "job 5: done"
+    paused = JobResult(id=6, state="paused", reason="the disk is full", phases={})
+    assert result_table(paused).splitlines()[0] == "job 6: paused: the disk is full"
 
 
 def test_job_watch_says_its_events_in_words():
