@@ -75,26 +75,44 @@ def test_a_shell_block_holds_commands_not_synopses(block):
         assert not SYNOPSIS.search(command), f"{block.path.name}:{n}: a synopsis in a sh block"
 
 
-def _ports_free(*ports: int) -> bool:
-    for port in ports:
-        with socket.socket() as s:
-            if s.connect_ex(("127.0.0.1", port)) == 0:
-                return False
-    return True
+# What a block may not name, so that it runs beside anything else: a fixed folder outside its
+# own (mktemp -d makes one) and a fixed port (a variable with a default the test sets free)
+FIXED_PLACE = re.compile(r"(?<![\w.$])/tmp\b|--(?:arm-)?port \d|\b127\.0\.0\.1:\d|"
+                         r"socket://[\w.]+:\d")
+PORT_VARIABLES = ("CELL_PORT", "ARM_PORT", "SCREWCAL_PORT")  # README's service block
+
+
+@pytest.mark.parametrize("block", [b for b in SHELL if b.not_run is None], ids=lambda b: b.name)
+def test_a_shell_block_names_no_fixed_folder_or_port(block):
+    """A block wrote to /tmp/screwcal-examples and listened on 4012, 4013 and 8080: a second
+    run, or anything else on the host, got in its way."""
+    for n, line in enumerate(block.text.splitlines(), block.line + 1):
+        found = FIXED_PLACE.search(line.split(" #")[0])
+        assert not found, f"{block.path.name}:{n}: {found.group(0)!r} is fixed"
+
+
+def _free_ports(n: int) -> list[int]:
+    sockets = [socket.socket() for _ in range(n)]
+    try:
+        for s in sockets:
+            s.bind(("127.0.0.1", 0))
+        return [s.getsockname()[1] for s in sockets]
+    finally:
+        for s in sockets:
+            s.close()
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("block", [b for b in SHELL if b.not_run is None], ids=lambda b: b.name)
 def test_a_shell_block_runs_as_written(block, tmp_path):
-    fixed = [int(p) for p in re.findall(r"--port (\d+)|--arm-port (\d+)", block.text)
-             for p in p if p]
-    if fixed and not _ports_free(*fixed, 8080):
-        pytest.skip(f"the block listens on fixed ports {fixed}, in use here")
     shutil.copytree(ROOT / "docs", tmp_path / "docs")
     venv = Path(sys.prefix)
     (tmp_path / ".venv").symlink_to(venv, target_is_directory=True)
-    env = {**os.environ, "PATH": f"{venv / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}"}
+    env = {**os.environ, "PATH": f"{venv / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}",
+           **dict(zip(PORT_VARIABLES, map(str, _free_ports(len(PORT_VARIABLES))), strict=True)),
+           "TMPDIR": str(tmp_path)}  # what mktemp makes is removed with the test's folder
     env.pop("SCREWCAL_TOKEN", None)
+    env.pop("SCREWCAL_SERVICE", None)
     done = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", block.text], cwd=tmp_path,
                           env=env, capture_output=True, text=True, timeout=900,
                           start_new_session=True)
