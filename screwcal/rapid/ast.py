@@ -8,7 +8,18 @@ lower-case form).
 
 from __future__ import annotations
 
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import MISSING, field, fields
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from dataclasses import dataclass
+else:  # each node's __init__ is built from its fields below (_slot_setting_init): the
+    # dataclass's own, compiled for each class and thrown away, is never made (a tenth of
+    # loading the parser)
+    from dataclasses import dataclass as _dataclass
+    from functools import partial
+
+    dataclass = partial(_dataclass, init=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -368,7 +379,8 @@ def _slot_setting_init(cls: type[Node]) -> None:
             env[f"_default{k}"] = f.default
             params.append(f"{f.name}=_default{k}")
         elif f.default_factory is not MISSING:  # pragma: no cover - no node has one
-            return
+            raise TypeError(f"{cls.__name__}.{f.name}: a node's field takes a default, not a "
+                            "default_factory")
         else:
             params.append(f.name)
         names.append(f"    _set{k}(self, {f.name})")
