@@ -1,15 +1,24 @@
 """A real PostgreSQL server for the tests: initdb and pg_ctl in a temporary folder, listening on
 a private Unix socket only (no TCP port), run as an unprivileged user when the tests run as root
-(PostgreSQL refuses root; CI runs as root). Each test gets a fresh database on it."""
+(PostgreSQL refuses root; CI runs as root). Each test gets a fresh database on it.
+
+The server lives no longer than the process that made it. pg_ctl detaches the postmaster (its
+own session), so a test run killed (SIGKILL, a CI timeout) left it running with its folder; now
+a watchdog, this file run as a script in a session of its own (Ctrl-C does not reach it), holds
+the read end of a pipe whose write end only the owner has. The kernel closes that end when the
+owner ends, however it ends; the watchdog then stops the server and removes the folder.
+"""
 
 from __future__ import annotations
 
 import glob
 import itertools
+import json
 import os
 import pwd
 import shutil
 import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -43,11 +52,26 @@ class PostgresServer:
             os.chmod(self.folder, 0o755)
             for p in (self.folder, self.socket_dir):
                 os.chown(p, entry.pw_uid, entry.pw_gid)
+        # before anything runs: whatever happens next, the server and the folder go with us
+        self._watchdog = subprocess.Popen(
+            [sys.executable, "-I", __file__, json.dumps(self._stop_command()), str(self.folder)],
+            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            start_new_session=True)
 
-    def _run(self, *args: str) -> None:
+    def _stop_command(self) -> list[str]:
+        """pg_ctl's immediate stop (every connection cut), as the server's user."""
+        return self._command("pg_ctl", "-D", str(self.data), "-m", "immediate", "-w", "stop")
+
+    def _command(self, *args: str) -> list[str]:
         cmd = [str(self.bin_dir / args[0]), *args[1:]]
         if self.user is not None:
             cmd = ["runuser", "-u", self.user, "--", *cmd]
+        return cmd
+
+    def _run(self, *args: str) -> None:
+        self._done(self._command(*args))
+
+    def _done(self, cmd: list[str]) -> None:
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=120,
                               cwd=self.folder)
         if done.returncode != 0:
@@ -67,13 +91,14 @@ class PostgresServer:
 
     def halt(self) -> None:
         """Stop the server as a crash would (every connection cut), keeping its data."""
-        self._run("pg_ctl", "-D", str(self.data), "-m", "immediate", "-w", "stop")
+        self._done(self._stop_command())
 
     def stop(self) -> None:
-        try:
-            self._run("pg_ctl", "-D", str(self.data), "-m", "immediate", "-w", "stop")
-        finally:
-            shutil.rmtree(self.folder, ignore_errors=True)
+        """Stop the server and remove its folder: the watchdog's work, told by the pipe's end."""
+        assert self._watchdog.stdin is not None
+        self._watchdog.stdin.close()
+        if self._watchdog.wait(timeout=120) != 0:
+            raise RuntimeError(f"the PostgreSQL server in {self.folder} did not stop")
 
     def url(self, dbname: str = "postgres") -> str:
         return f"postgresql://screwcal@/{dbname}?host={self.socket_dir}"
@@ -86,3 +111,17 @@ class PostgresServer:
         with psycopg.connect(self.url(), autocommit=True) as con:
             con.execute(f"CREATE DATABASE {name}")
         return self.url(name)
+
+
+def _watch(stop: list[str], folder: Path) -> int:
+    """The watchdog: wait for the owner's end of the pipe to close (its stop(), or its death),
+    then stop the server (if it runs) and remove its folder. 0 when nothing is left."""
+    sys.stdin.buffer.read()
+    running = (folder / "data" / "postmaster.pid").exists()
+    done = subprocess.run(stop, capture_output=True, timeout=120, cwd="/") if running else None
+    shutil.rmtree(folder, ignore_errors=True)
+    return 1 if (done is not None and done.returncode != 0) or folder.exists() else 0
+
+
+if __name__ == "__main__":
+    sys.exit(_watch(json.loads(sys.argv[1]), Path(sys.argv[2])))
