@@ -22,6 +22,7 @@ from screwcal.tables import (
     LENGTH_UNITS_MM,
     RADIAN_LOOKING_DEG,
     direction_columns,
+    fixed_texts,
     joint_columns,
     read_numeric_csv,
     write_csv_atomic,
@@ -173,7 +174,7 @@ def write_measurements_csv(path: str | Path, data: MeasurementSet, model: Serial
         header += ["rx", "ry", "rz"]
         columns.append(euler_zyx_deg_from_rotation(data.rotations))
     values = np.hstack(columns)
-    write_csv_atomic(path, header, ([pose_id, *(f"{v:.6f}" for v in row)]
+    write_csv_atomic(path, header, ([pose_id, *fixed_texts(row, 6)]
                                     for pose_id, row in zip(data.ids, values, strict=True)))
 
 

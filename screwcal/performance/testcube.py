@@ -28,7 +28,7 @@ from screwcal.kinematics.ik_branches import all_branches
 from screwcal.kinematics.model import SerialModel
 from screwcal.kinematics.pose import transform_from_pose
 from screwcal.kinematics.se3 import Array
-from screwcal.tables import write_csv_atomic
+from screwcal.tables import fixed_texts, write_csv_atomic
 
 CYCLE_ORDER = ("P1", "P5", "P4", "P3", "P2")
 DIAGONAL_FRACTION = 0.10
@@ -263,5 +263,5 @@ POSE_LIST_COLUMNS = ("index", "cycle", "point", "role", "q1", "q2", "q3", "q4", 
 def write_pose_list(path: str, plans: Sequence[PosePlan]) -> None:
     """The pose list as CSV (joint targets in deg, commanded pose in mm/deg)."""
     write_csv_atomic(path, POSE_LIST_COLUMNS,
-                     ([p.index, p.cycle, p.point, p.role, *(f"{v:.4f}" for v in p.q_deg),
-                       *(f"{v:.4f}" for v in p.pose_cmd)] for p in plans))
+                     ([p.index, p.cycle, p.point, p.role, *fixed_texts(p.q_deg + p.pose_cmd, 4)]
+                      for p in plans))

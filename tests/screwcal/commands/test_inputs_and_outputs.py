@@ -267,3 +267,24 @@ def test_written_numbers_that_round_to_zero_carry_no_minus(tmp_path):
     text = predicted.read_text()
     assert re.search(r",0\.000000(,|$)", text, re.M) and not re.search(r"-0\.0+(,|$)", text,
                                                                        re.M), text
+
+
+def test_the_measurement_file_and_the_pose_list_write_no_minus_zero(tmp_path):
+    """The same rule for `simulate --out` (the measurement file) and `testcube --out` (the pose
+    list): a value a hair below zero is 0.000000 / 0.0000."""
+    from screwcal.calibration.measurements import MeasurementSet, write_measurements_csv
+    from screwcal.performance.testcube import PosePlan, write_pose_list
+
+    model = irb1600()
+    data = MeasurementSet(q=np.radians([[-1e-9, 10, 10, 0, 30, 0]]),
+                          positions_mm=np.array([[800.0, -1e-9, 1000.0]]), ids=("p1",))
+    write_measurements_csv(tmp_path / "m.csv", data, model)
+    assert (tmp_path / "m.csv").read_text().splitlines()[1] == \
+        "p1,0.000000,10.000000,10.000000,0.000000,30.000000,0.000000,800.000000,0.000000," \
+        "1000.000000"
+    write_pose_list(str(tmp_path / "p.csv"), [PosePlan(0, 1, "P1", "target",
+                                                       (-1e-6, 0.0, 0.0, 0.0, 90.0, 0.0),
+                                                       (800.0, -1e-6, 900.0, -0.0, 90.0, 0.0))])
+    assert (tmp_path / "p.csv").read_text().splitlines()[1] == \
+        "0,1,P1,target,0.0000,0.0000,0.0000,0.0000,90.0000,0.0000,800.0000,0.0000,900.0000," \
+        "0.0000,90.0000,0.0000"
