@@ -52,6 +52,7 @@ async def _run_with(service, rig, fault) -> dict:
         while len((await service.get(f"/jobs/{job_id}/measurements")).json()) < 5:
             await asyncio.sleep(0.01)
     await fault()
+    rig.emu.settings.time_scale = 0.0  # done mid-list: the rest of it at full speed
     job = await wait_state(service, job_id, timeout_s=60)
     assert job["state"] == "done", job["reason"]
     measured = (await service.get(f"/jobs/{job_id}/measurements")).json()

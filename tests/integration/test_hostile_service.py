@@ -192,6 +192,7 @@ async def test_a_full_disk_pauses_the_job_which_goes_on_once_there_is_space(app_
     held = len((await http.get(f"/jobs/{job_id}/measurements")).json())
     await asyncio.sleep(0.5)  # the robot waits: no pose is measured, none is lost
     assert len((await http.get(f"/jobs/{job_id}/measurements")).json()) == held
+    rig.emu.settings.time_scale = 0.0  # paused mid-list: the rest of it at full speed
     db.execute("PRAGMA max_page_count = 1073741823")  # space again: no restart
     job = await finished(http, job_id, 120)
     assert job["state"] == "done", job["reason"]

@@ -54,6 +54,7 @@ async def test_sigkill_mid_job_then_restart_resumes_without_loss(db_target, rig)
                     await asyncio.sleep(0.01)
         proc.send_signal(signal.SIGKILL)
         proc.communicate(timeout=10)
+        rig.emu.settings.time_scale = 0.0  # killed mid-list: the rest of it at full speed
         before = committed(db, job_id)
         references = committed(db, job_id, "drift")  # the drift checks' reference poses
         assert len(references) >= 4

@@ -94,6 +94,7 @@ async def test_a_database_file_that_cannot_grow_pauses_the_job_until_it_can(tmp_
             assert 1 <= len(held) < FAST["calibration_poses"], held
             await asyncio.sleep(0.5)  # the robot waits at the pose: nothing measured, nothing lost
             assert committed(db, job_id) == held
+            rig.emu.settings.time_scale = 0.0  # paused mid-list: the rest of it at full speed
             if back_by == "limit lifted in place":
                 resource.prlimit(proc.pid, resource.RLIMIT_FSIZE,
                                  (resource.RLIM_INFINITY, resource.RLIM_INFINITY))
@@ -144,6 +145,7 @@ async def test_a_postgresql_server_restarted_mid_job_pauses_it_and_the_service_g
             r = await http.get(f"/jobs/{job_id}")  # a request meanwhile: 503, with the cause
             assert r.status_code == 503 and "database" in r.json()["detail"], r.text
             await asyncio.sleep(1.0)
+            rig.emu.settings.time_scale = 0.0  # paused mid-list: the rest of it at full speed
             server.resume()  # the same server back, on the same socket
             job = await until_done(http, job_id)
             assert job["state"] == "done", job["reason"]
