@@ -173,7 +173,11 @@ RADIAN_LOOKING_DEG = 3.2
 def fixed_texts(values: Iterable[float], places: int) -> list[str]:
     """Numbers as a file writes them, `places` decimals (rounded as round(v, places) would):
     a value that rounds to zero is written "0.0000", never "-0.0000"."""
-    texts = [f"{v:.{places}f}" for v in values]
+    return unsigned_zeros([f"{v:.{places}f}" for v in values])
+
+
+def unsigned_zeros(texts: Iterable[str]) -> list[str]:
+    """Formatted numbers with the minus of a zero dropped ("-0.0000" -> "0.0000")."""
     return [t[1:] if t[0] == "-" and not t.strip("-0.") else t for t in texts]
 
 

@@ -49,6 +49,7 @@ from screwcal.kinematics.se3 import (
     rotvec_from_rotation,
 )
 from screwcal.programs.program import Frame, Note, Program, Target
+from screwcal.tables import unsigned_zeros
 
 if TYPE_CHECKING:
     from screwcal.calibration.residual_model import ResidualModel
@@ -310,8 +311,8 @@ def _replacements(language: str, targets: list[Target], values: Array, q: Array,
     pos, ang = conv.decimals
     row = ",".join([f"{{:.{pos}f}}"] * 3 + [f"{{:.{ang}f}}"] * 3)
     # one format for them all, correctly rounded as round(v, d) would; no "-0.0"
-    numbers = [t[1:] if t[0] == "-" and not t.strip("-0.") else t for t in
-               ",".join([row] * len(targets)).format(*values.ravel().tolist()).split(",")]
+    numbers = unsigned_zeros(
+        ",".join([row] * len(targets)).format(*values.ravel().tolist()).split(","))
     out: list[tuple[str, tuple[int, int], str]] = []
     for k, t in enumerate(targets):
         out += zip((t.path,) * 6, t.spans, numbers[6 * k:6 * k + 6], strict=True)
