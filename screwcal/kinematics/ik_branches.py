@@ -75,7 +75,7 @@ def branch_of(nominal: SerialModel, T_flange: Array, q: Array, hint: Array) -> A
     if URGeometry.of(nominal) is None and pending.any():
         lo, hi = np.minimum(hints, hints ^ 2), np.maximum(hints, hints ^ 2)  # BRANCHES order
         for first in (lo, hi):  # the first of the two that equals q, as branch_index takes it
-            for b in np.unique(first[pending]).tolist():
+            for b in sorted(set(first[pending].tolist())):  # (np.unique loads numpy.ma)
                 rows = np.flatnonzero(pending & (first == b))
                 theta = _theta(nominal, T[rows], b)  # joints alone: no check by FK needed
                 q_b, within = controller_readings(nominal, theta)

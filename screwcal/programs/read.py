@@ -6,10 +6,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from screwcal.programs.fanuc_ls import read_frames, read_ls
-from screwcal.programs.krl import read_config, read_krl
 from screwcal.programs.program import Language, Program, ProgramSyntaxError
-from screwcal.programs.urscript import read_urscript
 
 EXTENSIONS: dict[str, Language] = {".src": "krl", ".dat": "krl", ".ls": "fanuc",
                                    ".script": "urscript", ".urscript": "urscript"}
@@ -48,16 +45,23 @@ def read_program(texts: dict[str, str], *, config: tuple[str, str] | None = None
     language = kinds.pop()
     assert language is not None
     program = Program(language, dict(texts))
+    # the one reader of the program's language is loaded (its patterns compiled), not all three
     if language == "krl":
+        from screwcal.programs.krl import read_config, read_krl
+
         if config is not None:
             read_config(*config, program)
         read_krl(texts, program)
     elif language == "fanuc":
+        from screwcal.programs.fanuc_ls import read_frames, read_ls
+
         if frames is not None:
             read_frames(*frames, program)
         for path, text in texts.items():
             read_ls(path, text, program)
     else:
+        from screwcal.programs.urscript import read_urscript
+
         for path, text in texts.items():
             read_urscript(path, text, program)
     return program
