@@ -63,6 +63,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from screwcal.calibration.measurements import read_measurements_csv
     from screwcal.calibration.residual_stage import learn_residual
     from screwcal.calibration.resultfile import result_document
+    from screwcal.commands.payload import with_payload
     from screwcal.errors import DataFileError, IdentificationError
     from screwcal.kinematics.modelfile import resolve_model
     from screwcal.kinematics.readings import robot_convention
@@ -207,18 +208,6 @@ def plausible_ranges(text: str) -> PlausibleRanges:
                                              f"{', '.join(RANGE_KEYS)}")
         changes[RANGE_KEYS[key.strip()]] = positive_float(value.strip())
     return PlausibleRanges(**changes)
-
-
-def with_payload(model: SerialModel, args: argparse.Namespace) -> SerialModel:
-    """The model carrying the payload named on the command line (joint compliance scales
-    with it); unchanged without --payload-kg."""
-    if getattr(args, "payload_kg", None) is None:
-        return model
-    from dataclasses import replace
-
-    from screwcal.kinematics.compliance import Payload
-
-    return replace(model, payload=Payload(args.payload_kg, tuple(args.payload_cog_mm)))
 
 
 def _noise_line(noise: dict) -> str:

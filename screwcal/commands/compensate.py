@@ -9,9 +9,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
 from screwcal.arguments import add_option, add_payload_arguments, check_outputs
-from screwcal.commands.calibrate import with_payload
 from screwcal.commands.compensate_program import add_program_arguments
 from screwcal.commands.joint_convention import add_joint_convention, joint_convention
+from screwcal.commands.payload import with_payload
 
 if TYPE_CHECKING:
     from screwcal.calibration.correction import Compensation

@@ -28,8 +28,8 @@ def run(args: argparse.Namespace) -> int:
     from screwcal.arguments import check_outputs
     from screwcal.calibration.measurements import check_joint_units
     from screwcal.calibration.residual_model import residual_from_document
-    from screwcal.commands.calibrate import with_payload
     from screwcal.commands.joint_convention import joint_convention
+    from screwcal.commands.payload import with_payload
     from screwcal.kinematics.forward import forward_kinematics
     from screwcal.kinematics.modelfile import parse_model, read_model_document, resolve_model
     from screwcal.kinematics.pose import pose_from_transform
