@@ -256,17 +256,19 @@ def test_written_numbers_that_round_to_zero_carry_no_minus(tmp_path):
     out = tmp_path / "c.csv"
     assert main(["compensate", "--result", str(model), "--targets", str(targets),
                  "--out", str(out)]) == 0
-    text = out.read_text()
-    assert re.search(r"(^|,)0\.0000(,|$)", text, re.M) and not re.search(r"-0\.0+(,|$)", text,
-                                                                        re.M), text
+    _zero_written_unsigned(out.read_text(), "0.0000")
     joints = tmp_path / "j.csv"
     joints.write_text("q1,q2,q3,q4,q5,q6\n-1e-9,0,0,-1e-9,30,0\n")
     predicted = tmp_path / "p.csv"
     assert main(["predict", "--result", str(model), "--joints", str(joints),
                  "--out", str(predicted)]) == 0
-    text = predicted.read_text()
-    assert re.search(r",0\.000000(,|$)", text, re.M) and not re.search(r"-0\.0+(,|$)", text,
-                                                                       re.M), text
+    _zero_written_unsigned(predicted.read_text(), "0.000000")
+
+
+def _zero_written_unsigned(text: str, zero: str) -> None:
+    """`text` (a CSV, ids first) holds the value `zero` and no zero with a minus."""
+    assert re.search(rf"(^|,){re.escape(zero)}(,|$)", text, re.M), text
+    assert not re.search(r"-0\.0+(,|$)", text, re.M), text
 
 
 def test_the_measurement_file_and_the_pose_list_write_no_minus_zero(tmp_path):
