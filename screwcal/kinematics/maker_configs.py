@@ -93,12 +93,12 @@ def _candidates(sol: IKSolutions, arm: Mask | None = None) -> Array:
     return np.where(reachable[:, :, None, None], q, np.nan)
 
 
-def _pick(cand: Array, wanted: Array, branches: Mask) -> tuple[Array, Mask]:
-    """The joints (N, 6) of the first allowed branch (N, B) where every joint has a turn that
-    `wanted` (N, B, 5, 6) accepts (the first such turn), and which targets have one."""
+def _pick(cand: Array, wanted: Array) -> tuple[Array, Mask]:
+    """The joints (N, 6) of the first branch of `cand` (N, B, 5, 6) where every joint has a
+    turn that `wanted` (N, B, 5, 6) accepts (the first such turn), and which targets have one."""
     ok_turn = wanted & np.isfinite(cand)
-    joint_ok = ok_turn.any(axis=2)  # (N, 8, 6)
-    branch_ok = joint_ok.all(axis=-1) & branches
+    joint_ok = ok_turn.any(axis=2)  # (N, B, 6)
+    branch_ok = joint_ok.all(axis=-1)
     found = branch_ok.any(axis=1)
     b = np.argmax(branch_ok, axis=1)
     n = np.arange(cand.shape[0])
@@ -123,7 +123,7 @@ def kuka_select(sol: IKSolutions, status: Array, turn: Array) -> tuple[Array, Ma
     a5_negative = (bits & 4).astype(bool)[:, None, None]
     wanted[..., 4] &= np.where(a5_negative, cand[..., 4] <= _ZERO_RAD,
                                cand[..., 4] > -_ZERO_RAD)
-    return _pick(cand, wanted, np.ones(cand.shape[:2], bool))
+    return _pick(cand, wanted)
 
 
 def fanuc_select(sol: IKSolutions, configs: list[FanucConfig]) -> tuple[Array, Mask]:
@@ -138,7 +138,7 @@ def fanuc_select(sol: IKSolutions, configs: list[FanucConfig]) -> tuple[Array, M
     k = np.floor((np.degrees(np.nan_to_num(cand[..., [0, 3, 5]])) + 180.0) / 360.0)
     wanted[..., [0, 3, 5]] = k == turns[:, None, None, :]
     wanted[..., 4] = np.where(flip, cand[..., 4] > -_ZERO_RAD, cand[..., 4] <= _ZERO_RAD)
-    return _pick(cand, wanted, np.ones(cand.shape[:2], bool))
+    return _pick(cand, wanted)
 
 
 def nearest_chain(sol: IKSolutions, start: Array, fixed: Array | None = None
